@@ -1,0 +1,27 @@
+# Set-up and checks. `make demo` and `make test` are all a fresh machine needs (python3 >= 3.10).
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: install test demo clean
+
+install: $(STAMP)
+
+# Re-installs only when pyproject.toml changes (editable install: code edits need no re-install).
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --upgrade pip
+	$(BIN)/python -m pip install -e ".[test]"
+	touch $(STAMP)
+
+test: install
+	$(BIN)/python -m pytest -q
+
+# A short swim at 10 rpm, then a burst at 60 rpm (examples/demo_schedule.csv).
+demo: install
+	$(BIN)/flagellum simulate --schedule examples/demo_schedule.csv --duration 20 --out out/demo
+
+clean:
+	rm -rf $(VENV) out build *.egg-info .pytest_cache
+	find . -name __pycache__ -type d -prune -exec rm -rf {} +

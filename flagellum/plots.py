@@ -1,0 +1,65 @@
+"""Figures of a run (matplotlib object API, no pyplot, so it works without a display)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from physics.run import Trajectory
+
+M_TO_CM = 100.0
+
+
+def _set_equal_3d(ax, points_cm: np.ndarray) -> None:
+    """Equal scaling on x, y, z: a cube around all points (cm)."""
+    lo, hi = points_cm.min(axis=0), points_cm.max(axis=0)
+    centre = (lo + hi) / 2.0
+    half = max(float((hi - lo).max()) / 2.0, 1e-3) * 1.05
+    ax.set_xlim(centre[0] - half, centre[0] + half)
+    ax.set_ylim(centre[1] - half, centre[1] + half)
+    ax.set_zlim(centre[2] - half, centre[2] + half)
+    ax.set_box_aspect((1.0, 1.0, 1.0))
+
+
+def trajectory_figure(traj: Trajectory, head_radius_m: float = 0.0, title: str | None = None) -> Figure:
+    """3-D head path and the final flagellum shape, in cm, equal axis scaling.
+
+    ``head_radius_m`` > 0 draws the head as a sphere around the first node (the head centre).
+    """
+    fig = Figure(figsize=(7.0, 6.0))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(projection="3d")
+    path = traj.head_positions * M_TO_CM
+    final = traj.node_positions[-1] * M_TO_CM
+    rod = final[1:] if head_radius_m > 0 else final
+    ax.plot(path[:, 0], path[:, 1], path[:, 2], color="tab:blue", lw=1.5, label="head path")
+    ax.scatter(*path[0], color="tab:green", s=20, label="start")
+    ax.plot(rod[:, 0], rod[:, 1], rod[:, 2], color="tab:orange", lw=2.0,
+            label=f"flagellum at t = {traj.node_times[-1]:.3g} s")
+    points = [path, final]
+    if head_radius_m > 0:
+        b = head_radius_m * M_TO_CM
+        u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 24), np.linspace(0, np.pi, 12))
+        c = final[0]
+        ax.plot_surface(c[0] + b * np.cos(u) * np.sin(v), c[1] + b * np.sin(u) * np.sin(v), c[2] + b * np.cos(v),
+                        color="tab:gray", alpha=0.2, linewidth=0)
+        points.append(np.array([c - b, c + b]))
+    _set_equal_3d(ax, np.vstack(points))
+    ax.set_xlabel("x (cm)")
+    ax.set_ylabel("y (cm)")
+    ax.set_zlabel("z (cm)")
+    ax.legend(loc="upper left", fontsize="small")
+    if title:
+        ax.set_title(title)
+    return fig
+
+
+def save_trajectory_plot(traj: Trajectory, path: str | Path, head_radius_m: float = 0.0,
+                         title: str | None = None) -> Path:
+    """Write ``trajectory_figure`` to ``path`` (PNG, 150 dpi); returns the path."""
+    path = Path(path)
+    trajectory_figure(traj, head_radius_m, title).savefig(path, dpi=150)
+    return path

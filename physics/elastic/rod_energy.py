@@ -1,0 +1,380 @@
+"""Elastic energy of a whole rod and its derivatives, eqns (5a)-(5c) and (7) of Huang &
+Jawed 2020.
+
+The rod has ``n`` nodes and DOF vector ``q`` (4n-1,): node ``i`` at ``q[4i:4i+3]`` (m),
+edge ``i`` twist angle at ``q[4i+3]`` (rad). The gradient is ``d(E_s + E_b + E_t)/dq``,
+i.e. minus the internal force of eqn (6); the Hessian is banded with ``kl = ku = 10`` and
+returned in LAPACK general-banded storage, ``ab[10 + i - j, j] = H[i, j]``, as taken by
+``scipy.linalg.solve_banded((10, 10), ab, rhs)``.
+
+The Numba kernels (``*_kernel``) take the rest arrays explicitly (``*rest.arrays()``);
+the thin wrappers of the same name without the suffix take a :class:`RodRest`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from physics.elastic.bend import bend_element, material_curvatures
+from physics.elastic.stretch import stretch_element
+from physics.elastic.twist import twist_element
+from physics.frames import (
+    material_frames,
+    reference_twist,
+    space_parallel_frames,
+    tangents,
+    time_parallel_transport,
+)
+
+BANDWIDTH = 10
+"""Half-bandwidth (kl = ku) of the elastic Hessian: an edge-pair element spans 11 DOFs."""
+
+
+@dataclass(frozen=True)
+class RodRest:
+    """Rest (stress-free) state and stiffnesses of an ``n``-node rod.
+
+    ``l_bar`` (n-1,) rest edge lengths, m; ``l_vor`` (n-2,) Voronoi lengths
+    ``(l_bar[i-1] + l_bar[i]) / 2``, m; ``kappa_bar`` (n-2, 2) rest material curvatures;
+    ``twist_bar`` (n-2,) rest twists, rad; ``EA`` (n-1,) stretching stiffness per edge, N;
+    ``EI``, ``GJ`` (n-2,) bending and twisting stiffness per interior node, N m^2.
+    """
+
+    l_bar: np.ndarray
+    l_vor: np.ndarray
+    kappa_bar: np.ndarray
+    twist_bar: np.ndarray
+    EA: np.ndarray
+    EI: np.ndarray
+    GJ: np.ndarray
+
+    def __post_init__(self) -> None:
+        for name in ("l_bar", "l_vor", "kappa_bar", "twist_bar", "EA", "EI", "GJ"):
+            object.__setattr__(
+                self, name, np.ascontiguousarray(getattr(self, name), dtype=np.float64)
+            )
+        m = self.l_bar.shape[0] if self.l_bar.ndim == 1 else -1
+        if m < 2:
+            raise ValueError(f"l_bar must be 1-D with at least 2 edges, got shape {self.l_bar.shape}")
+        expected = {
+            "l_vor": (m - 1,),
+            "kappa_bar": (m - 1, 2),
+            "twist_bar": (m - 1,),
+            "EA": (m,),
+            "EI": (m - 1,),
+            "GJ": (m - 1,),
+        }
+        for name, shape in expected.items():
+            got = getattr(self, name).shape
+            if got != shape:
+                raise ValueError(f"{name} must have shape {shape} for {m + 1} nodes, got {got}")
+
+    @property
+    def n_nodes(self) -> int:
+        """Number of nodes ``n``."""
+        return self.l_bar.shape[0] + 1
+
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """``(l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ)``, the order the kernels take."""
+        return (self.l_bar, self.l_vor, self.kappa_bar, self.twist_bar, self.EA, self.EI, self.GJ)
+
+
+@njit(cache=True)
+def rod_frames(
+    q: np.ndarray, d1_old: np.ndarray, t_old: np.ndarray, ref_twist_old: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Frames of configuration ``q`` (4n-1,) reached from the previous step.
+
+    Tangents of ``q``; reference directors time-parallel transported from ``d1_old``
+    along ``t_old -> t`` (both (n-1, 3)); reference twist (n-2,) kept continuous with
+    ``ref_twist_old``; material frames from the twist angles in ``q``.
+    Returns ``(t, d1, d2, ref_twist, m1, m2)``.
+    """
+    t = tangents(q)
+    d1, d2 = time_parallel_transport(d1_old, t_old, t)
+    ref = reference_twist(d1, t, ref_twist_old)
+    m = t.shape[0]
+    theta = np.empty(m)
+    for i in range(m):
+        theta[i] = q[4 * i + 3]
+    m1, m2 = material_frames(d1, d2, theta)
+    return t, d1, d2, ref, m1, m2
+
+
+@njit(cache=True)
+def _assemble(
+    q: np.ndarray,
+    ref_twist: np.ndarray,
+    m1: np.ndarray,
+    m2: np.ndarray,
+    l_bar: np.ndarray,
+    l_vor: np.ndarray,
+    kappa_bar: np.ndarray,
+    twist_bar: np.ndarray,
+    EA: np.ndarray,
+    EI: np.ndarray,
+    GJ: np.ndarray,
+    order: int,
+    grad: np.ndarray,
+    ab: np.ndarray,
+) -> float:
+    """Sum the stretch, bend and twist elements. Returns the energy (J); ``order`` >= 1
+    adds the gradient into ``grad`` (4n-1,), ``order`` >= 2 the banded Hessian into
+    ``ab`` (21, 4n-1). O(n); only small fixed-size scratch arrays per element."""
+    n = (q.shape[0] + 1) // 4
+    E = 0.0
+    g6 = np.empty(6)
+    H6 = np.empty((6, 6))
+    g11 = np.empty(11)
+    H11 = np.empty((11, 11))
+    idx6 = np.empty(6, dtype=np.int64)
+    idx11 = np.empty(11, dtype=np.int64)
+
+    for i in range(n - 1):
+        E += stretch_element(q[4 * i:4 * i + 3], q[4 * i + 4:4 * i + 7], l_bar[i], EA[i], g6, H6, order)
+        if order >= 1:
+            for k in range(3):
+                idx6[k] = 4 * i + k
+                idx6[3 + k] = 4 * i + 4 + k
+            _scatter(idx6, g6, H6, order, grad, ab)
+
+    for i in range(1, n - 1):
+        b = 4 * (i - 1)
+        x0 = q[b:b + 3]
+        x1 = q[b + 4:b + 7]
+        x2 = q[b + 8:b + 11]
+        if order >= 1:
+            for k in range(3):
+                idx11[k] = b + k
+                idx11[3 + k] = b + 4 + k
+                idx11[6 + k] = b + 8 + k
+            idx11[9] = b + 3
+            idx11[10] = b + 7
+        E += bend_element(
+            x0, x1, x2, m1[i - 1], m2[i - 1], m1[i], m2[i], kappa_bar[i - 1], l_vor[i - 1],
+            EI[i - 1], g11, H11, order,
+        )
+        if order >= 1:
+            _scatter(idx11, g11, H11, order, grad, ab)
+        E += twist_element(
+            x0, x1, x2, q[b + 3], q[b + 7], ref_twist[i - 1], twist_bar[i - 1], l_vor[i - 1],
+            GJ[i - 1], g11, H11, order,
+        )
+        if order >= 1:
+            _scatter(idx11, g11, H11, order, grad, ab)
+    return E
+
+
+@njit(cache=True)
+def _scatter(
+    idx: np.ndarray, g: np.ndarray, H: np.ndarray, order: int, grad: np.ndarray, ab: np.ndarray
+) -> None:
+    """Add a local gradient / Hessian at global DOFs ``idx`` into ``grad`` / banded ``ab``."""
+    m = idx.shape[0]
+    for a in range(m):
+        grad[idx[a]] += g[a]
+    if order < 2:
+        return
+    for a in range(m):
+        r = idx[a]
+        for c in range(m):
+            col = idx[c]
+            ab[BANDWIDTH + r - col, col] += H[a, c]
+
+
+@njit(cache=True)
+def elastic_energy_kernel(
+    q: np.ndarray,
+    d1: np.ndarray,
+    d2: np.ndarray,
+    ref_twist: np.ndarray,
+    m1: np.ndarray,
+    m2: np.ndarray,
+    l_bar: np.ndarray,
+    l_vor: np.ndarray,
+    kappa_bar: np.ndarray,
+    twist_bar: np.ndarray,
+    EA: np.ndarray,
+    EI: np.ndarray,
+    GJ: np.ndarray,
+) -> float:
+    """Elastic energy ``E_s + E_b + E_t`` (J), eqns (5a)-(5c) of Huang & Jawed 2020.
+
+    ``q`` (4n-1,); frames (n-1, 3) and ``ref_twist`` (n-2,) from :func:`rod_frames`
+    (``d1``, ``d2`` are not needed once ``m1``, ``m2`` are known; they keep the signature
+    uniform); rest arrays as in :class:`RodRest`.
+    """
+    dummy = np.empty(0)
+    ab = np.empty((0, 0))
+    return _assemble(q, ref_twist, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ, 0, dummy, ab)
+
+
+@njit(cache=True)
+def elastic_gradient_kernel(
+    q: np.ndarray,
+    d1: np.ndarray,
+    d2: np.ndarray,
+    ref_twist: np.ndarray,
+    m1: np.ndarray,
+    m2: np.ndarray,
+    l_bar: np.ndarray,
+    l_vor: np.ndarray,
+    kappa_bar: np.ndarray,
+    twist_bar: np.ndarray,
+    EA: np.ndarray,
+    EI: np.ndarray,
+    GJ: np.ndarray,
+) -> np.ndarray:
+    """Gradient (4n-1,) of the elastic energy: N on positions, N m on twist angles.
+
+    Minus the internal force ``F^int`` of eqn (6) of Huang & Jawed 2020. Arguments as in
+    :func:`elastic_energy`.
+    """
+    grad = np.zeros(q.shape[0])
+    ab = np.empty((0, 0))
+    _assemble(q, ref_twist, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ, 1, grad, ab)
+    return grad
+
+
+@njit(cache=True)
+def elastic_hessian_banded_kernel(
+    q: np.ndarray,
+    d1: np.ndarray,
+    d2: np.ndarray,
+    ref_twist: np.ndarray,
+    m1: np.ndarray,
+    m2: np.ndarray,
+    l_bar: np.ndarray,
+    l_vor: np.ndarray,
+    kappa_bar: np.ndarray,
+    twist_bar: np.ndarray,
+    EA: np.ndarray,
+    EI: np.ndarray,
+    GJ: np.ndarray,
+) -> np.ndarray:
+    """Hessian of the elastic energy (the elastic part of eqn (7) of Huang & Jawed 2020)
+    in general-banded storage ``ab`` (21, 4n-1), ``ab[10 + i - j, j] = H[i, j]``.
+    Arguments as in :func:`elastic_energy_kernel`."""
+    N = q.shape[0]
+    grad = np.zeros(N)
+    ab = np.zeros((2 * BANDWIDTH + 1, N))
+    _assemble(q, ref_twist, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ, 2, grad, ab)
+    return ab
+
+
+@njit(cache=True)
+def elastic_energy_grad_hess_banded_kernel(
+    q: np.ndarray,
+    d1: np.ndarray,
+    d2: np.ndarray,
+    ref_twist: np.ndarray,
+    m1: np.ndarray,
+    m2: np.ndarray,
+    l_bar: np.ndarray,
+    l_vor: np.ndarray,
+    kappa_bar: np.ndarray,
+    twist_bar: np.ndarray,
+    EA: np.ndarray,
+    EI: np.ndarray,
+    GJ: np.ndarray,
+) -> tuple[float, np.ndarray, np.ndarray]:
+    """Energy (J), gradient (4n-1,) and banded Hessian (21, 4n-1) in one pass, for a
+    Newton step. Arguments as in :func:`elastic_energy_kernel`."""
+    N = q.shape[0]
+    grad = np.zeros(N)
+    ab = np.zeros((2 * BANDWIDTH + 1, N))
+    E = _assemble(q, ref_twist, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ, 2, grad, ab)
+    return E, grad, ab
+
+
+@njit(cache=True)
+def banded_to_dense(ab: np.ndarray) -> np.ndarray:
+    """Dense (N, N) matrix from general-banded storage ``ab`` (kl + ku + 1, N) with
+    ``kl = ku = (ab.shape[0] - 1) // 2``."""
+    N = ab.shape[1]
+    ku = (ab.shape[0] - 1) // 2
+    D = np.zeros((N, N))
+    for j in range(N):
+        for i in range(max(0, j - ku), min(N, j + ku + 1)):
+            D[i, j] = ab[ku + i - j, j]
+    return D
+
+
+def rest_from_configuration(
+    q: np.ndarray,
+    EA: float | np.ndarray,
+    EI: float | np.ndarray,
+    GJ: float | np.ndarray,
+) -> tuple[RodRest, np.ndarray, np.ndarray, np.ndarray]:
+    """Take configuration ``q`` (4n-1,) as the stress-free state.
+
+    Space-parallel reference frames, reference twist from zero, rest curvatures
+    (eqns (3a), (3b)) and rest twists ``theta_f - theta_e + ref_twist`` (eqn (4)) of ``q``
+    itself, so ``q`` is an exact equilibrium. ``EA`` (N) is a scalar or (n-1,) array,
+    ``EI``, ``GJ`` (N m^2) scalars or (n-2,) arrays. Returns ``(rest, d1, d2, ref_twist)``
+    with ``d1``, ``d2`` (n-1, 3) and ``ref_twist`` (n-2,).
+    """
+    q = np.ascontiguousarray(q, dtype=np.float64)
+    if q.ndim != 1 or (q.shape[0] + 1) % 4 != 0 or q.shape[0] < 11:
+        raise ValueError(f"q must have shape (4n-1,) with n >= 3, got {q.shape}")
+    n = (q.shape[0] + 1) // 4
+    x = np.stack([q[4 * i:4 * i + 3] for i in range(n)])
+    theta = np.ascontiguousarray(q[3::4])
+    t = tangents(q)
+    d1, d2 = space_parallel_frames(t)
+    ref = reference_twist(d1, t, np.zeros(n - 2))
+    m1, m2 = material_frames(d1, d2, theta)
+    l_bar = np.linalg.norm(np.diff(x, axis=0), axis=1)
+    kappa_bar = np.empty((n - 2, 2))
+    for i in range(1, n - 1):
+        kappa_bar[i - 1] = material_curvatures(
+            x[i - 1], x[i], x[i + 1], m1[i - 1], m2[i - 1], m1[i], m2[i]
+        )
+    rest = RodRest(
+        l_bar=l_bar,
+        l_vor=0.5 * (l_bar[:-1] + l_bar[1:]),
+        kappa_bar=kappa_bar,
+        twist_bar=theta[1:] - theta[:-1] + ref,
+        EA=np.broadcast_to(np.asarray(EA, dtype=np.float64), (n - 1,)),
+        EI=np.broadcast_to(np.asarray(EI, dtype=np.float64), (n - 2,)),
+        GJ=np.broadcast_to(np.asarray(GJ, dtype=np.float64), (n - 2,)),
+    )
+    return rest, d1, d2, ref
+
+
+def elastic_energy(
+    q: np.ndarray, d1: np.ndarray, d2: np.ndarray, ref_twist: np.ndarray,
+    m1: np.ndarray, m2: np.ndarray, rest: RodRest,
+) -> float:
+    """Elastic energy (J) of ``q``; :func:`elastic_energy_kernel` with ``rest``'s arrays."""
+    return elastic_energy_kernel(q, d1, d2, ref_twist, m1, m2, *rest.arrays())
+
+
+def elastic_gradient(
+    q: np.ndarray, d1: np.ndarray, d2: np.ndarray, ref_twist: np.ndarray,
+    m1: np.ndarray, m2: np.ndarray, rest: RodRest,
+) -> np.ndarray:
+    """Elastic gradient (4n-1,), minus the internal force of eqn (6);
+    :func:`elastic_gradient_kernel` with ``rest``'s arrays."""
+    return elastic_gradient_kernel(q, d1, d2, ref_twist, m1, m2, *rest.arrays())
+
+
+def elastic_hessian_banded(
+    q: np.ndarray, d1: np.ndarray, d2: np.ndarray, ref_twist: np.ndarray,
+    m1: np.ndarray, m2: np.ndarray, rest: RodRest,
+) -> np.ndarray:
+    """Banded elastic Hessian ``ab`` (21, 4n-1), ``ab[10 + i - j, j] = H[i, j]``;
+    :func:`elastic_hessian_banded_kernel` with ``rest``'s arrays."""
+    return elastic_hessian_banded_kernel(q, d1, d2, ref_twist, m1, m2, *rest.arrays())
+
+
+def elastic_energy_grad_hess_banded(
+    q: np.ndarray, d1: np.ndarray, d2: np.ndarray, ref_twist: np.ndarray,
+    m1: np.ndarray, m2: np.ndarray, rest: RodRest,
+) -> tuple[float, np.ndarray, np.ndarray]:
+    """Energy, gradient and banded Hessian in one pass;
+    :func:`elastic_energy_grad_hess_banded_kernel` with ``rest``'s arrays."""
+    return elastic_energy_grad_hess_banded_kernel(q, d1, d2, ref_twist, m1, m2, *rest.arrays())

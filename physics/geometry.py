@@ -1,0 +1,95 @@
+"""Initial (stress-free) configuration of the swimmer, Sec. 2.2 of the paper.
+
+Lab frame = the paper's body frame X_b-Y_b-Z_b at t = 0: +x is X_b (the head-first
+swimming direction), +z is Z_b, y = z x x. The head centre x0 is the origin, edge e0 of
+length b points along -X_b, e1 = -R x_b + R y_b, and the remaining nodes lie on a
+left-handed helix (like a bacterial flagellum in its normal form) of radius R and pitch
+lambda whose axis is the -x half-line through x1, with chords of length 2 delta.
+
+With b = 0 (no head) node x0 and edge e0 are dropped: the rod starts at x1 = origin and
+its first edge is the arm e1 (see ``Layout``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+from physics.params import SwimmerParams
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where things live in the DOF vector q (length 4 n - 1 for n rod nodes)."""
+
+    n: int  # rod nodes (N with a head, N - 1 without)
+    has_head: bool
+
+    @property
+    def ndof(self) -> int:
+        return 4 * self.n - 1
+
+    @property
+    def first_flagellum_node(self) -> int:
+        """Index (in the rod) of the first node that carries LSBT forces."""
+        return 1 if self.has_head else 0
+
+    @property
+    def motor_dof(self) -> int:
+        """Index in q of the twist angle of the motor edge (theta^0)."""
+        return 3
+
+    def position_dofs(self) -> np.ndarray:
+        return np.array([4 * i + k for i in range(self.n) for k in range(3)], dtype=np.int64)
+
+
+def helix_phase_step(params: SwimmerParams) -> float:
+    """Phase increment d(phi) such that consecutive helix nodes are 2 delta apart, rad."""
+    R, c, chord = params.helix_radius, params.pitch / (2.0 * math.pi), 2.0 * params.cutoff_length
+
+    def f(p: float) -> float:
+        return math.hypot(2.0 * R * math.sin(p / 2.0), c * p) - chord
+
+    return brentq(f, 1e-12, math.pi)
+
+
+def initial_nodes(params: SwimmerParams) -> np.ndarray:
+    """Node positions of the stress-free swimmer, (n, 3) metres (head centre first if b > 0)."""
+    b, R = params.head_radius, params.helix_radius
+    c = params.pitch / (2.0 * math.pi)
+    n_helix = params.n_nodes - 2  # nodes x2 ... x_{N-1}
+    dphi = helix_phase_step(params)
+    phi = dphi * np.arange(n_helix)
+    helix = np.stack([-b - R - c * phi, R * np.cos(phi), R * np.sin(phi)], axis=1)
+    x1 = np.array([[-b, 0.0, 0.0]])
+    if params.has_head:
+        return np.vstack([np.zeros((1, 3)), x1, helix])
+    return np.vstack([x1 - x1, helix - x1])  # base node at the origin
+
+
+def layout_for(params: SwimmerParams) -> Layout:
+    n = params.n_nodes if params.has_head else params.n_nodes - 1
+    return Layout(n=n, has_head=params.has_head)
+
+
+def pack_q(nodes: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """Interleave positions (n,3) and edge twist angles (n-1,) into q (4n-1,)."""
+    n = nodes.shape[0]
+    q = np.empty(4 * n - 1)
+    for k in range(3):
+        q[k::4] = nodes[:, k]
+    q[3::4] = theta
+    return q
+
+
+def nodes_of(q: np.ndarray) -> np.ndarray:
+    """Node positions (n, 3) from q (4n-1,)."""
+    n = (q.shape[0] + 1) // 4
+    return np.stack([q[0::4], q[1::4], q[2::4]], axis=1) if n else np.zeros((0, 3))
+
+
+def thetas_of(q: np.ndarray) -> np.ndarray:
+    return q[3::4]

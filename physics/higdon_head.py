@@ -1,0 +1,66 @@
+"""Hydrodynamics of the rigid spherical head, Sec. 2.4 of Huang & Jawed 2020 (Higdon 1979).
+
+We use the mutually reciprocal Stokes forms:
+
+* flow at flagellum node j from a head translating at U (eqn 10, translational part):
+  u = [ (3b/4)(I/r + r r / r^3) + (b^3/4)(I/r^3 - 3 r r / r^5) ] U  =: H_j U
+  (the exact Stokes flow of a translating sphere; it equals U on the sphere surface);
+* flow from a head spinning at rate s about its axis a (eqn 10, rotational part):
+  u = b^3 (a x r) / r^3 s  =: g_j s   (the rotlet; rigid rotation on the surface);
+* force and torque the flagellum Stokeslets exert on the head (eqn 11), by Faxen's laws:
+  f_h = -sum_j H_j^T f_j,    a . t_h = -sum_j g_j . f_j  (= a . sum_j -b^3 r_j x f_j / r_j^3).
+
+Differences from the equations as printed in the paper, and why: eqn (10) prints the
+b^3 term as (b^2/3)(I/r^3 - r r/r^5) inside the 3b/4 bracket, which does not reduce to U on
+the sphere (the Stokes solution has 3 r r / r^5); it prints the rotlet as r x Omega, whose
+surface value opposes the head's rotation; eqn (11)'s isotropic force coefficient
+(-3b/2r + b^3/2r^3) is not the adjoint of eqn (10). The printed torque in eqn (11) agrees with
+ours. Our forms make the head-flagellum resistance symmetric and dissipative (reciprocal
+theorem); the printed ones do not. The method of images is not used, as in the paper.
+
+r_j = x_j - x_0 (node relative to the head centre), b the head radius.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def head_flow_operators(x: np.ndarray, x_head: np.ndarray, axis: np.ndarray,
+                        b: float) -> tuple[np.ndarray, np.ndarray]:
+    """Head-induced flow operators at the flagellum nodes.
+
+    x: (M,3) node positions, m; x_head: (3,) head centre, m; axis: (3,) unit spin axis;
+    b: head radius, m. Returns H (3M,3), dimensionless, and g (3M,), m/s per rad/s.
+    """
+    m = x.shape[0]
+    H = np.zeros((3 * m, 3))
+    g = np.zeros(3 * m)
+    b3 = b * b * b
+    for j in range(m):
+        r = x[j] - x_head
+        d = math.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
+        d3 = d * d * d
+        iso = 0.75 * b / d + 0.25 * b3 / d3
+        rad = 0.75 * b / d - 0.75 * b3 / d3
+        for p in range(3):
+            for k in range(3):
+                H[3 * j + p, k] = (iso if p == k else 0.0) + rad * r[p] * r[k] / (d * d)
+        g[3 * j + 0] = b3 * (axis[1] * r[2] - axis[2] * r[1]) / d3
+        g[3 * j + 1] = b3 * (axis[2] * r[0] - axis[0] * r[2]) / d3
+        g[3 * j + 2] = b3 * (axis[0] * r[1] - axis[1] * r[0]) / d3
+    return H, g
+
+
+def sphere_translational_drag(mu: float, b: float) -> float:
+    """Stokes drag coefficient 6 pi mu b, N s/m (eqn 12)."""
+    return 6.0 * math.pi * mu * b
+
+
+def sphere_rotational_drag(mu: float, b: float) -> float:
+    """Rotational drag coefficient 8 pi mu b^3, N m s (eqn 13)."""
+    return 8.0 * math.pi * mu * b**3

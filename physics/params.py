@@ -1,0 +1,201 @@
+"""Physical and numerical parameters of the swimmer (SI units inside).
+
+Defaults are the paper's values (Huang & Jawed 2020, Sec. 2.1, 2.3, 2.4). Every field
+carries its unit, meaning and allowed range in ``dataclasses.field(metadata=...)`` so the
+CLI can list and validate them (``flagellum params``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+RPM_TO_RAD_S = 2.0 * math.pi / 60.0
+
+
+def _f(default: Any, unit: str, help: str, lo: float | None = None, hi: float | None = None,
+       lo_open: bool = False, choices: tuple | None = None) -> Any:
+    return field(default=default, metadata={"unit": unit, "help": help, "lo": lo, "hi": hi,
+                                            "lo_open": lo_open, "choices": choices})
+
+
+def _validate_fields(obj: Any) -> None:
+    """Check every field against its metadata; raise ValueError naming value and range."""
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        meta = f.metadata
+        choices = meta.get("choices")
+        if choices is not None:
+            if value not in choices:
+                raise ValueError(f"{f.name}={value!r} is not allowed; choose one of {list(choices)}")
+            continue
+        if isinstance(value, bool):
+            continue
+        if not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ValueError(f"{f.name}={value!r} must be a finite number")
+        lo, hi = meta.get("lo"), meta.get("hi")
+        if lo is not None:
+            bad = value <= lo if meta.get("lo_open") else value < lo
+            if bad:
+                op = ">" if meta.get("lo_open") else ">="
+                raise ValueError(f"{f.name}={value!r} {f.metadata['unit']} is out of range; "
+                                 f"allowed: {op} {lo}" + (f" and <= {hi}" if hi is not None else ""))
+        if hi is not None and value > hi:
+            raise ValueError(f"{f.name}={value!r} {f.metadata['unit']} is out of range; allowed: <= {hi}")
+
+
+@dataclass(frozen=True)
+class SwimmerParams:
+    """Physical parameters of head, flagellum and fluid (paper Sec. 2.1-2.4)."""
+
+    pitch: float = _f(32.6e-3, "m", "helix pitch lambda", 0.0, None, True)
+    helix_radius: float = _f(6.04e-3, "m", "helix radius R", 0.0, None, True)
+    axial_length: float = _f(0.13, "m", "axial length L of the flagellum (used for the nondimensional groups)", 0.0, None, True)
+    rod_radius: float = _f(1e-3, "m", "rod cross-section radius r0", 0.0, None, True)
+    youngs_modulus: float = _f(10e6, "Pa", "Young's modulus E", 0.0, None, True)
+    shear_modulus: float = _f(10e6 / 3.0, "Pa", "shear modulus G (paper: E/3)", 0.0, None, True)
+    density: float = _f(1273.0, "kg/m^3", "rod density = fluid density rho", 0.0, None, True)
+    viscosity: float = _f(2.7, "Pa s", "fluid viscosity mu", 0.0, None, True)
+    head_radius: float = _f(0.012, "m", "head radius b (0 = no head)", 0.0, 0.1)
+    n_nodes: int = _f(122, "-", "number of DER nodes N including the head node (paper: 122)", 8, 2000)
+    head_rotation: str = _f("torque_free", "-",
+                            "torque_free: head spins per the torque balance, eqn (13); "
+                            "fixed: head does not spin, flagellum base turns at omega in the lab frame",
+                            choices=("torque_free", "fixed"))
+
+    def __post_init__(self) -> None:
+        if isinstance(self.n_nodes, float) and self.n_nodes.is_integer():
+            object.__setattr__(self, "n_nodes", int(self.n_nodes))
+        if not isinstance(self.n_nodes, int):
+            raise ValueError(f"n_nodes={self.n_nodes!r} must be an integer >= 8")
+        _validate_fields(self)
+        if self.rod_radius >= self.helix_radius:
+            raise ValueError(f"rod_radius={self.rod_radius} m must be smaller than helix_radius={self.helix_radius} m")
+
+    # Derived quantities -------------------------------------------------------------
+    @property
+    def has_head(self) -> bool:
+        return self.head_radius > 0.0
+
+    @property
+    def area(self) -> float:
+        """Cross-section area A = pi r0^2, m^2."""
+        return math.pi * self.rod_radius**2
+
+    @property
+    def bending_stiffness(self) -> float:
+        """EI with I = pi r0^4 / 4, N m^2 (7.854e-6 for the paper)."""
+        return self.youngs_modulus * math.pi * self.rod_radius**4 / 4.0
+
+    @property
+    def twisting_stiffness(self) -> float:
+        """GJ with J = pi r0^4 / 2, N m^2."""
+        return self.shear_modulus * math.pi * self.rod_radius**4 / 2.0
+
+    @property
+    def stretching_stiffness(self) -> float:
+        """EA, N."""
+        return self.youngs_modulus * self.area
+
+    @property
+    def cutoff_length(self) -> float:
+        """LSBT natural cutoff delta = r0 sqrt(e) / 2, m (Sec. 2.3)."""
+        return self.rod_radius * math.sqrt(math.e) / 2.0
+
+    @property
+    def viscous_time(self) -> float:
+        """Viscous-elastic time scale mu L^4 / EI, s (98.19 s for the paper)."""
+        return self.viscosity * self.axial_length**4 / self.bending_stiffness
+
+    def omega_bar(self, omega_rad_s: float) -> float:
+        """Nondimensional motor speed omega_bar = omega mu L^4 / EI."""
+        return omega_rad_s * self.viscous_time
+
+    def t_bar(self, t_s: float) -> float:
+        """Nondimensional time t_bar = t EI / (mu L^4)."""
+        return t_s / self.viscous_time
+
+    def reynolds(self, omega_rad_s: float) -> float:
+        """Paper's Reynolds number rho omega R r0 / mu (Sec. 2.1)."""
+        return self.density * abs(omega_rad_s) * self.helix_radius * self.rod_radius / self.viscosity
+
+    def replace(self, **changes: Any) -> "SwimmerParams":
+        return dataclasses.replace(self, **changes)
+
+
+@dataclass(frozen=True)
+class NumericsConfig:
+    """Numerical settings of the implicit integrator."""
+
+    dt: float = _f(1e-3, "s", "time step h (paper: 1 ms)", 0.0, 1.0, True)
+    newton_tol: float = _f(1e-8, "-", "Newton tolerance on the relative force residual", 0.0, 1e-2, True)
+    newton_max_iter: int = _f(25, "-", "Newton iterations before the Jacobian is refreshed / the step fails", 2, 500)
+    hydro_refresh_tol: float = _f(1e-3, "-",
+                                  "refresh the hydrodynamic resistance when the non-rigid deformation since the last "
+                                  "refresh exceeds this fraction of the rod radius (0 = every step)", 0.0, 10.0)
+    hydro_refresh_max_steps: int = _f(200, "-", "refresh the hydrodynamic resistance at least every this many steps", 1, 100000)
+    lsbt_smoothing: float = _f(20.0, "-",
+                               "strength of the force-smoothness regularisation of the LSBT inverse, in units of "
+                               "1/(8 pi mu 2 delta) (0 = plain eqn (8), which is indefinite)", 0.0, 1e3)
+    max_substeps: int = _f(6, "-", "times a failing step may be halved before SimulationError", 0, 20)
+
+    def __post_init__(self) -> None:
+        for name in ("newton_max_iter", "hydro_refresh_max_steps", "max_substeps"):
+            v = getattr(self, name)
+            if isinstance(v, float) and v.is_integer():
+                object.__setattr__(self, name, int(v))
+            if not isinstance(getattr(self, name), int):
+                raise ValueError(f"{name}={v!r} must be an integer")
+        _validate_fields(self)
+
+    def replace(self, **changes: Any) -> "NumericsConfig":
+        return dataclasses.replace(self, **changes)
+
+
+def parameter_table() -> list[dict[str, Any]]:
+    """Every settable parameter with its default, unit, help and allowed range."""
+    rows = []
+    for cls, group in ((SwimmerParams, "physics"), (NumericsConfig, "numerics")):
+        for f in dataclasses.fields(cls):
+            m = f.metadata
+            if m.get("choices") is not None:
+                allowed = "one of " + ", ".join(m["choices"])
+            else:
+                lo, hi = m.get("lo"), m.get("hi")
+                parts = []
+                if lo is not None:
+                    parts.append((">" if m.get("lo_open") else ">=") + f" {lo:g}")
+                if hi is not None:
+                    parts.append(f"<= {hi:g}")
+                allowed = " and ".join(parts) or "any finite"
+            rows.append({"name": f.name, "group": group, "default": f.default, "unit": m["unit"],
+                         "help": m["help"], "allowed": allowed})
+    return rows
+
+
+def apply_overrides(params: SwimmerParams, numerics: NumericsConfig,
+                    overrides: dict[str, str]) -> tuple[SwimmerParams, NumericsConfig]:
+    """Apply ``NAME=VALUE`` overrides (strings) to the right dataclass; clear errors on unknown names."""
+    p_names = {f.name: f for f in dataclasses.fields(SwimmerParams)}
+    n_names = {f.name: f for f in dataclasses.fields(NumericsConfig)}
+    p_changes: dict[str, Any] = {}
+    n_changes: dict[str, Any] = {}
+    for name, raw in overrides.items():
+        if name in p_names:
+            target, fld = p_changes, p_names[name]
+        elif name in n_names:
+            target, fld = n_changes, n_names[name]
+        else:
+            known = ", ".join(sorted(list(p_names) + list(n_names)))
+            raise ValueError(f"unknown parameter {name!r}; known parameters: {known}")
+        if fld.metadata.get("choices") is not None:
+            target[name] = raw
+        else:
+            try:
+                val = float(raw)
+            except ValueError:
+                raise ValueError(f"{name}={raw!r} is not a number") from None
+            target[name] = int(val) if isinstance(fld.default, int) and val.is_integer() else val
+    return params.replace(**p_changes), numerics.replace(**n_changes)

@@ -1,0 +1,366 @@
+"""The swimmer simulator: a thin stateful shell around the pure physics functions.
+
+Time stepping is implicit Euler, eqn (6) of Huang & Jawed 2020,
+
+    M (q_{k+1} - q_k - h v_k) / h^2 + grad E(q_{k+1}) + P^T R (P (q_{k+1} - q_k)/h - omega e_s) = 0,
+
+with the hydrodynamic force *implicit in the velocity* (the paper lags it, eqn 7, which is
+unstable at h = 1 ms for this rod: h * drag / mass ~ 8 > 2). R is the generalised resistance
+of ``hydrodynamics`` evaluated at the start-of-step geometry. The nonlinear system is solved
+by a chord (modified-Newton) iteration whose Jacobian M/h^2 + K + P^T R P / h is factorised
+only when the geometry has changed non-rigidly by more than ``hydro_refresh_tol`` * r0 since
+the last factorisation (or every ``hydro_refresh_max_steps`` steps): a rigid rotation Q of the
+configuration is absorbed exactly by rotating R and the Jacobian (see ``rigid_alignment``),
+which is what makes a steadily rotating flagellum cheap. The residual always uses the
+current elastic forces, so a converged step solves eqn (6) up to the resistance lag.
+
+Motor (Sec. 2.5): the twist angle theta^0 of the first edge is the motor shaft.
+* ``head_rotation="torque_free"`` (default, eqn 13): theta^0 = psi + omega t where psi is the
+  head's spin angle; theta^0 is a free DOF whose generalised force includes the head's
+  hydrodynamic axial torque at spin rate s = d(theta^0)/dt - omega. The elastic moment on
+  theta^0 is the torque the motor passes from flagellum to head, so the head spins until
+  the axial torques balance, as in eqn (13).
+* ``head_rotation="fixed"``: the head does not spin; theta^0 = omega t (Dirichlet).
+* no head (b = 0): the rod starts at x1, whose arm edge e1 carries the Dirichlet twist
+  theta = omega t in the (time-parallel) reference frame; the base node translates freely.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import lu_factor, lu_solve
+
+from physics.elastic import (banded_to_dense, elastic_gradient, elastic_hessian_banded, rest_from_configuration,
+                             rod_frames)
+from physics.errors import SimulationError
+from physics.geometry import initial_nodes, layout_for, nodes_of, pack_q
+from physics.hydrodynamics import HydroError, resistance_matrix
+from physics.params import NumericsConfig, SwimmerParams
+from physics.rigid_alignment import best_fit_rotation
+
+
+class _StepFailed(Exception):
+    def __init__(self, quantity: str, message: str) -> None:
+        super().__init__(message)
+        self.quantity = quantity
+
+
+@dataclass
+class StepStats:
+    """Counters for benchmarks: Newton iterations, resistance refreshes, Jacobian factorisations."""
+
+    steps: int = 0
+    newton_iterations: int = 0
+    resistance_refreshes: int = 0
+    jacobian_factorisations: int = 0
+    halvings: int = 0
+
+
+def lumped_masses(params: SwimmerParams, l_bar: np.ndarray, ndof: int, head_spins: bool) -> np.ndarray:
+    """Diagonal of the lumped mass matrix M of eqn (6): kg for positions, kg m^2 for twists."""
+    rho, A, r0 = params.density, params.area, params.rod_radius
+    n = (ndof + 1) // 4
+    m = np.zeros(ndof)
+    rod_len = l_bar.copy()
+    if params.has_head:
+        rod_len[0] = 0.0  # edge e0 lies inside the head
+    node_len = np.zeros(n)
+    node_len[:-1] += rod_len / 2
+    node_len[1:] += rod_len / 2
+    node_m = rho * A * node_len
+    twist_i = rho * math.pi * r0**4 / 2.0 * np.maximum(rod_len, 0.0)
+    if params.has_head:
+        m_head = rho * 4.0 / 3.0 * math.pi * params.head_radius**3
+        node_m[0] = m_head
+        twist_i[0] = 0.4 * m_head * params.head_radius**2 if head_spins else 1.0
+    for k in range(3):
+        m[k::4] = node_m
+    m[3::4] = twist_i
+    return m
+
+
+def _rotate_positions(y: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """Apply Q to every node block of a DOF-layout vector (twist entries unchanged)."""
+    out = y.copy()
+    p = np.stack([y[0::4], y[1::4], y[2::4]], axis=1) @ Q.T
+    out[0::4], out[1::4], out[2::4] = p[:, 0], p[:, 1], p[:, 2]
+    return out
+
+
+class Simulator:
+    """Head + flagellum swimmer (Huang & Jawed 2020). SI units throughout.
+
+    >>> sim = Simulator(SwimmerParams(), NumericsConfig())
+    >>> sim.set_motor_speed(10 * RPM_TO_RAD_S); sim.advance(1.0)
+    """
+
+    def __init__(self, params: SwimmerParams | None = None, numerics: NumericsConfig | None = None) -> None:
+        self.params = params or SwimmerParams()
+        self.numerics = numerics or NumericsConfig()
+        p = self.params
+        self.layout = layout_for(p)
+        n = self.layout.n
+        q0 = pack_q(initial_nodes(p), np.zeros(n - 1))
+        ea = np.full(n - 1, p.stretching_stiffness)
+        ei = np.full(n - 2, p.bending_stiffness)
+        gj = np.full(n - 2, p.twisting_stiffness)
+        self.rest, d1, _, ref_twist = rest_from_configuration(q0, ea, ei, gj)
+        self.head_spins = p.has_head and p.head_rotation == "torque_free"
+        self.mass = lumped_masses(p, self.rest.l_bar, self.layout.ndof, self.head_spins)
+        self._pos = self.layout.position_dofs()
+        self._vdofs = np.concatenate([self._pos, [3]]) if self.head_spins else self._pos
+        self._prescribed = np.array([], dtype=np.int64) if self.head_spins else np.array([3])
+        self._twist = np.arange(3, self.layout.ndof, 4)
+        # state
+        self.q = q0
+        self.v = np.zeros_like(q0)
+        self.d1 = d1
+        self.tangent = self._tangents(q0)
+        self.ref_twist = ref_twist
+        self.time = 0.0
+        self.step_count = 0
+        self.omega = 0.0
+        self.motor_angle = 0.0
+        self.body_frame = np.eye(3)  # columns X_b, Y_b, Z_b in the lab frame
+        self.stats = StepStats()
+        # observables of the last step
+        self.node_forces = np.zeros((n, 3))  # hydrodynamic force on each node, N
+        self.head_axial_torque = 0.0
+        self.motor_torque = 0.0
+        # chord-iteration caches
+        self._R_ref: np.ndarray | None = None
+        self._X_ref: np.ndarray | None = None
+        self._lu = None
+        self._lu_h = -1.0
+        self._since_refresh = 0
+        self._f_floor = 1e-9 * p.bending_stiffness / p.axial_length**2
+        self._initial_nodes = nodes_of(q0)
+
+    # --- public API -----------------------------------------------------------------
+    def set_motor_speed(self, omega_rad_s: float) -> None:
+        """Set the motor speed omega (rad/s, the flagellum's rate relative to the head)."""
+        if not math.isfinite(omega_rad_s):
+            raise ValueError(f"motor speed {omega_rad_s!r} rad/s must be finite")
+        self.omega = float(omega_rad_s)
+
+    def step(self) -> None:
+        """Advance by one time step ``numerics.dt`` (halving it on Newton failure)."""
+        self._advance(self.numerics.dt, 0)
+        self.step_count += 1
+        self.stats.steps += 1
+
+    def advance(self, duration_s: float) -> None:
+        """Advance by ``duration_s`` seconds (rounded to whole steps)."""
+        for _ in range(int(round(duration_s / self.numerics.dt))):
+            self.step()
+
+    @property
+    def nodes(self) -> np.ndarray:
+        """Node positions (n,3), m (head centre first when there is a head)."""
+        return nodes_of(self.q)
+
+    @property
+    def head_position(self) -> np.ndarray:
+        """Head centre (or base node if b = 0), (3,), m."""
+        return self.q[0:3].copy()
+
+    @property
+    def head_velocity(self) -> np.ndarray:
+        """Head (base node) velocity in the lab frame, (3,), m/s."""
+        return self.v[0:3].copy()
+
+    @property
+    def head_orientation(self) -> np.ndarray:
+        """Rotation matrix (3,3) whose columns are the body axes X_b, Y_b, Z_b in the lab frame."""
+        return self.body_frame.copy()
+
+    def end_to_end_ratio(self) -> float:
+        """L'/L: first-to-last node distance over its undeformed value (Sec. 2.5)."""
+        x, x0 = self.nodes, self._initial_nodes
+        return float(np.linalg.norm(x[-1] - x[0]) / np.linalg.norm(x0[-1] - x0[0]))
+
+    def displacement(self) -> float:
+        """||s||: distance of the head (base node) from its initial position, m."""
+        return float(np.linalg.norm(self.q[0:3] - self._initial_nodes[0]))
+
+    @property
+    def motor_power(self) -> float:
+        """Motor power T * omega, W."""
+        return self.motor_torque * self.omega
+
+    def reynolds_number(self) -> float:
+        """rho * max node speed * r0 / mu (reduces to the paper's rho omega R r0 / mu)."""
+        p = self.params
+        v = np.stack([self.v[0::4], self.v[1::4], self.v[2::4]], axis=1)
+        return float(p.density * np.sqrt((v**2).sum(axis=1)).max() * p.rod_radius / p.viscosity)
+
+    # --- internals ------------------------------------------------------------------
+    @staticmethod
+    def _tangents(q: np.ndarray) -> np.ndarray:
+        e = np.diff(nodes_of(q), axis=0)
+        return e / np.linalg.norm(e, axis=1)[:, None]
+
+    def _refresh(self, q_geom: np.ndarray, q_jac: np.ndarray, h: float) -> None:
+        """Recompute R at q_geom's nodes and factorise the Jacobian at q_jac for step h."""
+        p, nm = self.params, self.numerics
+        x = nodes_of(q_geom)
+        try:
+            R = resistance_matrix(x, p.viscosity, p.cutoff_length, p.head_radius, self.head_spins,
+                                  nm.lsbt_smoothing)
+        except HydroError as exc:
+            raise _StepFailed("hydrodynamic mobility", str(exc)) from None
+        t, d1, d2, rt, m1, m2 = rod_frames(q_jac, self.d1, self.tangent, self.ref_twist)
+        J = banded_to_dense(elastic_hessian_banded(q_jac, d1, d2, rt, m1, m2, self.rest))
+        J[np.diag_indices_from(J)] += self.mass / h**2
+        J[np.ix_(self._vdofs, self._vdofs)] += R / h
+        for k in self._prescribed:
+            J[k, :] = 0.0
+            J[:, k] = 0.0
+            J[k, k] = 1.0
+        if not np.all(np.isfinite(J)):
+            raise _StepFailed("Jacobian", "non-finite entries in the Newton Jacobian")
+        self._R_ref, self._X_ref = R, x
+        self._lu = lu_factor(J, check_finite=False)
+        self._lu_h = h
+        self._since_refresh = 0
+        self.stats.resistance_refreshes += 1
+        self.stats.jacobian_factorisations += 1
+
+    def _residual(self, q: np.ndarray, h: float, Q: np.ndarray):
+        q_k, v_k = self.q, self.v
+        t, d1, d2, rt, m1, m2 = rod_frames(q, self.d1, self.tangent, self.ref_twist)
+        grad = elastic_gradient(q, d1, d2, rt, m1, m2, self.rest)
+        dq = q - q_k
+        vel = dq / h
+        V = vel[self._vdofs].copy()
+        if self.head_spins:
+            V[-1] -= self.omega
+        n3 = self._pos.size
+        Vp = V[:n3].reshape(-1, 3) @ Q  # to the reference frame: Q^T v per node
+        V[:n3] = Vp.ravel()
+        G = -(self._R_ref @ V)
+        G[:n3] = (G[:n3].reshape(-1, 3) @ Q.T).ravel()
+        f = np.zeros_like(q)
+        f[self._vdofs] = G
+        inertia = self.mass * (dq - h * v_k) / h**2
+        r = inertia + grad - f
+        r[self._prescribed] = 0.0
+        return r, grad, f, inertia, (t, d1, rt)
+
+    def _converged(self, r, grad, f, inertia) -> bool:
+        tol = self.numerics.newton_tol
+        pos, tw = self._pos, self._twist
+        free_tw = np.setdiff1d(tw, self._prescribed, assume_unique=True)
+        s_pos = max(np.abs(grad[pos]).max(), np.abs(f[pos]).max(), np.abs(inertia[pos]).max(), self._f_floor)
+        ok = np.abs(r[pos]).max() <= tol * s_pos
+        if free_tw.size:
+            s_tw = max(np.abs(grad[free_tw]).max(), np.abs(f[free_tw]).max(), np.abs(inertia[free_tw]).max(),
+                       self._f_floor * self.params.rod_radius)
+            ok = ok and np.abs(r[free_tw]).max() <= tol * s_tw
+        return bool(ok)
+
+    def _try_step(self, h: float):
+        nm, p = self.numerics, self.params
+        x_k = nodes_of(self.q)
+        fresh = False
+        if self._R_ref is None or self._lu_h != h or self._since_refresh >= nm.hydro_refresh_max_steps:
+            fresh = True
+        else:
+            Q, dev = best_fit_rotation(self._X_ref, x_k)
+            fresh = dev > nm.hydro_refresh_tol * p.rod_radius
+        if fresh:
+            self._refresh(self.q, self.q, h)
+            Q = np.eye(3)
+        q = self.q + h * self.v
+        q[self._prescribed] = self.q[self._prescribed] + h * self.omega
+        prev = math.inf
+        for it in range(nm.newton_max_iter * 2):
+            r, grad, f, inertia, frames = self._residual(q, h, Q)
+            self.stats.newton_iterations += 1
+            if not np.all(np.isfinite(r)):
+                raise _StepFailed("residual", "non-finite (NaN/inf) force residual")
+            if self._converged(r, grad, f, inertia):
+                return q, r, grad, f, frames
+            norm = float(np.abs(r).max())
+            stalled = it >= nm.newton_max_iter or (it >= 4 and norm > 0.5 * prev)
+            if stalled:
+                if fresh and it >= nm.newton_max_iter:
+                    break
+                if not fresh:
+                    self._refresh(self.q, q, h)
+                    Q, fresh = np.eye(3), True
+            prev = norm
+            z = lu_solve(self._lu, _rotate_positions(r, Q.T), check_finite=False)
+            q = q - _rotate_positions(z, Q)
+        raise _StepFailed("Newton", f"Newton did not converge after {it + 1} iterations "
+                                    f"(max force residual {np.abs(r).max():.3e})")
+
+    def _advance(self, h: float, level: int) -> None:
+        try:
+            q, r, grad, f, (t, d1, rt) = self._try_step(h)
+            self._check_state(q, t)
+        except _StepFailed as exc:
+            if level >= self.numerics.max_substeps:
+                raise SimulationError(str(exc) + f" (after {level} halvings of the time step)",
+                                      self.step_count, self.time, exc.quantity) from None
+            self.stats.halvings += 1
+            self._lu_h = -1.0
+            self._advance(h / 2, level + 1)
+            self._advance(h / 2, level + 1)
+            return
+        self._commit(q, h, grad, f, t, d1, rt)
+
+    def _check_state(self, q: np.ndarray, t: np.ndarray) -> None:
+        if not np.all(np.isfinite(q)):
+            raise _StepFailed("positions", "non-finite node positions")
+        lengths = np.linalg.norm(np.diff(nodes_of(q), axis=0), axis=1)
+        ratio = lengths / self.rest.l_bar
+        if ratio.min() < 0.2 or ratio.max() > 5.0:
+            i = int(np.argmin(ratio)) if ratio.min() < 0.2 else int(np.argmax(ratio))
+            raise _StepFailed("edge length", f"edge {i} has {ratio[i]:.3g} x its rest length")
+
+    def _commit(self, q, h, grad, f, t, d1, rt) -> None:
+        dq = q - self.q
+        old_axis = self.body_frame[:, 0].copy()
+        self.v = dq / h
+        self.q = q
+        self.tangent, self.d1, self.ref_twist = t, d1, rt
+        self.time += h
+        self.motor_angle += h * self.omega
+        self._since_refresh += 1
+        self.node_forces = np.stack([f[0::4], f[1::4], f[2::4]], axis=1)
+        self.head_axial_torque = float(f[3]) if self.head_spins else 0.0
+        self.motor_torque = float(grad[3])
+        self._update_body_frame(old_axis, dq[3] - h * self.omega)
+
+    def _update_body_frame(self, old_axis: np.ndarray, dpsi: float) -> None:
+        """Transport the body frame to the new axis, then spin it by the head's rotation dpsi."""
+        x = self.nodes
+        if self.params.has_head:
+            new_axis = x[0] - x[1]
+        else:
+            new_axis = x[0] - x.mean(axis=0)
+        new_axis /= np.linalg.norm(new_axis)
+        y = _transport(self.body_frame[:, 1], old_axis, new_axis)
+        if self.head_spins:  # spin by dpsi about t0 = -X_b
+            y = _rotate_about(y, new_axis, -dpsi)
+        y -= (y @ new_axis) * new_axis
+        y /= np.linalg.norm(y)
+        self.body_frame = np.stack([new_axis, y, np.cross(new_axis, y)], axis=1)
+
+
+def _transport(u: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Parallel transport of u from unit vector a to unit vector b (minimal rotation)."""
+    c = np.cross(a, b)
+    s = np.linalg.norm(c)
+    if s < 1e-14:
+        return u.copy()
+    return _rotate_about(u, c / s, math.atan2(s, float(a @ b)))
+
+
+def _rotate_about(u: np.ndarray, k: np.ndarray, ang: float) -> np.ndarray:
+    """Rodrigues rotation of u about unit axis k by ang radians."""
+    return u * math.cos(ang) + np.cross(k, u) * math.sin(ang) + k * (k @ u) * (1 - math.cos(ang))
