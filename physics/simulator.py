@@ -293,8 +293,12 @@ class Simulator:
                     self._refresh(self.q, q, h)
                     Q, fresh = np.eye(3), True
             prev = norm
-            z = lu_solve(self._lu, _rotate_positions(r, Q.T), check_finite=False)
-            q = q - _rotate_positions(z, Q)
+            z = _rotate_positions(lu_solve(self._lu, _rotate_positions(r, Q.T), check_finite=False), Q)
+            q = q - z
+            # round-off floor: an increment of 1e-9 r0 (1e-9 rad) cannot be resolved further
+            if (np.abs(z[self._pos]).max() < 1e-9 * p.rod_radius and np.abs(z[self._twist]).max() < 1e-9
+                    and it >= 1):
+                return q, r, grad, f, frames
         raise _StepFailed("Newton", f"Newton did not converge after {it + 1} iterations "
                                     f"(max force residual {np.abs(r).max():.3e})")
 
