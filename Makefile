@@ -18,9 +18,9 @@ $(STAMP): pyproject.toml
 test: install
 	$(BIN)/python -m pytest -q
 
-# A short swim at 10 rpm, then a burst at 60 rpm (examples/demo_schedule.csv).
+# A short swim at 10 rpm, then 90 rpm until the flagellum buckles (examples/demo_schedule.csv).
 demo: install
-	$(BIN)/flagellum simulate --schedule examples/demo_schedule.csv --duration 20 --out out/demo
+	$(BIN)/flagellum simulate --schedule examples/demo_schedule.csv --duration 45 --set dt=0.005 --out out/demo
 
 clean:
 	rm -rf $(VENV) out build *.egg-info .pytest_cache

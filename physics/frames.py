@@ -11,6 +11,7 @@ import numpy as np
 from numba import njit
 
 _TWO_PI = 2.0 * np.pi
+_INV_TWO_PI = 1.0 / _TWO_PI
 
 
 @njit(cache=True)
@@ -21,11 +22,105 @@ def dot3(a: np.ndarray, b: np.ndarray) -> float:
 
 @njit(cache=True)
 def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Cross product of two (3,) vectors, returned as a new (3,) array."""
+    """Cross product of two (3,) vectors, returned as a new (3,) array.
+
+    Allocates; the kernels use the allocation-free tuple form :func:`vcross` instead."""
     out = np.empty(3)
     out[0] = a[1] * b[2] - a[2] * b[1]
     out[1] = a[2] * b[0] - a[0] * b[2]
     out[2] = a[0] * b[1] - a[1] * b[0]
+    return out
+
+
+# Allocation-free 3-vector helpers. A "vec" is a 3-tuple of floats, which Numba keeps in
+# registers; arrays of shape (3,) are accepted wherever a vec is read.
+
+
+@njit(cache=True)
+def vec(a: np.ndarray) -> tuple[float, float, float]:
+    """The (3,) array ``a`` as a 3-tuple."""
+    return (a[0], a[1], a[2])
+
+
+@njit(cache=True, inline="always")
+def row3(a: np.ndarray, i: int) -> tuple[float, float, float]:
+    """Row ``i`` of an (m, 3) array as a 3-tuple (no view is created)."""
+    return (a[i, 0], a[i, 1], a[i, 2])
+
+
+@njit(cache=True, inline="always")
+def vcross(a, b) -> tuple[float, float, float]:
+    """Cross product ``a x b`` of two 3-vectors, as a 3-tuple."""
+    return (
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    )
+
+
+@njit(cache=True, inline="always")
+def write3(out: np.ndarray, i: int, v) -> None:
+    """``out[i, :] = v`` for an (m, 3) array ``out`` and 3-vector ``v``."""
+    out[i, 0] = v[0]
+    out[i, 1] = v[1]
+    out[i, 2] = v[2]
+
+
+@njit(cache=True)
+def _half_turn(u, t1) -> tuple[float, float, float]:
+    """Half turn of ``u`` about the fixed normal :func:`_normal_of` of ``t1`` (the
+    anti-parallel fallback of :func:`parallel_transport`); kept out of line."""
+    p = _normal_of(t1)
+    s = 2.0 * dot3(p, u)
+    return (s * p[0] - u[0], s * p[1] - u[1], s * p[2] - u[2])
+
+
+@njit(cache=True, inline="always")
+def _transport(u, t1, t2) -> tuple[float, float, float]:
+    """Tuple form of :func:`parallel_transport`."""
+    c = dot3(t1, t2)
+    if 1.0 + c <= 1e-12:
+        return _half_turn(u, t1)
+    b = vcross(t1, t2)
+    bxu = vcross(b, u)
+    s = dot3(b, u) / (1.0 + c)
+    return (
+        c * u[0] + bxu[0] + s * b[0],
+        c * u[1] + bxu[1] + s * b[1],
+        c * u[2] + bxu[2] + s * b[2],
+    )
+
+
+@njit(cache=True)
+def _normal_of(t) -> tuple[float, float, float]:
+    """Tuple form of :func:`_any_normal`."""
+    k = 0
+    if abs(t[1]) < abs(t[k]):
+        k = 1
+    if abs(t[2]) < abs(t[k]):
+        k = 2
+    a = (1.0 if k == 0 else 0.0, 1.0 if k == 1 else 0.0, 1.0 if k == 2 else 0.0)
+    return _normal_part(a, t)
+
+
+@njit(cache=True, inline="always")
+def _normal_part(u, t) -> tuple[float, float, float]:
+    """Tuple form of :func:`_unit_normal_part`."""
+    s = dot3(u, t)
+    o0 = u[0] - s * t[0]
+    o1 = u[1] - s * t[1]
+    o2 = u[2] - s * t[2]
+    inv = 1.0 / np.sqrt(o0 * o0 + o1 * o1 + o2 * o2)
+    return (o0 * inv, o1 * inv, o2 * inv)
+
+
+@njit(cache=True)
+def _as_array(v) -> np.ndarray:
+    """A new (3,) array holding 3-vector ``v``."""
+    out = np.empty(3)
+    out[0] = v[0]
+    out[1] = v[1]
+    out[2] = v[2]
     return out
 
 
@@ -37,49 +132,33 @@ def parallel_transport(u: np.ndarray, t1: np.ndarray, t2: np.ndarray) -> np.ndar
     2008), written in Rodrigues form ``c u + b x u + (b.u) b / (1 + c)`` with
     ``b = t1 x t2`` and ``c = t1.t2``; it is the identity when the tangents coincide.
     Anti-parallel tangents (no unique minimal rotation) fall back to a half turn about a
-    fixed axis normal to ``t1``.
+    fixed axis normal to ``t1``. Returns a new (3,) array.
     """
-    c = dot3(t1, t2)
-    out = np.empty(3)
-    if 1.0 + c <= 1e-12:
-        p = _any_normal(t1)
-        s = 2.0 * dot3(p, u)
-        for k in range(3):
-            out[k] = s * p[k] - u[k]
-        return out
-    b = cross3(t1, t2)
-    bxu = cross3(b, u)
-    s = dot3(b, u) / (1.0 + c)
-    for k in range(3):
-        out[k] = c * u[k] + bxu[k] + s * b[k]
-    return out
+    return _as_array(_transport(vec(u), vec(t1), vec(t2)))
 
 
 @njit(cache=True)
 def _any_normal(t: np.ndarray) -> np.ndarray:
     """A deterministic unit vector normal to unit ``t`` (3,): the coordinate axis least
     aligned with ``t``, with its ``t`` component removed."""
-    k = 0
-    if abs(t[1]) < abs(t[k]):
-        k = 1
-    if abs(t[2]) < abs(t[k]):
-        k = 2
-    a = np.zeros(3)
-    a[k] = 1.0
-    return _unit_normal_part(a, t)
+    return _as_array(_normal_of(vec(t)))
 
 
 @njit(cache=True)
 def _unit_normal_part(u: np.ndarray, t: np.ndarray) -> np.ndarray:
     """``u`` (3,) with its component along unit ``t`` removed, normalised."""
-    s = dot3(u, t)
-    out = np.empty(3)
-    for k in range(3):
-        out[k] = u[k] - s * t[k]
-    nrm = np.sqrt(dot3(out, out))
-    for k in range(3):
-        out[k] /= nrm
-    return out
+    return _as_array(_normal_part(vec(u), vec(t)))
+
+
+@njit(cache=True, inline="always")
+def edge_tangent(q: np.ndarray, i: int) -> tuple[float, float, float]:
+    """Unit tangent of edge ``i`` of DOF vector ``q`` (4n-1,), as a 3-tuple."""
+    p = 4 * i
+    e0 = q[p + 4] - q[p]
+    e1 = q[p + 5] - q[p + 1]
+    e2 = q[p + 6] - q[p + 2]
+    inv = 1.0 / np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+    return (e0 * inv, e1 * inv, e2 * inv)
 
 
 @njit(cache=True)
@@ -88,15 +167,35 @@ def tangents(q: np.ndarray) -> np.ndarray:
     n = (q.shape[0] + 1) // 4
     t = np.empty((n - 1, 3))
     for i in range(n - 1):
-        nrm = 0.0
-        for k in range(3):
-            e = q[4 * i + 4 + k] - q[4 * i + k]
-            t[i, k] = e
-            nrm += e * e
-        nrm = np.sqrt(nrm)
-        for k in range(3):
-            t[i, k] /= nrm
+        write3(t, i, edge_tangent(q, i))
     return t
+
+
+@njit(cache=True, inline="always")
+def transported_director(d1_old, t_old, t_new) -> tuple[float, float, float]:
+    """Reference director ``d1_old`` time-parallel transported from ``t_old`` to ``t_new``
+    and re-orthonormalised against ``t_new`` (3-vectors in, 3-tuple out)."""
+    return _normal_part(_transport(d1_old, t_old, t_new), t_new)
+
+
+@njit(cache=True, inline="always")
+def node_reference_twist(d1_prev, t_prev, d1_i, t_i, ref_old: float) -> float:
+    """Signed angle about ``t_i`` from ``d1_prev`` transported ``t_prev -> t_i`` to
+    ``d1_i``, shifted by a multiple of 2*pi to lie closest to ``ref_old`` (rad)."""
+    u = _transport(d1_prev, t_prev, t_i)
+    ang = np.arctan2(dot3(vcross(u, d1_i), t_i), dot3(u, d1_i))
+    ang += _TWO_PI * np.round((ref_old - ang) * _INV_TWO_PI)
+    return ang
+
+
+@njit(cache=True, inline="always")
+def rotated_directors(d1, d2, theta: float):
+    """``(m1, m2)`` = ``(cos d1 + sin d2, -sin d1 + cos d2)`` of ``theta`` (3-tuples)."""
+    c = np.cos(theta)
+    s = np.sin(theta)
+    m1 = (c * d1[0] + s * d2[0], c * d1[1] + s * d2[1], c * d1[2] + s * d2[2])
+    m2 = (-s * d1[0] + c * d2[0], -s * d1[1] + c * d2[1], -s * d1[2] + c * d2[2])
+    return m1, m2
 
 
 @njit(cache=True)
@@ -110,11 +209,18 @@ def space_parallel_frames(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     m = t.shape[0]
     d1 = np.empty((m, 3))
     d2 = np.empty((m, 3))
-    d1[0] = _any_normal(t[0])
+    if m == 0:
+        return d1, d2
+    ti = row3(t, 0)
+    a = _normal_of(ti)
+    write3(d1, 0, a)
+    write3(d2, 0, vcross(ti, a))
     for i in range(1, m):
-        d1[i] = _unit_normal_part(parallel_transport(d1[i - 1], t[i - 1], t[i]), t[i])
-    for i in range(m):
-        d2[i] = cross3(t[i], d1[i])
+        tp = ti
+        ti = row3(t, i)
+        a = _normal_part(_transport(a, tp, ti), ti)
+        write3(d1, i, a)
+        write3(d2, i, vcross(ti, a))
     return d1, d2
 
 
@@ -132,8 +238,10 @@ def time_parallel_transport(
     d1 = np.empty((m, 3))
     d2 = np.empty((m, 3))
     for i in range(m):
-        d1[i] = _unit_normal_part(parallel_transport(d1_old[i], t_old[i], t_new[i]), t_new[i])
-        d2[i] = cross3(t_new[i], d1[i])
+        tn = row3(t_new, i)
+        a = transported_director(row3(d1_old, i), row3(t_old, i), tn)
+        write3(d1, i, a)
+        write3(d2, i, vcross(tn, a))
     return d1, d2
 
 
@@ -149,10 +257,9 @@ def reference_twist(d1: np.ndarray, t: np.ndarray, ref_twist_old: np.ndarray) ->
     m = t.shape[0]
     ref = np.empty(max(m - 1, 0))
     for i in range(1, m):
-        u = parallel_transport(d1[i - 1], t[i - 1], t[i])
-        ang = np.arctan2(dot3(cross3(u, d1[i]), t[i]), dot3(u, d1[i]))
-        ang += _TWO_PI * np.round((ref_twist_old[i - 1] - ang) / _TWO_PI)
-        ref[i - 1] = ang
+        ref[i - 1] = node_reference_twist(
+            row3(d1, i - 1), row3(t, i - 1), row3(d1, i), row3(t, i), ref_twist_old[i - 1]
+        )
     return ref
 
 
@@ -169,9 +276,7 @@ def material_frames(
     m1 = np.empty((m, 3))
     m2 = np.empty((m, 3))
     for i in range(m):
-        c = np.cos(theta[i])
-        s = np.sin(theta[i])
-        for k in range(3):
-            m1[i, k] = c * d1[i, k] + s * d2[i, k]
-            m2[i, k] = -s * d1[i, k] + c * d2[i, k]
+        a, b = rotated_directors(row3(d1, i), row3(d2, i), theta[i])
+        write3(m1, i, a)
+        write3(m2, i, b)
     return m1, m2

@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.linalg import lapack
+from scipy.linalg import cho_solve, lapack
 
 from physics.higdon_head import head_flow_operators, sphere_rotational_drag, sphere_translational_drag
 from physics.lsbt import lsbt_mobility, node_tangents
@@ -30,21 +30,98 @@ class HydroError(RuntimeError):
     """The hydrodynamic mobility could not be inverted (geometry degenerate)."""
 
 
-def spd_inverse(a: np.ndarray, require_spd: bool = True) -> np.ndarray:
-    """Inverse of a symmetric positive-definite matrix by Cholesky (LAPACK potrf/potri).
+# An explicit inverse costs about as much as 50-60 Cholesky solves and makes later solves ~3x
+# cheaper: form it once an operator has been used this often (i.e. when it is being reused).
+_INVERSE_AFTER_SOLVES = 60
 
-    With ``require_spd=False`` an indefinite matrix (plain eqn 8, no smoothing) is inverted by LU.
+
+class ResistanceOperator:
+    """R = D + B^T C B applied matrix-free from the Cholesky factor of A_reg (see module doc).
+
+    Built at one geometry; ``apply(V)`` costs two triangular solves, ``dense()`` forms R.
     """
-    if not require_spd:
-        return np.linalg.inv(a)
-    c, info = lapack.dpotrf(a, lower=0, clean=0, overwrite_a=0)
-    if info != 0:
-        raise HydroError(f"LSBT mobility is not positive definite (Cholesky failed at pivot {info})")
-    inv, info = lapack.dpotri(c, lower=0, overwrite_c=1)
-    if info != 0:
-        raise HydroError(f"LSBT mobility inversion failed (potri info {info})")
-    inv = np.triu(inv)
-    return inv + np.triu(inv, 1).T
+
+    def __init__(self, nodes: np.ndarray, mu: float, delta: float, head_radius: float,
+                 head_spins: bool, smoothing: float) -> None:
+        nodes = np.ascontiguousarray(nodes, dtype=np.float64)
+        self.has_head = head_radius > 0.0
+        self.spin = head_spins and self.has_head
+        flag = np.ascontiguousarray(nodes[1:]) if self.has_head else nodes
+        a = lsbt_mobility(flag, node_tangents(flag), mu, delta, smoothing)
+        self.m3 = a.shape[0]
+        self._inv: np.ndarray | None = None
+        if smoothing > 0.0:
+            c, info = lapack.dpotrf(a, lower=0, clean=1, overwrite_a=0)
+            if info != 0:
+                raise HydroError(f"LSBT mobility is not positive definite (Cholesky failed at pivot {info})")
+            self._chol = (c, False)
+        else:  # plain eqn (8): indefinite, use an explicit inverse
+            self._inv = np.linalg.inv(a)
+        if self.has_head:
+            e0 = nodes[1] - nodes[0]
+            axis = e0 / math.sqrt(e0 @ e0)
+            self.H, self.g = head_flow_operators(flag, nodes[0].copy(), axis, head_radius)
+            self.drag_t = sphere_translational_drag(mu, head_radius)
+            self.drag_r = sphere_rotational_drag(mu, head_radius)
+        self.nv = self.m3 + (3 if self.has_head else 0) + (1 if self.spin else 0)
+        self._applies = 0
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """C b = A_reg^{-1} b (two triangular solves; a matvec once the inverse is kept)."""
+        if self._inv is not None:
+            return self._inv @ b
+        self._applies += 1
+        if self._applies > _INVERSE_AFTER_SOLVES:
+            return self.inverse() @ b
+        return cho_solve(self._chol, b, check_finite=False)
+
+    def inverse(self) -> np.ndarray:
+        """C = A_reg^{-1}, (3M,3M); computed once and kept (matvecs are cheaper than solves)."""
+        if self._inv is None:
+            inv, info = lapack.dpotri(self._chol[0], lower=0)
+            if info != 0:
+                raise HydroError(f"LSBT mobility inversion failed (potri info {info})")
+            inv = np.triu(inv)
+            self._inv = inv + np.triu(inv, 1).T
+        return self._inv
+
+    def apply(self, V: np.ndarray) -> np.ndarray:
+        """R V for generalised velocities V (nv,); returns minus the hydrodynamic generalised force."""
+        if not self.has_head:
+            return self.solve(V)
+        m3 = self.m3
+        U, u = V[0:3], V[3:3 + m3]
+        bv = u - self.H @ U
+        if self.spin:
+            bv = bv - self.g * V[-1]
+        y = self.solve(bv)
+        out = np.empty_like(V)
+        out[0:3] = self.drag_t * U - self.H.T @ y
+        out[3:3 + m3] = y
+        if self.spin:
+            out[-1] = self.drag_r * V[-1] - self.g @ y
+        return out
+
+    def dense(self) -> np.ndarray:
+        """R, (nv, nv)."""
+        c = self.inverse()
+        if not self.has_head:
+            return c.copy()
+        m3, nv = self.m3, self.nv
+        R = np.zeros((nv, nv))
+        CH = c @ self.H
+        R[0:3, 0:3] = self.drag_t * np.eye(3) + self.H.T @ CH
+        R[0:3, 3:3 + m3] = -CH.T
+        R[3:3 + m3, 0:3] = -CH
+        R[3:3 + m3, 3:3 + m3] = c
+        if self.spin:
+            Cg = c @ self.g
+            R[0:3, -1] = self.H.T @ Cg
+            R[-1, 0:3] = R[0:3, -1]
+            R[3:3 + m3, -1] = -Cg
+            R[-1, 3:3 + m3] = -Cg
+            R[-1, -1] = self.drag_r + self.g @ Cg
+        return R
 
 
 def resistance_matrix(nodes: np.ndarray, mu: float, delta: float, head_radius: float,
@@ -54,29 +131,4 @@ def resistance_matrix(nodes: np.ndarray, mu: float, delta: float, head_radius: f
     nodes: (n,3) rod nodes, m (node 0 is the head centre if head_radius > 0).
     head_spins: append the head spin rate s as the last generalised velocity.
     """
-    nodes = np.ascontiguousarray(nodes, dtype=np.float64)
-    if head_radius <= 0.0:
-        a = lsbt_mobility(nodes, node_tangents(nodes), mu, delta, smoothing)
-        return spd_inverse(a, smoothing > 0.0)
-    flag = np.ascontiguousarray(nodes[1:])
-    a = lsbt_mobility(flag, node_tangents(flag), mu, delta, smoothing)
-    c = spd_inverse(a, smoothing > 0.0)
-    e0 = nodes[1] - nodes[0]
-    axis = e0 / math.sqrt(e0 @ e0)
-    H, g = head_flow_operators(flag, nodes[0].copy(), axis, head_radius)
-    m3 = flag.shape[0] * 3
-    nv = m3 + 3 + (1 if head_spins else 0)
-    R = np.zeros((nv, nv))
-    CH = c @ H
-    R[0:3, 0:3] = sphere_translational_drag(mu, head_radius) * np.eye(3) + H.T @ CH
-    R[0:3, 3:3 + m3] = -CH.T
-    R[3:3 + m3, 0:3] = -CH
-    R[3:3 + m3, 3:3 + m3] = c
-    if head_spins:
-        Cg = c @ g
-        R[0:3, -1] = H.T @ Cg
-        R[-1, 0:3] = R[0:3, -1]
-        R[3:3 + m3, -1] = -Cg
-        R[-1, 3:3 + m3] = -Cg
-        R[-1, -1] = sphere_rotational_drag(mu, head_radius) + g @ Cg
-    return R
+    return ResistanceOperator(nodes, mu, delta, head_radius, head_spins, smoothing).dense()

@@ -130,7 +130,7 @@ class NumericsConfig:
     """Numerical settings of the implicit integrator."""
 
     dt: float = _f(1e-3, "s", "time step h (paper: 1 ms)", 0.0, 1.0, True)
-    newton_tol: float = _f(1e-8, "-", "Newton tolerance on the relative force residual", 0.0, 1e-2, True)
+    newton_tol: float = _f(1e-6, "-", "Newton tolerance on the relative force residual", 0.0, 1e-2, True)
     newton_max_iter: int = _f(25, "-", "Newton iterations before the Jacobian is refreshed / the step fails", 2, 500)
     hydro_refresh_tol: float = _f(1e-3, "-",
                                   "refresh the hydrodynamic resistance when the non-rigid deformation since the last "

@@ -9,18 +9,37 @@ R(Qx) = Q~ R(x) Q~^T, with Q~ = block-diag(Q, ..., Q, 1) (the head spin rate is 
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 
+@njit(cache=True)
 def best_fit_rotation(x_ref: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, float]:
     """Rotation Q minimising sum |(x - mean x) - Q (x_ref - mean x_ref)|^2, and the residual.
 
     x_ref, x: (n,3) positions, m. Returns Q (3,3) proper rotation and the largest remaining
     (non-rigid) node deviation, m.
     """
-    a = x_ref - x_ref.mean(axis=0)
-    b = x - x.mean(axis=0)
+    n = x.shape[0]
+    ca = np.zeros(3)
+    cb = np.zeros(3)
+    for i in range(n):
+        ca += x_ref[i]
+        cb += x[i]
+    ca /= n
+    cb /= n
+    a = x_ref - ca
+    b = x - cb
     u, _, vt = np.linalg.svd(a.T @ b)
-    d = np.sign(np.linalg.det(u @ vt))
-    q = (u @ np.diag([1.0, 1.0, d]) @ vt).T
-    dev = float(np.sqrt(((b - a @ q.T) ** 2).sum(axis=1).max()))
-    return q, dev
+    d = 1.0 if np.linalg.det(u @ vt) > 0 else -1.0
+    D = np.eye(3)
+    D[2, 2] = d
+    q = (u @ D @ vt).T
+    dev2 = 0.0
+    for i in range(n):
+        s = 0.0
+        for k in range(3):
+            r = b[i, k] - (q[k, 0] * a[i, 0] + q[k, 1] * a[i, 1] + q[k, 2] * a[i, 2])
+            s += r * r
+        if s > dev2:
+            dev2 = s
+    return q, np.sqrt(dev2)

@@ -6,7 +6,7 @@ Time stepping is implicit Euler, eqn (6) of Huang & Jawed 2020,
 
 with the hydrodynamic force *implicit in the velocity* (the paper lags it, eqn 7, which is
 unstable at h = 1 ms for this rod: h * drag / mass ~ 8 > 2). R is the generalised resistance
-of ``hydrodynamics`` evaluated at the start-of-step geometry. The nonlinear system is solved
+of ``hydrodynamics`` evaluated at the predicted geometry q_k + h v_k. The nonlinear system is solved
 by a chord (modified-Newton) iteration whose Jacobian M/h^2 + K + P^T R P / h is factorised
 only when the geometry has changed non-rigidly by more than ``hydro_refresh_tol`` * r0 since
 the last factorisation (or every ``hydro_refresh_max_steps`` steps): a rigid rotation Q of the
@@ -28,16 +28,18 @@ Motor (Sec. 2.5): the twist angle theta^0 of the first edge is the motor shaft.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg import lu_factor, lu_solve
 
-from physics.elastic import (banded_to_dense, elastic_gradient, elastic_hessian_banded, rest_from_configuration,
-                             rod_frames)
+from physics.elastic import (banded_to_dense, elastic_gradient_kernel, elastic_hessian_banded,
+                             rest_from_configuration, rod_frames)
 from physics.errors import SimulationError
 from physics.geometry import initial_nodes, layout_for, nodes_of, pack_q
-from physics.hydrodynamics import HydroError, resistance_matrix
+from physics.hydrodynamics import HydroError, ResistanceOperator
+from physics.implicit_residual import assemble_residual, block_max_abs, generalised_velocity, rotate_node_blocks
 from physics.params import NumericsConfig, SwimmerParams
 from physics.rigid_alignment import best_fit_rotation
 
@@ -57,6 +59,12 @@ class StepStats:
     resistance_refreshes: int = 0
     jacobian_factorisations: int = 0
     halvings: int = 0
+    # wall seconds spent in each part of the step
+    time_elastic: float = 0.0  # frames + elastic gradient
+    time_hydro: float = 0.0  # applying the resistance (LSBT solves / matvecs)
+    time_linear_solve: float = 0.0  # chord-iteration back-substitutions
+    time_resistance_refresh: float = 0.0  # LSBT mobility + Cholesky
+    time_jacobian_refresh: float = 0.0  # elastic Hessian, dense R, LU
 
 
 def lumped_masses(params: SwimmerParams, l_bar: np.ndarray, ndof: int, head_spins: bool) -> np.ndarray:
@@ -80,14 +88,6 @@ def lumped_masses(params: SwimmerParams, l_bar: np.ndarray, ndof: int, head_spin
         m[k::4] = node_m
     m[3::4] = twist_i
     return m
-
-
-def _rotate_positions(y: np.ndarray, Q: np.ndarray) -> np.ndarray:
-    """Apply Q to every node block of a DOF-layout vector (twist entries unchanged)."""
-    out = y.copy()
-    p = np.stack([y[0::4], y[1::4], y[2::4]], axis=1) @ Q.T
-    out[0::4], out[1::4], out[2::4] = p[:, 0], p[:, 1], p[:, 2]
-    return out
 
 
 class Simulator:
@@ -114,6 +114,9 @@ class Simulator:
         self._vdofs = np.concatenate([self._pos, [3]]) if self.head_spins else self._pos
         self._prescribed = np.array([], dtype=np.int64) if self.head_spins else np.array([3])
         self._twist = np.arange(3, self.layout.ndof, 4)
+        self._free_twist = np.setdiff1d(self._twist, self._prescribed)
+        self._rest_arrays = (self.rest.l_bar, self.rest.l_vor, self.rest.kappa_bar, self.rest.twist_bar,
+                             self.rest.EA, self.rest.EI, self.rest.GJ)
         # state
         self.q = q0
         self.v = np.zeros_like(q0)
@@ -131,11 +134,12 @@ class Simulator:
         self.head_axial_torque = 0.0
         self.motor_torque = 0.0
         # chord-iteration caches
-        self._R_ref: np.ndarray | None = None
-        self._X_ref: np.ndarray | None = None
+        self._hyd: ResistanceOperator | None = None
+        self._X_hyd: np.ndarray | None = None
+        self._since_hydro = 0
+        self._X_jac: np.ndarray | None = None
         self._lu = None
         self._lu_h = -1.0
-        self._since_refresh = 0
         self._f_floor = 1e-9 * p.bending_stiffness / p.axial_length**2
         self._initial_nodes = nodes_of(q0)
 
@@ -156,6 +160,27 @@ class Simulator:
         """Advance by ``duration_s`` seconds (rounded to whole steps)."""
         for _ in range(int(round(duration_s / self.numerics.dt))):
             self.step()
+
+    _STATE_FIELDS = ("q", "v", "d1", "tangent", "ref_twist", "time", "step_count", "omega", "motor_angle",
+                     "body_frame")
+
+    def get_state(self) -> dict:
+        """A copy of the dynamic state (arrays and scalars); restore it with ``set_state``."""
+        return {k: (getattr(self, k).copy() if isinstance(getattr(self, k), np.ndarray) else getattr(self, k))
+                for k in self._STATE_FIELDS}
+
+    def set_state(self, state: dict) -> None:
+        """Restore a state from ``get_state`` (of a simulator with the same parameters)."""
+        missing = [k for k in self._STATE_FIELDS if k not in state]
+        if missing:
+            raise ValueError(f"state is missing {missing}")
+        if np.shape(state["q"]) != self.q.shape:
+            raise ValueError(f"state has {np.shape(state['q'])} DOFs, this simulator {self.q.shape}")
+        for k in self._STATE_FIELDS:
+            v = state[k]
+            setattr(self, k, np.array(v, dtype=float) if isinstance(v, np.ndarray) else v)
+        self.step_count = int(self.step_count)
+        self._lu, self._hyd = None, None  # factorisations are rebuilt at the next step
 
     @property
     def nodes(self) -> np.ndarray:
@@ -203,101 +228,117 @@ class Simulator:
         e = np.diff(nodes_of(q), axis=0)
         return e / np.linalg.norm(e, axis=1)[:, None]
 
-    def _refresh(self, q_geom: np.ndarray, q_jac: np.ndarray, h: float) -> None:
-        """Recompute R at q_geom's nodes and factorise the Jacobian at q_jac for step h."""
+    def _refresh_hydro(self, q: np.ndarray) -> None:
+        """Rebuild the resistance operator (LSBT mobility + Cholesky) at q's geometry."""
         p, nm = self.params, self.numerics
-        x = nodes_of(q_geom)
+        t0 = time.perf_counter()
+        x = nodes_of(q)
         try:
-            R = resistance_matrix(x, p.viscosity, p.cutoff_length, p.head_radius, self.head_spins,
-                                  nm.lsbt_smoothing)
+            self._hyd = ResistanceOperator(x, p.viscosity, p.cutoff_length, p.head_radius, self.head_spins,
+                                           nm.lsbt_smoothing)
         except HydroError as exc:
             raise _StepFailed("hydrodynamic mobility", str(exc)) from None
-        t, d1, d2, rt, m1, m2 = rod_frames(q_jac, self.d1, self.tangent, self.ref_twist)
-        J = banded_to_dense(elastic_hessian_banded(q_jac, d1, d2, rt, m1, m2, self.rest))
+        self._X_hyd = x
+        self._since_hydro = 0
+        self.stats.resistance_refreshes += 1
+        self.stats.time_resistance_refresh += time.perf_counter() - t0
+
+    def _refresh_jacobian(self, q: np.ndarray, h: float) -> None:
+        """Factorise J = M/h^2 + K + P^T R P / h at q (refreshing the resistance there too)."""
+        self._refresh_hydro(q)
+        t0 = time.perf_counter()
+        t, d1, d2, rt, m1, m2 = rod_frames(q, self.d1, self.tangent, self.ref_twist)
+        J = banded_to_dense(elastic_hessian_banded(q, d1, d2, rt, m1, m2, self.rest))
         J[np.diag_indices_from(J)] += self.mass / h**2
-        J[np.ix_(self._vdofs, self._vdofs)] += R / h
+        J[np.ix_(self._vdofs, self._vdofs)] += self._hyd.dense() / h
         for k in self._prescribed:
             J[k, :] = 0.0
             J[:, k] = 0.0
             J[k, k] = 1.0
         if not np.all(np.isfinite(J)):
             raise _StepFailed("Jacobian", "non-finite entries in the Newton Jacobian")
-        self._R_ref, self._X_ref = R, x
+        self._X_jac = self._X_hyd
         self._lu = lu_factor(J, check_finite=False)
         self._lu_h = h
-        self._since_refresh = 0
-        self.stats.resistance_refreshes += 1
         self.stats.jacobian_factorisations += 1
+        self.stats.time_jacobian_refresh += time.perf_counter() - t0
 
-    def _residual(self, q: np.ndarray, h: float, Q: np.ndarray):
-        q_k, v_k = self.q, self.v
+    def _residual(self, q: np.ndarray, h: float, Qh: np.ndarray):
+        t0 = time.perf_counter()
         t, d1, d2, rt, m1, m2 = rod_frames(q, self.d1, self.tangent, self.ref_twist)
-        grad = elastic_gradient(q, d1, d2, rt, m1, m2, self.rest)
-        dq = q - q_k
-        vel = dq / h
-        V = vel[self._vdofs].copy()
-        if self.head_spins:
-            V[-1] -= self.omega
-        n3 = self._pos.size
-        Vp = V[:n3].reshape(-1, 3) @ Q  # to the reference frame: Q^T v per node
-        V[:n3] = Vp.ravel()
-        G = -(self._R_ref @ V)
-        G[:n3] = (G[:n3].reshape(-1, 3) @ Q.T).ravel()
-        f = np.zeros_like(q)
-        f[self._vdofs] = G
-        inertia = self.mass * (dq - h * v_k) / h**2
-        r = inertia + grad - f
-        r[self._prescribed] = 0.0
+        grad = elastic_gradient_kernel(q, d1, d2, rt, m1, m2, *self._rest_arrays)
+        t1 = time.perf_counter()
+        V = generalised_velocity(q, self.q, h, self._vdofs, self.head_spins, self.omega, Qh)
+        G = -self._hyd.apply(V)
+        self.stats.time_elastic += t1 - t0
+        self.stats.time_hydro += time.perf_counter() - t1
+        r, f, inertia = assemble_residual(q, self.q, self.v, h, self.mass, grad, G, Qh, self._vdofs,
+                                          self.head_spins, self._prescribed)
         return r, grad, f, inertia, (t, d1, rt)
 
     def _converged(self, r, grad, f, inertia) -> bool:
         tol = self.numerics.newton_tol
-        pos, tw = self._pos, self._twist
-        free_tw = np.setdiff1d(tw, self._prescribed, assume_unique=True)
-        s_pos = max(np.abs(grad[pos]).max(), np.abs(f[pos]).max(), np.abs(inertia[pos]).max(), self._f_floor)
-        ok = np.abs(r[pos]).max() <= tol * s_pos
-        if free_tw.size:
-            s_tw = max(np.abs(grad[free_tw]).max(), np.abs(f[free_tw]).max(), np.abs(inertia[free_tw]).max(),
-                       self._f_floor * self.params.rod_radius)
-            ok = ok and np.abs(r[free_tw]).max() <= tol * s_tw
-        return bool(ok)
+        pos, tw = self._pos, self._free_twist
+        s_pos = max(block_max_abs(grad, pos), block_max_abs(f, pos), block_max_abs(inertia, pos), self._f_floor)
+        if block_max_abs(r, pos) > tol * s_pos:
+            return False
+        s_tw = max(block_max_abs(grad, tw), block_max_abs(f, tw), block_max_abs(inertia, tw),
+                   self._f_floor * self.params.rod_radius)
+        return block_max_abs(r, tw) <= tol * s_tw
 
     def _try_step(self, h: float):
         nm, p = self.numerics, self.params
-        x_k = nodes_of(self.q)
-        fresh = False
-        if self._R_ref is None or self._lu_h != h or self._since_refresh >= nm.hydro_refresh_max_steps:
-            fresh = True
-        else:
-            Q, dev = best_fit_rotation(self._X_ref, x_k)
-            fresh = dev > nm.hydro_refresh_tol * p.rod_radius
-        if fresh:
-            self._refresh(self.q, self.q, h)
-            Q = np.eye(3)
-        q = self.q + h * self.v
+        q = self.q + h * self.v  # predictor
         q[self._prescribed] = self.q[self._prescribed] + h * self.omega
-        prev = math.inf
+        # Resistance and Jacobian are taken at the predicted geometry. Both are reused across
+        # steps through the best-fit rigid rotation (exact for a rigid motion); the resistance is
+        # rebuilt when the shape has changed by more than hydro_refresh_tol * r0, the Jacobian
+        # (only the chord iteration's preconditioner) when the iteration stops contracting.
+        x_pred = nodes_of(q)
+        jac_fresh = False
+        if self._lu is None or self._lu_h != h:
+            self._refresh_jacobian(q, h)
+            jac_fresh = True
+        elif self._since_hydro >= nm.hydro_refresh_max_steps:
+            self._refresh_hydro(q)
+        else:
+            _, dev = best_fit_rotation(self._X_hyd, x_pred)
+            if dev > nm.hydro_refresh_tol * p.rod_radius:
+                self._refresh_hydro(q)
+        Qh = np.eye(3) if self._since_hydro == 0 else best_fit_rotation(self._X_hyd, x_pred)[0]
+        Qj = np.eye(3) if jac_fresh else best_fit_rotation(self._X_jac, x_pred)[0]
+        hist = [math.inf, math.inf]
+        step_scale = max(block_max_abs(q - self.q, self._pos), 1e-6 * p.rod_radius)
         for it in range(nm.newton_max_iter * 2):
-            r, grad, f, inertia, frames = self._residual(q, h, Q)
+            r, grad, f, inertia, frames = self._residual(q, h, Qh)
             self.stats.newton_iterations += 1
             if not np.all(np.isfinite(r)):
                 raise _StepFailed("residual", "non-finite (NaN/inf) force residual")
             if self._converged(r, grad, f, inertia):
                 return q, r, grad, f, frames
             norm = float(np.abs(r).max())
-            stalled = it >= nm.newton_max_iter or (it >= 4 and norm > 0.5 * prev)
-            if stalled:
-                if fresh and it >= nm.newton_max_iter:
+            # stalled: a refactorisation costs ~20 iterations, so only after many iterations or
+            # when two iterations together reduce the residual by less than 2x
+            if it >= nm.newton_max_iter or (it >= 8 and norm > 0.5 * hist[-2]):
+                if jac_fresh and it >= nm.newton_max_iter:
                     break
-                if not fresh:
-                    self._refresh(self.q, q, h)
-                    Q, fresh = np.eye(3), True
-            prev = norm
-            z = _rotate_positions(lu_solve(self._lu, _rotate_positions(r, Q.T), check_finite=False), Q)
+                if not jac_fresh:  # stale preconditioner: refactorise here (keeps the step's resistance)
+                    hyd, x_hyd, since = self._hyd, self._X_hyd, self._since_hydro
+                    self._refresh_jacobian(q, h)
+                    self._hyd, self._X_hyd, self._since_hydro = hyd, x_hyd, since
+                    self.stats.resistance_refreshes -= 1
+                    Qj, jac_fresh = best_fit_rotation(self._X_jac, x_pred)[0], True
+            hist.append(norm)
+            t0 = time.perf_counter()
+            z = rotate_node_blocks(lu_solve(self._lu, rotate_node_blocks(r, Qj, True), check_finite=False), Qj,
+                                   False)
+            self.stats.time_linear_solve += time.perf_counter() - t0
             q = q - z
-            # round-off floor: an increment of 1e-9 r0 (1e-9 rad) cannot be resolved further
-            if (np.abs(z[self._pos]).max() < 1e-9 * p.rod_radius and np.abs(z[self._twist]).max() < 1e-9
-                    and it >= 1):
+            # increment criterion: the chord iteration contracts, so an increment far below the
+            # step's own displacement (and the twist resolution) means the residual is at tolerance
+            dz = block_max_abs(z, self._pos)
+            if (it >= 1 and dz <= max(nm.newton_tol * step_scale, 1e-10 * p.rod_radius)
+                    and block_max_abs(z, self._twist) <= max(nm.newton_tol, 1e-10)):
                 return q, r, grad, f, frames
         raise _StepFailed("Newton", f"Newton did not converge after {it + 1} iterations "
                                     f"(max force residual {np.abs(r).max():.3e})")
@@ -334,7 +375,7 @@ class Simulator:
         self.tangent, self.d1, self.ref_twist = t, d1, rt
         self.time += h
         self.motor_angle += h * self.omega
-        self._since_refresh += 1
+        self._since_hydro += 1
         self.node_forces = np.stack([f[0::4], f[1::4], f[2::4]], axis=1)
         self.head_axial_torque = float(f[3]) if self.head_spins else 0.0
         self.motor_torque = float(grad[3])

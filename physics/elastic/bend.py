@@ -9,8 +9,14 @@ the Jacobian of the gradient formula itself also has an antisymmetric part (the 
 of parallel transport, proportional to dE/dtheta) which is dropped, as in DER.
 
 Derivatives are first formed in the reduced coordinates ``y = [e(3), f(3), theta_e,
-theta_f]`` and then mapped to the nodes with :func:`edge_pair_to_nodes`; the small block
-helpers here are shared with ``twist.py``.
+theta_f]`` and then mapped to the nodes with :func:`edge_pair_to_nodes` (one element) or
+:func:`edge_pair_scatter` (straight into the rod's gradient and banded Hessian); the small
+block helpers here are shared with ``twist.py``.
+
+The kernels are allocation-free: 3-vectors are 3-tuples of floats (see
+``physics.frames.vcross``) and the ``*_into`` functions add into scratch arrays the caller
+allocates once. Only the per-element wrappers (``bend_element``,
+``bend_energy_grad_hess``, ...) allocate.
 """
 
 from __future__ import annotations
@@ -18,7 +24,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from physics.frames import cross3, dot3
+from physics.elastic.banded import add_band
+from physics.frames import dot3, vcross, vec
 
 # Column c of the (8, 11) map dy/dq_local: up to two (row, coefficient) pairs.
 _MAP_ROW = np.array(
@@ -59,7 +66,7 @@ def add_skew_projected(
     M[r0 + 1, c0 + 2] -= alpha * w[0]
     M[r0 + 2, c0 + 0] -= alpha * w[1]
     M[r0 + 2, c0 + 1] += alpha * w[0]
-    add_outer(M, r0, c0, -alpha, cross3(w, t), t)
+    add_outer(M, r0, c0, -alpha, vcross(w, t), t)
 
 
 @njit(cache=True)
@@ -105,140 +112,240 @@ def edge_pair_to_nodes(
 
 
 @njit(cache=True)
+def edge_pair_scatter(
+    gy: np.ndarray, Hy: np.ndarray, b: int, order: int, need_grad: bool,
+    grad: np.ndarray, ab: np.ndarray,
+) -> None:
+    """Add an edge-pair gradient (8,) / symmetric Hessian (8, 8) in ``[e, f, theta_e,
+    theta_f]`` to the rod's gradient ``grad`` (4n-1,) (if ``need_grad``) and, if ``order``
+    >= 2, its banded Hessian ``ab`` (21, 4n-1). The element's nodes ``x0, x1, x2`` sit at
+    ``q[b:b+3]``, ``q[b+4:b+7]``, ``q[b+8:b+11]`` and its angles at ``q[b+3]``, ``q[b+7]``;
+    same map as :func:`edge_pair_to_nodes`."""
+    if need_grad:
+        for k in range(3):
+            grad[b + k] -= gy[k]
+            grad[b + 4 + k] += gy[k] - gy[3 + k]
+            grad[b + 8 + k] += gy[3 + k]
+        grad[b + 3] += gy[6]
+        grad[b + 7] += gy[7]
+    if order < 2:
+        return
+    for p in range(3):
+        for r in range(3):
+            hee = Hy[p, r]
+            hef = Hy[p, 3 + r]
+            hfe = Hy[3 + p, r]
+            hff = Hy[3 + p, 3 + r]
+            v01 = -hee + hef
+            v12 = hef - hff
+            add_band(ab, b + p, b + r, hee)
+            add_band(ab, b + p, b + 4 + r, v01)
+            add_band(ab, b + 4 + r, b + p, v01)
+            add_band(ab, b + p, b + 8 + r, -hef)
+            add_band(ab, b + 8 + r, b + p, -hef)
+            add_band(ab, b + 4 + p, b + 4 + r, hee - hef - hfe + hff)
+            add_band(ab, b + 4 + p, b + 8 + r, v12)
+            add_band(ab, b + 8 + r, b + 4 + p, v12)
+            add_band(ab, b + 8 + p, b + 8 + r, hff)
+        for j in range(2):
+            col = b + 3 + 4 * j
+            he = Hy[p, 6 + j]
+            hf = Hy[3 + p, 6 + j]
+            v0 = -he
+            v1 = he - hf
+            add_band(ab, b + p, col, v0)
+            add_band(ab, col, b + p, v0)
+            add_band(ab, b + 4 + p, col, v1)
+            add_band(ab, col, b + 4 + p, v1)
+            add_band(ab, b + 8 + p, col, hf)
+            add_band(ab, col, b + 8 + p, hf)
+    add_band(ab, b + 3, b + 3, Hy[6, 6])
+    add_band(ab, b + 3, b + 7, Hy[6, 7])
+    add_band(ab, b + 7, b + 3, Hy[7, 6])
+    add_band(ab, b + 7, b + 7, Hy[7, 7])
+
+
+@njit(cache=True)
+def edge_pair_geom(x0, x1, x2):
+    """Tuple form of :func:`edge_pair_geometry` for 3-vector nodes ``x0, x1, x2``:
+    returns ``(te, tf, le, lf, chi, kb)`` with ``te``, ``tf``, ``kb`` 3-tuples."""
+    e0 = x1[0] - x0[0]
+    e1 = x1[1] - x0[1]
+    e2 = x1[2] - x0[2]
+    f0 = x2[0] - x1[0]
+    f1 = x2[1] - x1[1]
+    f2 = x2[2] - x1[2]
+    le = np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+    lf = np.sqrt(f0 * f0 + f1 * f1 + f2 * f2)
+    te = (e0 / le, e1 / le, e2 / le)
+    tf = (f0 / lf, f1 / lf, f2 / lf)
+    chi = 1.0 + dot3(te, tf)
+    c = vcross(te, tf)
+    s = 2.0 / chi
+    kb = (c[0] * s, c[1] * s, c[2] * s)
+    return te, tf, le, lf, chi, kb
+
+
+@njit(cache=True)
 def edge_pair_geometry(
     x0: np.ndarray, x1: np.ndarray, x2: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, float, float, float, np.ndarray]:
     """Edge-pair geometry of nodes ``x0, x1, x2`` (3,) m: unit tangents ``te``, ``tf`` (3,),
     lengths ``le``, ``lf`` (m), ``chi = 1 + te.tf`` and the dimensionless curvature binormal
     ``kb = 2 te x tf / chi`` (3,), eqn (2) of Huang & Jawed 2020."""
-    te = np.empty(3)
-    tf = np.empty(3)
+    te, tf, le, lf, chi, kb = edge_pair_geom(vec(x0), vec(x1), vec(x2))
+    te_a = np.empty(3)
+    tf_a = np.empty(3)
+    kb_a = np.empty(3)
     for k in range(3):
-        te[k] = x1[k] - x0[k]
-        tf[k] = x2[k] - x1[k]
-    le = np.sqrt(dot3(te, te))
-    lf = np.sqrt(dot3(tf, tf))
-    for k in range(3):
-        te[k] /= le
-        tf[k] /= lf
-    chi = 1.0 + dot3(te, tf)
-    kb = cross3(te, tf)
-    for k in range(3):
-        kb[k] *= 2.0 / chi
-    return te, tf, le, lf, chi, kb
+        te_a[k] = te[k]
+        tf_a[k] = tf[k]
+        kb_a[k] = kb[k]
+    return te_a, tf_a, le, lf, chi, kb_a
 
 
 @njit(cache=True)
-def _curvature_derivatives(
-    te: np.ndarray,
-    tf: np.ndarray,
-    le: float,
-    lf: float,
-    chi: float,
-    kb: np.ndarray,
-    ae: np.ndarray,
-    be: np.ndarray,
-    af: np.ndarray,
-    bf: np.ndarray,
-    gy: np.ndarray,
-    Hy: np.ndarray,
-    order: int,
-) -> float:
-    """One material curvature ``kappa = 0.5 (ae + af) . kb`` and its derivatives in ``y``.
+def _kappa(ae, af, kb) -> float:
+    """``0.5 (ae + af) . kb`` for 3-vectors."""
+    return (
+        0.5 * (ae[0] + af[0]) * kb[0]
+        + 0.5 * (ae[1] + af[1]) * kb[1]
+        + 0.5 * (ae[2] + af[2]) * kb[2]
+    )
+
+
+@njit(cache=True)
+def _curvature_into(
+    te, tf, le: float, lf: float, chi: float, kb, ae, be, af, bf, kappa: float,
+    gk: np.ndarray, Hy: np.ndarray, alpha: float, order: int,
+) -> None:
+    """Derivatives in ``y`` of one material curvature ``kappa = 0.5 (ae + af) . kb``.
 
     ``kappa1`` (eqn (3a)) uses ``a = m2``, ``b = -m1``; ``kappa2`` (eqn (3b)) uses
     ``a = -m1``, ``b = -m2``; ``b = da/dtheta`` and ``db/dtheta = -a``. The gradient is
     the DER one (Bergou et al. 2010): ``dk/de = (2 tf x w - k (te + tf)) / (|e| chi)``,
     ``dk/df = (-2 te x w - k (te + tf)) / (|f| chi)`` with ``w = 0.5 (ae + af)``, and
-    ``dk/dtheta = 0.5 b . kb``. ``Hy`` is the symmetric part of the derivative of that
-    gradient when directors follow their edges (``d a_e = -(a_e . d te) te``).
-    Writes ``gy`` (8,) and, if ``order`` >= 2, ``Hy`` (8, 8). Returns ``kappa`` (1/1).
+    ``dk/dtheta = 0.5 b . kb``. The Hessian is the symmetric part of the derivative of
+    that gradient when directors follow their edges (``d a_e = -(a_e . d te) te``).
+    Writes the gradient into ``gk`` (8,) and, if ``order`` >= 2, adds ``alpha`` times the
+    (not yet symmetrised) Hessian into ``Hy`` (8, 8); the caller symmetrises ``Hy``.
+    All vectors are 3-tuples; allocation-free.
     """
-    w = np.empty(3)
-    s = np.empty(3)
-    for k in range(3):
-        w[k] = 0.5 * (ae[k] + af[k])
-        s[k] = te[k] + tf[k]
-    kappa = dot3(w, kb)
-    if order < 1:
-        return kappa
-    tfxw = cross3(tf, w)
-    texw = cross3(te, w)
+    w = (0.5 * (ae[0] + af[0]), 0.5 * (ae[1] + af[1]), 0.5 * (ae[2] + af[2]))
+    s = (te[0] + tf[0], te[1] + tf[1], te[2] + tf[2])
+    tfxw = vcross(tf, w)
+    texw = vcross(te, w)
     ce = 1.0 / (le * chi)
     cf = 1.0 / (lf * chi)
-    for k in range(3):
-        gy[k] = ce * (2.0 * tfxw[k] - kappa * s[k])
-        gy[3 + k] = cf * (-2.0 * texw[k] - kappa * s[k])
+    ge = (
+        ce * (2.0 * tfxw[0] - kappa * s[0]),
+        ce * (2.0 * tfxw[1] - kappa * s[1]),
+        ce * (2.0 * tfxw[2] - kappa * s[2]),
+    )
+    gf = (
+        cf * (-2.0 * texw[0] - kappa * s[0]),
+        cf * (-2.0 * texw[1] - kappa * s[1]),
+        cf * (-2.0 * texw[2] - kappa * s[2]),
+    )
     be_kb = dot3(be, kb)
     bf_kb = dot3(bf, kb)
-    gy[6] = 0.5 * be_kb
-    gy[7] = 0.5 * bf_kb
-    if order < 2:
-        return kappa
-
-    ge = gy[0:3]
-    gf = gy[3:6]
-    c = chi - 1.0  # te . tf
-    Pe_tf = np.empty(3)  # (I - te te^T) tf
-    Pf_te = np.empty(3)  # (I - tf tf^T) te
-    ve = np.empty(3)  # te + Pe_tf / chi
-    vf = np.empty(3)  # tf + Pf_te / chi
     for k in range(3):
-        Pe_tf[k] = tf[k] - c * te[k]
-        Pf_te[k] = te[k] - c * tf[k]
-        ve[k] = te[k] + Pe_tf[k] / chi
-        vf[k] = tf[k] + Pf_te[k] / chi
-    Pe_ae = np.empty(3)
-    Pf_af = np.empty(3)
+        gk[k] = ge[k]
+        gk[3 + k] = gf[k]
+    gk[6] = 0.5 * be_kb
+    gk[7] = 0.5 * bf_kb
+    if order < 2:
+        return
+
+    c = chi - 1.0  # te . tf
+    Pe_tf = (tf[0] - c * te[0], tf[1] - c * te[1], tf[2] - c * te[2])  # (I - te te^T) tf
+    Pf_te = (te[0] - c * tf[0], te[1] - c * tf[1], te[2] - c * tf[2])  # (I - tf tf^T) te
+    ve = (te[0] + Pe_tf[0] / chi, te[1] + Pe_tf[1] / chi, te[2] + Pe_tf[2] / chi)
+    vf = (tf[0] + Pf_te[0] / chi, tf[1] + Pf_te[1] / chi, tf[2] + Pf_te[2] / chi)
     ae_te = dot3(ae, te)
     af_tf = dot3(af, tf)
-    for k in range(3):
-        Pe_ae[k] = ae[k] - ae_te * te[k]
-        Pf_af[k] = af[k] - af_tf * tf[k]
+    Pe_ae = (ae[0] - ae_te * te[0], ae[1] - ae_te * te[1], ae[2] - ae_te * te[2])
+    Pf_af = (af[0] - af_tf * tf[0], af[1] - af_tf * tf[1], af[2] - af_tf * tf[2])
 
-    Hy[:, :] = 0.0
     # d(ge)/de
-    add_outer(Hy, 0, 0, -1.0 / le, ge, ve)
-    add_outer(Hy, 0, 0, 0.5 / (le * le), kb, Pe_ae)  # directors of e follow e
-    add_outer(Hy, 0, 0, -ce, s, ge)
-    add_projector(Hy, 0, 0, -kappa * ce / le, te)
+    add_outer(Hy, 0, 0, alpha * (-1.0 / le), ge, ve)
+    add_outer(Hy, 0, 0, alpha * (0.5 / (le * le)), kb, Pe_ae)  # directors of e follow e
+    add_outer(Hy, 0, 0, alpha * -ce, s, ge)
+    add_projector(Hy, 0, 0, alpha * (-kappa * ce / le), te)
     # d(ge)/df
-    add_outer(Hy, 0, 3, -1.0 / (chi * lf), ge, Pf_te)
-    add_skew_projected(Hy, 0, 3, -2.0 * ce / lf, w, tf)
-    add_outer(Hy, 0, 3, -ce, s, gf)
-    add_projector(Hy, 0, 3, -kappa * ce / lf, tf)
+    add_outer(Hy, 0, 3, alpha * (-1.0 / (chi * lf)), ge, Pf_te)
+    add_skew_projected(Hy, 0, 3, alpha * (-2.0 * ce / lf), w, tf)
+    add_outer(Hy, 0, 3, alpha * -ce, s, gf)
+    add_projector(Hy, 0, 3, alpha * (-kappa * ce / lf), tf)
     # d(gf)/df
-    add_outer(Hy, 3, 3, -1.0 / lf, gf, vf)
-    add_outer(Hy, 3, 3, 0.5 / (lf * lf), kb, Pf_af)  # directors of f follow f
-    add_outer(Hy, 3, 3, -cf, s, gf)
-    add_projector(Hy, 3, 3, -kappa * cf / lf, tf)
+    add_outer(Hy, 3, 3, alpha * (-1.0 / lf), gf, vf)
+    add_outer(Hy, 3, 3, alpha * (0.5 / (lf * lf)), kb, Pf_af)  # directors of f follow f
+    add_outer(Hy, 3, 3, alpha * -cf, s, gf)
+    add_projector(Hy, 3, 3, alpha * (-kappa * cf / lf), tf)
     # d(gf)/de
-    add_outer(Hy, 3, 0, -1.0 / (chi * le), gf, Pe_tf)
-    add_skew_projected(Hy, 3, 0, 2.0 * cf / le, w, te)
-    add_outer(Hy, 3, 0, -cf, s, ge)
-    add_projector(Hy, 3, 0, -kappa * cf / le, te)
+    add_outer(Hy, 3, 0, alpha * (-1.0 / (chi * le)), gf, Pe_tf)
+    add_skew_projected(Hy, 3, 0, alpha * (2.0 * cf / le), w, te)
+    add_outer(Hy, 3, 0, alpha * -cf, s, ge)
+    add_projector(Hy, 3, 0, alpha * (-kappa * cf / le), te)
     # position-angle blocks (already symmetric pairs)
-    tfxbe = cross3(tf, be)
-    tfxbf = cross3(tf, bf)
-    texbe = cross3(te, be)
-    texbf = cross3(te, bf)
+    tfxbe = vcross(tf, be)
+    tfxbf = vcross(tf, bf)
+    texbe = vcross(te, be)
+    texbf = vcross(te, bf)
+    ace = alpha * ce
+    acf = alpha * cf
     for k in range(3):
-        v = ce * (tfxbe[k] - 0.5 * be_kb * s[k])
-        Hy[k, 6] = v
-        Hy[6, k] = v
-        v = ce * (tfxbf[k] - 0.5 * bf_kb * s[k])
-        Hy[k, 7] = v
-        Hy[7, k] = v
-        v = cf * (-texbe[k] - 0.5 * be_kb * s[k])
-        Hy[3 + k, 6] = v
-        Hy[6, 3 + k] = v
-        v = cf * (-texbf[k] - 0.5 * bf_kb * s[k])
-        Hy[3 + k, 7] = v
-        Hy[7, 3 + k] = v
-    Hy[6, 6] = -0.5 * dot3(ae, kb)
-    Hy[7, 7] = -0.5 * dot3(af, kb)
-    symmetrize(Hy)
-    return kappa
+        v = ace * (tfxbe[k] - 0.5 * be_kb * s[k])
+        Hy[k, 6] += v
+        Hy[6, k] += v
+        v = ace * (tfxbf[k] - 0.5 * bf_kb * s[k])
+        Hy[k, 7] += v
+        Hy[7, k] += v
+        v = acf * (-texbe[k] - 0.5 * be_kb * s[k])
+        Hy[3 + k, 6] += v
+        Hy[6, 3 + k] += v
+        v = acf * (-texbf[k] - 0.5 * bf_kb * s[k])
+        Hy[3 + k, 7] += v
+        Hy[7, 3 + k] += v
+    Hy[6, 6] += alpha * (-0.5 * dot3(ae, kb))
+    Hy[7, 7] += alpha * (-0.5 * dot3(af, kb))
+
+
+@njit(cache=True)
+def bend_into(
+    te, tf, le: float, lf: float, chi: float, kb, m1e, m2e, m1f, m2f,
+    kappa_bar1: float, kappa_bar2: float, stiff: float,
+    gy: np.ndarray, Hy: np.ndarray, g1: np.ndarray, g2: np.ndarray, order: int,
+) -> float:
+    """Bending energy (J) of an edge pair with geometry from :func:`edge_pair_geom` and
+    directors ``m1e, m2e, m1f, m2f`` (3-tuples); ``stiff = EI / l_vor`` (N m).
+
+    ``order`` >= 1 adds the gradient in ``y = [e, f, theta_e, theta_f]`` into ``gy`` (8,),
+    ``order`` >= 2 the Hessian, not yet symmetrised, into ``Hy`` (8, 8). ``g1``, ``g2``
+    (8,) are scratch. Allocation-free.
+    """
+    na = (-m1e[0], -m1e[1], -m1e[2])
+    nb = (-m1f[0], -m1f[1], -m1f[2])
+    nc = (-m2e[0], -m2e[1], -m2e[2])
+    nd = (-m2f[0], -m2f[1], -m2f[2])
+    k1 = _kappa(m2e, m2f, kb)
+    k2 = _kappa(na, nb, kb)
+    d1 = k1 - kappa_bar1
+    d2 = k2 - kappa_bar2
+    E = 0.5 * stiff * (d1 * d1 + d2 * d2)
+    if order < 1:
+        return E
+    _curvature_into(te, tf, le, lf, chi, kb, m2e, na, m2f, nb, k1, g1, Hy, stiff * d1, order)
+    _curvature_into(te, tf, le, lf, chi, kb, na, nc, nb, nd, k2, g2, Hy, stiff * d2, order)
+    for a in range(8):
+        gy[a] += stiff * (d1 * g1[a] + d2 * g2[a])
+    if order >= 2:
+        for a in range(8):
+            g1a = g1[a]
+            g2a = g2[a]
+            for c in range(8):
+                Hy[a, c] += stiff * (g1a * g1[c] + g2a * g2[c])
+    return E
 
 
 @njit(cache=True)
@@ -254,7 +361,7 @@ def material_curvatures(
     """Material curvatures ``[kappa1, kappa2]`` (2,) at node ``x1`` (dimensionless, as in
     eqns (3a), (3b) of Huang & Jawed 2020). ``x*``: (3,) m; ``m*``: (3,) unit directors of
     edges ``e = x1 - x0`` and ``f = x2 - x1``."""
-    te, tf, le, lf, chi, kb = edge_pair_geometry(x0, x1, x2)
+    te, tf, le, lf, chi, kb = edge_pair_geom(vec(x0), vec(x1), vec(x2))
     out = np.empty(2)
     out[0] = 0.5 * (dot3(m2e, kb) + dot3(m2f, kb))
     out[1] = -0.5 * (dot3(m1e, kb) + dot3(m1f, kb))
@@ -283,38 +390,19 @@ def bend_element(
     ``E = 0.5 EI / l_vor ((k1 - kb1)^2 + (k2 - kb2)^2)``, eqn (5b) of Huang & Jawed 2020.
     ``EI``: N m^2; ``l_vor``: Voronoi length, m; ``kappa_bar``: (2,) rest curvatures.
     """
-    te, tf, le, lf, chi, kb = edge_pair_geometry(x0, x1, x2)
-    na = np.empty(3)  # -m1e
-    nb = np.empty(3)  # -m1f
-    nc = np.empty(3)  # -m2e
-    nd = np.empty(3)  # -m2f
-    for k in range(3):
-        na[k] = -m1e[k]
-        nb[k] = -m1f[k]
-        nc[k] = -m2e[k]
-        nd[k] = -m2f[k]
+    te, tf, le, lf, chi, kb = edge_pair_geom(vec(x0), vec(x1), vec(x2))
+    gy = np.zeros(8)
     g1 = np.empty(8)
     g2 = np.empty(8)
-    H1 = np.empty((8, 8))
-    H2 = np.empty((8, 8))
-    k1 = _curvature_derivatives(te, tf, le, lf, chi, kb, m2e, na, m2f, nb, g1, H1, order)
-    k2 = _curvature_derivatives(te, tf, le, lf, chi, kb, na, nc, nb, nd, g2, H2, order)
-    stiff = EI / l_vor
-    d1 = k1 - kappa_bar[0]
-    d2 = k2 - kappa_bar[1]
-    E = 0.5 * stiff * (d1 * d1 + d2 * d2)
+    Hy = np.zeros((8, 8))
+    E = bend_into(
+        te, tf, le, lf, chi, kb, vec(m1e), vec(m2e), vec(m1f), vec(m2f),
+        kappa_bar[0], kappa_bar[1], EI / l_vor, gy, Hy, g1, g2, order,
+    )
     if order < 1:
         return E
-    gy = np.empty(8)
-    for a in range(8):
-        gy[a] = stiff * (d1 * g1[a] + d2 * g2[a])
-    Hy = H1  # reuse: Hy = stiff (g1 g1^T + g2 g2^T + d1 H1 + d2 H2)
     if order >= 2:
-        for a in range(8):
-            for b in range(8):
-                Hy[a, b] = stiff * (
-                    g1[a] * g1[b] + g2[a] * g2[b] + d1 * H1[a, b] + d2 * H2[a, b]
-                )
+        symmetrize(Hy)
     edge_pair_to_nodes(gy, Hy, g, H, order)
     return E
 

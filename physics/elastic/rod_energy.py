@@ -18,19 +18,23 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from physics.elastic.bend import bend_element, material_curvatures
-from physics.elastic.stretch import stretch_element
-from physics.elastic.twist import twist_element
+from physics.elastic.banded import BANDWIDTH
+from physics.elastic.bend import bend_into, edge_pair_geom, edge_pair_scatter, material_curvatures, symmetrize
+from physics.elastic.stretch import stretch_into
+from physics.elastic.twist import twist_into
 from physics.frames import (
+    edge_tangent,
     material_frames,
+    node_reference_twist,
     reference_twist,
+    rotated_directors,
+    row3,
     space_parallel_frames,
     tangents,
-    time_parallel_transport,
+    transported_director,
+    vcross,
+    write3,
 )
-
-BANDWIDTH = 10
-"""Half-bandwidth (kl = ku) of the elastic Hessian: an edge-pair element spans 11 DOFs."""
 
 
 @dataclass(frozen=True)
@@ -92,15 +96,33 @@ def rod_frames(
     along ``t_old -> t`` (both (n-1, 3)); reference twist (n-2,) kept continuous with
     ``ref_twist_old``; material frames from the twist angles in ``q``.
     Returns ``(t, d1, d2, ref_twist, m1, m2)``.
+
+    Same results as ``tangents``, ``time_parallel_transport``, ``reference_twist`` and
+    ``material_frames`` in sequence, done in one allocation-free pass over the edges.
     """
-    t = tangents(q)
-    d1, d2 = time_parallel_transport(d1_old, t_old, t)
-    ref = reference_twist(d1, t, ref_twist_old)
-    m = t.shape[0]
-    theta = np.empty(m)
+    m = (q.shape[0] + 1) // 4 - 1
+    t = np.empty((m, 3))
+    d1 = np.empty((m, 3))
+    d2 = np.empty((m, 3))
+    ref = np.empty(max(m - 1, 0))
+    m1 = np.empty((m, 3))
+    m2 = np.empty((m, 3))
+    t_prev = (0.0, 0.0, 0.0)
+    a_prev = (0.0, 0.0, 0.0)
     for i in range(m):
-        theta[i] = q[4 * i + 3]
-    m1, m2 = material_frames(d1, d2, theta)
+        ti = edge_tangent(q, i)
+        a = transported_director(row3(d1_old, i), row3(t_old, i), ti)
+        b = vcross(ti, a)
+        write3(t, i, ti)
+        write3(d1, i, a)
+        write3(d2, i, b)
+        if i >= 1:
+            ref[i - 1] = node_reference_twist(a_prev, t_prev, a, ti, ref_twist_old[i - 1])
+        u, v = rotated_directors(a, b, q[4 * i + 3])
+        write3(m1, i, u)
+        write3(m2, i, v)
+        t_prev = ti
+        a_prev = a
     return t, d1, d2, ref, m1, m2
 
 
@@ -118,71 +140,53 @@ def _assemble(
     EI: np.ndarray,
     GJ: np.ndarray,
     order: int,
+    need_grad: bool,
     grad: np.ndarray,
     ab: np.ndarray,
 ) -> float:
     """Sum the stretch, bend and twist elements. Returns the energy (J); ``order`` >= 1
-    adds the gradient into ``grad`` (4n-1,), ``order`` >= 2 the banded Hessian into
-    ``ab`` (21, 4n-1). O(n); only small fixed-size scratch arrays per element."""
+    with ``need_grad`` adds the gradient into ``grad`` (4n-1,), ``order`` >= 2 the banded
+    Hessian into ``ab`` (21, 4n-1). O(n). The only allocation is one (11, 8) scratch
+    block per call; bending and twisting of a node share its edge-pair geometry and are
+    summed in the reduced coordinates before one scatter to the rod's DOFs."""
     n = (q.shape[0] + 1) // 4
     E = 0.0
-    g6 = np.empty(6)
-    H6 = np.empty((6, 6))
-    g11 = np.empty(11)
-    H11 = np.empty((11, 11))
-    idx6 = np.empty(6, dtype=np.int64)
-    idx11 = np.empty(11, dtype=np.int64)
-
     for i in range(n - 1):
-        E += stretch_element(q[4 * i:4 * i + 3], q[4 * i + 4:4 * i + 7], l_bar[i], EA[i], g6, H6, order)
-        if order >= 1:
-            for k in range(3):
-                idx6[k] = 4 * i + k
-                idx6[3 + k] = 4 * i + 4 + k
-            _scatter(idx6, g6, H6, order, grad, ab)
+        E += stretch_into(q, i, l_bar[i], EA[i], order, need_grad, grad, ab)
 
+    work = np.empty((11, 8))
+    Hy = work[0:8]  # (8, 8) Hessian in y = [e, f, theta_e, theta_f]
+    gy = work[8]  # (8,) gradient in y
+    g1 = work[9]  # (8,) scratch
+    g2 = work[10]  # (8,) scratch
     for i in range(1, n - 1):
         b = 4 * (i - 1)
-        x0 = q[b:b + 3]
-        x1 = q[b + 4:b + 7]
-        x2 = q[b + 8:b + 11]
-        if order >= 1:
-            for k in range(3):
-                idx11[k] = b + k
-                idx11[3 + k] = b + 4 + k
-                idx11[6 + k] = b + 8 + k
-            idx11[9] = b + 3
-            idx11[10] = b + 7
-        E += bend_element(
-            x0, x1, x2, m1[i - 1], m2[i - 1], m1[i], m2[i], kappa_bar[i - 1], l_vor[i - 1],
-            EI[i - 1], g11, H11, order,
+        te, tf, le, lf, chi, kb = edge_pair_geom(
+            (q[b], q[b + 1], q[b + 2]),
+            (q[b + 4], q[b + 5], q[b + 6]),
+            (q[b + 8], q[b + 9], q[b + 10]),
         )
         if order >= 1:
-            _scatter(idx11, g11, H11, order, grad, ab)
-        E += twist_element(
-            x0, x1, x2, q[b + 3], q[b + 7], ref_twist[i - 1], twist_bar[i - 1], l_vor[i - 1],
-            GJ[i - 1], g11, H11, order,
+            for a in range(8):
+                gy[a] = 0.0
+        if order >= 2:
+            for a in range(8):
+                for c in range(8):
+                    Hy[a, c] = 0.0
+        E += bend_into(
+            te, tf, le, lf, chi, kb, row3(m1, i - 1), row3(m2, i - 1), row3(m1, i), row3(m2, i),
+            kappa_bar[i - 1, 0], kappa_bar[i - 1, 1], EI[i - 1] / l_vor[i - 1],
+            gy, Hy, g1, g2, order,
+        )
+        E += twist_into(
+            te, tf, le, lf, chi, kb, q[b + 3], q[b + 7], ref_twist[i - 1], twist_bar[i - 1],
+            GJ[i - 1] / l_vor[i - 1], gy, Hy, g1, order,
         )
         if order >= 1:
-            _scatter(idx11, g11, H11, order, grad, ab)
+            if order >= 2:
+                symmetrize(Hy)
+            edge_pair_scatter(gy, Hy, b, order, need_grad, grad, ab)
     return E
-
-
-@njit(cache=True)
-def _scatter(
-    idx: np.ndarray, g: np.ndarray, H: np.ndarray, order: int, grad: np.ndarray, ab: np.ndarray
-) -> None:
-    """Add a local gradient / Hessian at global DOFs ``idx`` into ``grad`` / banded ``ab``."""
-    m = idx.shape[0]
-    for a in range(m):
-        grad[idx[a]] += g[a]
-    if order < 2:
-        return
-    for a in range(m):
-        r = idx[a]
-        for c in range(m):
-            col = idx[c]
-            ab[BANDWIDTH + r - col, col] += H[a, c]
 
 
 @njit(cache=True)
@@ -209,7 +213,9 @@ def elastic_energy_kernel(
     """
     dummy = np.empty(0)
     ab = np.empty((0, 0))
-    return _assemble(q, ref_twist, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ, 0, dummy, ab)
+    return _assemble(
+        q, ref_twist, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ, 0, False, dummy, ab
+    )
 
 
 @njit(cache=True)
@@ -235,7 +241,7 @@ def elastic_gradient_kernel(
     """
     grad = np.zeros(q.shape[0])
     ab = np.empty((0, 0))
-    _assemble(q, ref_twist, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ, 1, grad, ab)
+    _assemble(q, ref_twist, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ, 1, True, grad, ab)
     return grad
 
 
@@ -259,9 +265,9 @@ def elastic_hessian_banded_kernel(
     in general-banded storage ``ab`` (21, 4n-1), ``ab[10 + i - j, j] = H[i, j]``.
     Arguments as in :func:`elastic_energy_kernel`."""
     N = q.shape[0]
-    grad = np.zeros(N)
+    grad = np.empty(0)
     ab = np.zeros((2 * BANDWIDTH + 1, N))
-    _assemble(q, ref_twist, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ, 2, grad, ab)
+    _assemble(q, ref_twist, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ, 2, False, grad, ab)
     return ab
 
 
@@ -286,7 +292,7 @@ def elastic_energy_grad_hess_banded_kernel(
     N = q.shape[0]
     grad = np.zeros(N)
     ab = np.zeros((2 * BANDWIDTH + 1, N))
-    E = _assemble(q, ref_twist, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ, 2, grad, ab)
+    E = _assemble(q, ref_twist, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ, 2, True, grad, ab)
     return E, grad, ab
 
 

@@ -5,6 +5,67 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from physics.elastic.banded import add_band
+
+
+@njit(cache=True)
+def stretch_terms(
+    e0: float, e1: float, e2: float, l_bar: float, EA: float
+) -> tuple[float, float, float, float]:
+    """Scalars of the stretching of edge ``e = (e0, e1, e2)`` (m): returns ``(E, le, f,
+    b)`` with ``E = 0.5 EA l_bar (|e|/l_bar - 1)^2`` (J), ``le = |e|`` (m), ``f = dE/d|e|``
+    (N) and ``b = f / |e|`` (N/m). Gradient: ``dE/dx1 = -dE/dx0 = f e/|e|``; Hessian
+    block ``K = (EA/l_bar - b) e e^T / |e|^2 + b I`` in ``[[K, -K], [-K, K]]``."""
+    le = np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+    strain = le / l_bar - 1.0
+    E = 0.5 * EA * l_bar * strain * strain
+    f = EA * strain
+    return E, le, f, f / le
+
+
+@njit(cache=True)
+def stretch_into(
+    q: np.ndarray, i: int, l_bar: float, EA: float, order: int, need_grad: bool,
+    grad: np.ndarray, ab: np.ndarray,
+) -> float:
+    """Stretching of edge ``i`` of the rod DOF vector ``q`` (4n-1,), added in place:
+    ``order`` >= 1 (and ``need_grad``) adds the gradient into ``grad`` (4n-1,),
+    ``order`` >= 2 the Hessian into banded ``ab`` (21, 4n-1). Returns the energy, J.
+    Allocation-free."""
+    p = 4 * i
+    e0 = q[p + 4] - q[p]
+    e1 = q[p + 5] - q[p + 1]
+    e2 = q[p + 6] - q[p + 2]
+    E, le, f, b = stretch_terms(e0, e1, e2, l_bar, EA)
+    if order < 1:
+        return E
+    if need_grad:
+        g0 = f * (e0 / le)
+        g1 = f * (e1 / le)
+        g2 = f * (e2 / le)
+        grad[p] -= g0
+        grad[p + 1] -= g1
+        grad[p + 2] -= g2
+        grad[p + 4] += g0
+        grad[p + 5] += g1
+        grad[p + 6] += g2
+    if order < 2:
+        return E
+    a = EA / l_bar
+    ll = le * le
+    for r in range(3):
+        er = q[p + 4 + r] - q[p + r]
+        for c in range(3):
+            ec = q[p + 4 + c] - q[p + c]
+            kblk = (a - b) * (er * ec / ll)
+            if r == c:
+                kblk += b
+            add_band(ab, p + r, p + c, kblk)
+            add_band(ab, p + 4 + r, p + 4 + c, kblk)
+            add_band(ab, p + r, p + 4 + c, -kblk)
+            add_band(ab, p + 4 + r, p + c, -kblk)
+    return E
+
 
 @njit(cache=True)
 def stretch_element(
@@ -23,15 +84,13 @@ def stretch_element(
     the gradient into ``g`` (6,) and ``order`` >= 2 the Hessian into ``H`` (6, 6), local
     DOF order ``[x0, x1]``. Returns the energy, J.
     """
-    e = np.empty(3)
-    for k in range(3):
-        e[k] = x1[k] - x0[k]
-    le = np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
-    strain = le / l_bar - 1.0
-    E = 0.5 * EA * l_bar * strain * strain
+    e0 = x1[0] - x0[0]
+    e1 = x1[1] - x0[1]
+    e2 = x1[2] - x0[2]
+    E, le, f, b = stretch_terms(e0, e1, e2, l_bar, EA)
     if order < 1:
         return E
-    f = EA * strain  # dE/d|e|, N
+    e = (e0, e1, e2)
     for k in range(3):
         t = e[k] / le
         g[k] = -f * t
@@ -39,7 +98,6 @@ def stretch_element(
     if order < 2:
         return E
     a = EA / l_bar  # coefficient of t t^T
-    b = f / le  # coefficient of (I - t t^T)
     for r in range(3):
         for c in range(3):
             tt = e[r] * e[c] / (le * le)
