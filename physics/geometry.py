@@ -56,12 +56,20 @@ def helix_phase_step(params: SwimmerParams) -> float:
     return brentq(f, 1e-12, math.pi)
 
 
+PAPER_N_NODES = 122
+
+
 def initial_nodes(params: SwimmerParams) -> np.ndarray:
-    """Node positions of the stress-free swimmer, (n, 3) metres (head centre first if b > 0)."""
+    """Node positions of the stress-free swimmer, (n, 3) metres (head centre first if b > 0).
+
+    The helix always spans the paper's extent: 119 chords of length 2 delta (N = 122). Another
+    ``n_nodes`` only changes the discretisation: the same helix is split into n_nodes - 3 equal
+    chords (longer or shorter than 2 delta).
+    """
     b, R = params.head_radius, params.helix_radius
     c = params.pitch / (2.0 * math.pi)
     n_helix = params.n_nodes - 2  # nodes x2 ... x_{N-1}
-    dphi = helix_phase_step(params)
+    dphi = helix_phase_step(params) * (PAPER_N_NODES - 3) / (params.n_nodes - 3)
     phi = dphi * np.arange(n_helix)
     helix = np.stack([-b - R - c * phi, R * np.cos(phi), R * np.sin(phi)], axis=1)
     x1 = np.array([[-b, 0.0, 0.0]])

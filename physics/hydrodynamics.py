@@ -42,7 +42,7 @@ class ResistanceOperator:
     """
 
     def __init__(self, nodes: np.ndarray, mu: float, delta: float, head_radius: float,
-                 head_spins: bool, smoothing: float) -> None:
+                 head_spins: bool, smoothing: float, head_coupling: bool = True) -> None:
         nodes = np.ascontiguousarray(nodes, dtype=np.float64)
         self.has_head = head_radius > 0.0
         self.spin = head_spins and self.has_head
@@ -61,6 +61,9 @@ class ResistanceOperator:
             e0 = nodes[1] - nodes[0]
             axis = e0 / math.sqrt(e0 @ e0)
             self.H, self.g = head_flow_operators(flag, nodes[0].copy(), axis, head_radius)
+            if not head_coupling:  # "stokes" head: own drag and torque only
+                self.H[:] = 0.0
+                self.g[:] = 0.0
             self.drag_t = sphere_translational_drag(mu, head_radius)
             self.drag_r = sphere_rotational_drag(mu, head_radius)
         self.nv = self.m3 + (3 if self.has_head else 0) + (1 if self.spin else 0)

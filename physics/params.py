@@ -132,7 +132,7 @@ class NumericsConfig:
     dt: float = _f(1e-3, "s", "time step h (paper: 1 ms)", 0.0, 1.0, True)
     newton_tol: float = _f(1e-6, "-", "Newton tolerance on the relative force residual", 0.0, 1e-2, True)
     newton_max_iter: int = _f(25, "-", "Newton iterations before the Jacobian is refreshed / the step fails", 2, 500)
-    hydro_refresh_tol: float = _f(1e-3, "-",
+    hydro_refresh_tol: float = _f(0.03, "-",
                                   "refresh the hydrodynamic resistance when the non-rigid deformation since the last "
                                   "refresh exceeds this fraction of the rod radius (0 = every step)", 0.0, 10.0)
     hydro_refresh_max_steps: int = _f(200, "-", "refresh the hydrodynamic resistance at least every this many steps", 1, 100000)
@@ -140,9 +140,16 @@ class NumericsConfig:
                                "strength of the force-smoothness regularisation of the LSBT inverse, in units of "
                                "1/(8 pi mu 2 delta) (0 = plain eqn (8), which is indefinite)", 0.0, 1e3)
     max_substeps: int = _f(6, "-", "times a failing step may be halved before SimulationError", 0, 20)
+    anderson_depth: int = _f(4, "-", "Anderson acceleration depth of the Newton/chord iteration (0 = off)", 0, 20)
+    hydro_model: str = _f("lsbt", "-", "flagellum hydrodynamics: lsbt (nonlocal, eqn 8, dense) or rft "
+                          "(local resistive-force theory, O(N), banded)", choices=("lsbt", "rft"))
+    head_model: str = _f("higdon", "-", "head hydrodynamics: higdon (flow coupling with the flagellum, "
+                         "eqns 10-11) or stokes (own drag and torque only)", choices=("higdon", "stokes"))
+    rft_coefficients: str = _f("lighthill", "-", "drag coefficients of the rft model",
+                               choices=("lighthill", "gray_hancock"))
 
     def __post_init__(self) -> None:
-        for name in ("newton_max_iter", "hydro_refresh_max_steps", "max_substeps"):
+        for name in ("newton_max_iter", "hydro_refresh_max_steps", "max_substeps", "anderson_depth"):
             v = getattr(self, name)
             if isinstance(v, float) and v.is_integer():
                 object.__setattr__(self, name, int(v))

@@ -6,13 +6,11 @@ Time stepping is implicit Euler, eqn (6) of Huang & Jawed 2020,
 
 with the hydrodynamic force *implicit in the velocity* (the paper lags it, eqn 7, which is
 unstable at h = 1 ms for this rod: h * drag / mass ~ 8 > 2). R is the generalised resistance
-of ``hydrodynamics`` evaluated at the predicted geometry q_k + h v_k. The nonlinear system is solved
-by a chord (modified-Newton) iteration whose Jacobian M/h^2 + K + P^T R P / h is factorised
-only when the geometry has changed non-rigidly by more than ``hydro_refresh_tol`` * r0 since
-the last factorisation (or every ``hydro_refresh_max_steps`` steps): a rigid rotation Q of the
-configuration is absorbed exactly by rotating R and the Jacobian (see ``rigid_alignment``),
-which is what makes a steadily rotating flagellum cheap. The residual always uses the
-current elastic forces, so a converged step solves eqn (6) up to the resistance lag.
+(``hydrodynamics`` for LSBT + head, ``rft`` for local drag) evaluated at the predicted geometry
+q_k + h v_k. The nonlinear system is solved by Newton-type iterations on the full residual, so a
+converged step solves eqn (6) up to the resistance's geometry lag; how the linear algebra is
+done (and reused) is the job of ``step_solvers``. A failing step is halved up to
+``max_substeps`` times before a ``SimulationError`` names the step, time and quantity.
 
 Motor (Sec. 2.5): the twist angle theta^0 of the first edge is the motor shaft.
 * ``head_rotation="torque_free"`` (default, eqn 13): theta^0 = psi + omega t where psi is the
@@ -32,22 +30,14 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import lu_factor, lu_solve
 
-from physics.elastic import (banded_to_dense, elastic_gradient_kernel, elastic_hessian_banded,
-                             rest_from_configuration, rod_frames)
+from physics.elastic import elastic_gradient_kernel, rest_from_configuration, rod_frames
 from physics.errors import SimulationError
 from physics.geometry import initial_nodes, layout_for, nodes_of, pack_q
-from physics.hydrodynamics import HydroError, ResistanceOperator
-from physics.implicit_residual import assemble_residual, block_max_abs, generalised_velocity, rotate_node_blocks
+from physics.anderson import AndersonMixing
+from physics.implicit_residual import assemble_residual, block_max_abs
 from physics.params import NumericsConfig, SwimmerParams
-from physics.rigid_alignment import best_fit_rotation
-
-
-class _StepFailed(Exception):
-    def __init__(self, quantity: str, message: str) -> None:
-        super().__init__(message)
-        self.quantity = quantity
+from physics.step_solvers import BandedNewtonSolver, DenseChordSolver, StepFailed
 
 
 @dataclass
@@ -111,11 +101,13 @@ class Simulator:
         self.head_spins = p.has_head and p.head_rotation == "torque_free"
         self.mass = lumped_masses(p, self.rest.l_bar, self.layout.ndof, self.head_spins)
         self._pos = self.layout.position_dofs()
-        self._vdofs = np.concatenate([self._pos, [3]]) if self.head_spins else self._pos
-        self._prescribed = np.array([], dtype=np.int64) if self.head_spins else np.array([3])
+        self.vdofs = np.concatenate([self._pos, [3]]) if self.head_spins else self._pos
+        self.prescribed = np.array([], dtype=np.int64) if self.head_spins else np.array([3])
         self._twist = np.arange(3, self.layout.ndof, 4)
-        self._free_twist = np.setdiff1d(self._twist, self._prescribed)
-        self._rest_arrays = (self.rest.l_bar, self.rest.l_vor, self.rest.kappa_bar, self.rest.twist_bar,
+        self._free_twist = np.setdiff1d(self._twist, self.prescribed)
+        # Anderson mixing compares increments in units of r0 for positions, radians for twists
+        self._anderson_weights = np.where(np.arange(self.layout.ndof) % 4 == 3, 1.0, 1.0 / p.rod_radius)
+        self.rest_arrays = (self.rest.l_bar, self.rest.l_vor, self.rest.kappa_bar, self.rest.twist_bar,
                              self.rest.EA, self.rest.EI, self.rest.GJ)
         # state
         self.q = q0
@@ -129,17 +121,15 @@ class Simulator:
         self.motor_angle = 0.0
         self.body_frame = np.eye(3)  # columns X_b, Y_b, Z_b in the lab frame
         self.stats = StepStats()
+        self._v_prev: np.ndarray | None = None
+        self._h_prev = -1.0
         # observables of the last step
         self.node_forces = np.zeros((n, 3))  # hydrodynamic force on each node, N
         self.head_axial_torque = 0.0
         self.motor_torque = 0.0
         # chord-iteration caches
-        self._hyd: ResistanceOperator | None = None
-        self._X_hyd: np.ndarray | None = None
-        self._since_hydro = 0
-        self._X_jac: np.ndarray | None = None
-        self._lu = None
-        self._lu_h = -1.0
+        self._solver = (DenseChordSolver(self) if self.numerics.hydro_model == "lsbt"
+                        else BandedNewtonSolver(self))
         self._f_floor = 1e-9 * p.bending_stiffness / p.axial_length**2
         self._initial_nodes = nodes_of(q0)
 
@@ -180,7 +170,8 @@ class Simulator:
             v = state[k]
             setattr(self, k, np.array(v, dtype=float) if isinstance(v, np.ndarray) else v)
         self.step_count = int(self.step_count)
-        self._lu, self._hyd = None, None  # factorisations are rebuilt at the next step
+        self._solver.reset()  # factorisations are rebuilt at the next step
+        self._v_prev = None
 
     @property
     def nodes(self) -> np.ndarray:
@@ -228,52 +219,20 @@ class Simulator:
         e = np.diff(nodes_of(q), axis=0)
         return e / np.linalg.norm(e, axis=1)[:, None]
 
-    def _refresh_hydro(self, q: np.ndarray) -> None:
-        """Rebuild the resistance operator (LSBT mobility + Cholesky) at q's geometry."""
-        p, nm = self.params, self.numerics
-        t0 = time.perf_counter()
-        x = nodes_of(q)
-        try:
-            self._hyd = ResistanceOperator(x, p.viscosity, p.cutoff_length, p.head_radius, self.head_spins,
-                                           nm.lsbt_smoothing)
-        except HydroError as exc:
-            raise _StepFailed("hydrodynamic mobility", str(exc)) from None
-        self._X_hyd = x
-        self._since_hydro = 0
-        self.stats.resistance_refreshes += 1
-        self.stats.time_resistance_refresh += time.perf_counter() - t0
+    def frames_at(self, q: np.ndarray):
+        """(t, d1, d2, ref_twist, m1, m2) of q, transported from the start-of-step frames."""
+        return rod_frames(q, self.d1, self.tangent, self.ref_twist)
 
-    def _refresh_jacobian(self, q: np.ndarray, h: float) -> None:
-        """Factorise J = M/h^2 + K + P^T R P / h at q (refreshing the resistance there too)."""
-        self._refresh_hydro(q)
+    def _residual(self, q: np.ndarray, h: float):
         t0 = time.perf_counter()
-        t, d1, d2, rt, m1, m2 = rod_frames(q, self.d1, self.tangent, self.ref_twist)
-        J = banded_to_dense(elastic_hessian_banded(q, d1, d2, rt, m1, m2, self.rest))
-        J[np.diag_indices_from(J)] += self.mass / h**2
-        J[np.ix_(self._vdofs, self._vdofs)] += self._hyd.dense() / h
-        for k in self._prescribed:
-            J[k, :] = 0.0
-            J[:, k] = 0.0
-            J[k, k] = 1.0
-        if not np.all(np.isfinite(J)):
-            raise _StepFailed("Jacobian", "non-finite entries in the Newton Jacobian")
-        self._X_jac = self._X_hyd
-        self._lu = lu_factor(J, check_finite=False)
-        self._lu_h = h
-        self.stats.jacobian_factorisations += 1
-        self.stats.time_jacobian_refresh += time.perf_counter() - t0
-
-    def _residual(self, q: np.ndarray, h: float, Qh: np.ndarray):
-        t0 = time.perf_counter()
-        t, d1, d2, rt, m1, m2 = rod_frames(q, self.d1, self.tangent, self.ref_twist)
-        grad = elastic_gradient_kernel(q, d1, d2, rt, m1, m2, *self._rest_arrays)
+        t, d1, d2, rt, m1, m2 = self.frames_at(q)
+        grad = elastic_gradient_kernel(q, d1, d2, rt, m1, m2, *self.rest_arrays)
         t1 = time.perf_counter()
-        V = generalised_velocity(q, self.q, h, self._vdofs, self.head_spins, self.omega, Qh)
-        G = -self._hyd.apply(V)
+        G, Q = self._solver.hydro_force(q, h)
         self.stats.time_elastic += t1 - t0
         self.stats.time_hydro += time.perf_counter() - t1
-        r, f, inertia = assemble_residual(q, self.q, self.v, h, self.mass, grad, G, Qh, self._vdofs,
-                                          self.head_spins, self._prescribed)
+        r, f, inertia = assemble_residual(q, self.q, self.v, h, self.mass, grad, G, Q, self.vdofs,
+                                          self.head_spins, self.prescribed)
         return r, grad, f, inertia, (t, d1, rt)
 
     def _converged(self, r, grad, f, inertia) -> bool:
@@ -288,71 +247,50 @@ class Simulator:
 
     def _try_step(self, h: float):
         nm, p = self.numerics, self.params
-        q = self.q + h * self.v  # predictor
-        q[self._prescribed] = self.q[self._prescribed] + h * self.omega
-        # Resistance and Jacobian are taken at the predicted geometry. Both are reused across
-        # steps through the best-fit rigid rotation (exact for a rigid motion); the resistance is
-        # rebuilt when the shape has changed by more than hydro_refresh_tol * r0, the Jacobian
-        # (only the chord iteration's preconditioner) when the iteration stops contracting.
-        x_pred = nodes_of(q)
-        jac_fresh = False
-        if self._lu is None or self._lu_h != h:
-            self._refresh_jacobian(q, h)
-            jac_fresh = True
-        elif self._since_hydro >= nm.hydro_refresh_max_steps:
-            self._refresh_hydro(q)
-        else:
-            _, dev = best_fit_rotation(self._X_hyd, x_pred)
-            if dev > nm.hydro_refresh_tol * p.rod_radius:
-                self._refresh_hydro(q)
-        Qh = np.eye(3) if self._since_hydro == 0 else best_fit_rotation(self._X_hyd, x_pred)[0]
-        Qj = np.eye(3) if jac_fresh else best_fit_rotation(self._X_jac, x_pred)[0]
+        # predictor: constant acceleration over the last two steps (first step: constant velocity)
+        q = self.q + h * (2.0 * self.v - self._v_prev) if self._v_prev is not None else self.q + h * self.v
+        q[self.prescribed] = self.q[self.prescribed] + h * self.omega
+        self._solver.begin_step(q, h)
         hist = [math.inf, math.inf]
+        accel = AndersonMixing(self._anderson_weights, self.numerics.anderson_depth)
         step_scale = max(block_max_abs(q - self.q, self._pos), 1e-6 * p.rod_radius)
         for it in range(nm.newton_max_iter * 2):
-            r, grad, f, inertia, frames = self._residual(q, h, Qh)
+            r, grad, f, inertia, frames = self._residual(q, h)
             self.stats.newton_iterations += 1
             if not np.all(np.isfinite(r)):
-                raise _StepFailed("residual", "non-finite (NaN/inf) force residual")
+                raise StepFailed("residual", "non-finite (NaN/inf) force residual")
             if self._converged(r, grad, f, inertia):
                 return q, r, grad, f, frames
             norm = float(np.abs(r).max())
             # stalled: a refactorisation costs ~20 iterations, so only after many iterations or
             # when two iterations together reduce the residual by less than 2x
             if it >= nm.newton_max_iter or (it >= 8 and norm > 0.5 * hist[-2]):
-                if jac_fresh and it >= nm.newton_max_iter:
+                if not self._solver.on_stall(q, h) and it >= nm.newton_max_iter:
                     break
-                if not jac_fresh:  # stale preconditioner: refactorise here (keeps the step's resistance)
-                    hyd, x_hyd, since = self._hyd, self._X_hyd, self._since_hydro
-                    self._refresh_jacobian(q, h)
-                    self._hyd, self._X_hyd, self._since_hydro = hyd, x_hyd, since
-                    self.stats.resistance_refreshes -= 1
-                    Qj, jac_fresh = best_fit_rotation(self._X_jac, x_pred)[0], True
             hist.append(norm)
             t0 = time.perf_counter()
-            z = rotate_node_blocks(lu_solve(self._lu, rotate_node_blocks(r, Qj, True), check_finite=False), Qj,
-                                   False)
+            z = self._solver.increment(r, q, h)
             self.stats.time_linear_solve += time.perf_counter() - t0
-            q = q - z
-            # increment criterion: the chord iteration contracts, so an increment far below the
-            # step's own displacement (and the twist resolution) means the residual is at tolerance
+            q_plain = q - z
+            q = accel.update(q, q_plain, -z)
+            # increment criterion: the iteration contracts, so an increment far below the step's
+            # own displacement (and the twist resolution) means the residual is at tolerance
             dz = block_max_abs(z, self._pos)
             if (it >= 1 and dz <= max(nm.newton_tol * step_scale, 1e-10 * p.rod_radius)
                     and block_max_abs(z, self._twist) <= max(nm.newton_tol, 1e-10)):
                 return q, r, grad, f, frames
-        raise _StepFailed("Newton", f"Newton did not converge after {it + 1} iterations "
-                                    f"(max force residual {np.abs(r).max():.3e})")
+        raise StepFailed("Newton", f"Newton did not converge after {it + 1} iterations "
+                                   f"(max force residual {np.abs(r).max():.3e})")
 
     def _advance(self, h: float, level: int) -> None:
         try:
             q, r, grad, f, (t, d1, rt) = self._try_step(h)
             self._check_state(q, t)
-        except _StepFailed as exc:
+        except StepFailed as exc:
             if level >= self.numerics.max_substeps:
                 raise SimulationError(str(exc) + f" (after {level} halvings of the time step)",
                                       self.step_count, self.time, exc.quantity) from None
             self.stats.halvings += 1
-            self._lu_h = -1.0
             self._advance(h / 2, level + 1)
             self._advance(h / 2, level + 1)
             return
@@ -360,22 +298,24 @@ class Simulator:
 
     def _check_state(self, q: np.ndarray, t: np.ndarray) -> None:
         if not np.all(np.isfinite(q)):
-            raise _StepFailed("positions", "non-finite node positions")
+            raise StepFailed("positions", "non-finite node positions")
         lengths = np.linalg.norm(np.diff(nodes_of(q), axis=0), axis=1)
         ratio = lengths / self.rest.l_bar
         if ratio.min() < 0.2 or ratio.max() > 5.0:
             i = int(np.argmin(ratio)) if ratio.min() < 0.2 else int(np.argmax(ratio))
-            raise _StepFailed("edge length", f"edge {i} has {ratio[i]:.3g} x its rest length")
+            raise StepFailed("edge length", f"edge {i} has {ratio[i]:.3g} x its rest length")
 
     def _commit(self, q, h, grad, f, t, d1, rt) -> None:
         dq = q - self.q
         old_axis = self.body_frame[:, 0].copy()
+        self._v_prev = self.v if h == self._h_prev else None
+        self._h_prev = h
         self.v = dq / h
         self.q = q
         self.tangent, self.d1, self.ref_twist = t, d1, rt
         self.time += h
         self.motor_angle += h * self.omega
-        self._since_hydro += 1
+        self._solver.end_step()
         self.node_forces = np.stack([f[0::4], f[1::4], f[2::4]], axis=1)
         self.head_axial_torque = float(f[3]) if self.head_spins else 0.0
         self.motor_torque = float(grad[3])

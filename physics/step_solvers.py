@@ -1,0 +1,239 @@
+"""Linear algebra of one implicit step: the hydrodynamic resistance and the Newton solve.
+
+A scene pays only for what it uses:
+
+* ``DenseChordSolver`` (hydro_model="lsbt"): nonlocal LSBT + head. The resistance is dense;
+  it is factorised (Cholesky of the mobility) only when the shape has changed non-rigidly by
+  more than ``hydro_refresh_tol`` * r0 since the last time, and the dense Jacobian
+  M/h^2 + K + R/h only when the chord iteration stops contracting. In between both are reused
+  through the best-fit rigid rotation of the configuration (exact for a rigid motion, see
+  ``rigid_alignment``), which makes a steadily rotating flagellum cheap.
+* ``BandedNewtonSolver`` (hydro_model="rft"): local drag, so R is block-diagonal, the Jacobian
+  stays banded (half-bandwidth 10) and each Newton iteration is an O(N) banded solve with the
+  exact Jacobian. No dense matrix anywhere.
+
+Both evaluate the resistance at the predicted geometry q_k + h v_k (linearly implicit in the
+velocity, lagged in the geometry within a step).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numba import njit
+from scipy.linalg import lu_factor, lu_solve, solve_banded
+
+from physics.elastic import BANDWIDTH, banded_to_dense, elastic_hessian_banded_kernel
+from physics.geometry import nodes_of
+from physics.hydrodynamics import HydroError, ResistanceOperator
+from physics.implicit_residual import generalised_velocity, rotate_node_blocks
+from physics.rft import apply_blocks, rft_blocks, rft_coefficients
+from physics.rigid_alignment import best_fit_rotation
+
+if TYPE_CHECKING:  # pragma: no cover
+    from physics.simulator import Simulator
+
+
+class StepFailed(Exception):
+    """A step could not be completed (the simulator halves the step or raises SimulationError)."""
+
+    def __init__(self, quantity: str, message: str) -> None:
+        super().__init__(message)
+        self.quantity = quantity
+
+
+_EYE = np.eye(3)
+
+
+class DenseChordSolver:
+    """LSBT + head resistance with reused factorisations (see module docstring)."""
+
+    def __init__(self, sim: "Simulator") -> None:
+        self.sim = sim
+        self.reset()
+
+    def reset(self) -> None:
+        self.hyd: ResistanceOperator | None = None
+        self.x_hyd: np.ndarray | None = None
+        self.since_hydro = 0
+        self.lu = None
+        self.lu_h = -1.0
+        self.x_jac: np.ndarray | None = None
+        self.Qh = self.Qj = _EYE
+        self.jac_fresh = False
+
+    def _refresh_hydro(self, q: np.ndarray) -> None:
+        sim = self.sim
+        p, nm = sim.params, sim.numerics
+        t0 = time.perf_counter()
+        x = nodes_of(q)
+        try:
+            self.hyd = ResistanceOperator(x, p.viscosity, p.cutoff_length, p.head_radius, sim.head_spins,
+                                          nm.lsbt_smoothing, head_coupling=nm.head_model == "higdon")
+        except HydroError as exc:
+            raise StepFailed("hydrodynamic mobility", str(exc)) from None
+        self.x_hyd = x
+        self.since_hydro = 0
+        sim.stats.resistance_refreshes += 1
+        sim.stats.time_resistance_refresh += time.perf_counter() - t0
+
+    def _refresh_jacobian(self, q: np.ndarray, h: float, keep_resistance: bool) -> None:
+        """Factorise J = M/h^2 + K + P^T R P / h at q (with the resistance rebuilt at q unless kept)."""
+        sim = self.sim
+        if keep_resistance and self.hyd is not None:
+            hyd_geometry = self.x_hyd
+            R = self.hyd.dense()
+            Q = best_fit_rotation(hyd_geometry, nodes_of(q))[0]
+            Rq = _rotate_dense(R, Q, self.hyd.spin)
+        else:
+            self._refresh_hydro(q)
+            Rq = self.hyd.dense()
+        t0 = time.perf_counter()
+        t, d1, d2, rt, m1, m2 = sim.frames_at(q)
+        J = banded_to_dense(elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *sim.rest_arrays))
+        J[np.diag_indices_from(J)] += sim.mass / h**2
+        J[np.ix_(sim.vdofs, sim.vdofs)] += Rq / h
+        for k in sim.prescribed:
+            J[k, :] = 0.0
+            J[:, k] = 0.0
+            J[k, k] = 1.0
+        if not np.all(np.isfinite(J)):
+            raise StepFailed("Jacobian", "non-finite entries in the Newton Jacobian")
+        self.x_jac = nodes_of(q)
+        self.lu = lu_factor(J, check_finite=False)
+        self.lu_h = h
+        sim.stats.jacobian_factorisations += 1
+        sim.stats.time_jacobian_refresh += time.perf_counter() - t0
+
+    def begin_step(self, q_pred: np.ndarray, h: float) -> None:
+        nm, p = self.sim.numerics, self.sim.params
+        x_pred = nodes_of(q_pred)
+        self.jac_fresh = False
+        if self.lu is None or self.lu_h != h:
+            self._refresh_jacobian(q_pred, h, keep_resistance=False)
+            self.jac_fresh = True
+        elif self.since_hydro >= nm.hydro_refresh_max_steps:
+            self._refresh_hydro(q_pred)
+        else:
+            _, dev = best_fit_rotation(self.x_hyd, x_pred)
+            if dev > nm.hydro_refresh_tol * p.rod_radius:
+                self._refresh_hydro(q_pred)
+        self.Qh = _EYE if self.since_hydro == 0 else best_fit_rotation(self.x_hyd, x_pred)[0]
+        self.Qj = _EYE if self.jac_fresh else best_fit_rotation(self.x_jac, x_pred)[0]
+
+    def hydro_force(self, q: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+        """(-R V in the resistance's reference frame, the rotation Q back to the lab frame)."""
+        sim = self.sim
+        V = generalised_velocity(q, sim.q, h, sim.vdofs, sim.head_spins, sim.omega, self.Qh)
+        return -self.hyd.apply(V), self.Qh
+
+    def increment(self, r: np.ndarray, q: np.ndarray, h: float) -> np.ndarray:
+        Q = self.Qj
+        return rotate_node_blocks(lu_solve(self.lu, rotate_node_blocks(r, Q, True), check_finite=False), Q, False)
+
+    def on_stall(self, q: np.ndarray, h: float) -> bool:
+        """Refactorise the Jacobian at q (keeping this step's resistance); False if it was fresh."""
+        if self.jac_fresh:
+            return False
+        self._refresh_jacobian(q, h, keep_resistance=True)
+        self.Qj, self.jac_fresh = _EYE, True
+        return True
+
+    def end_step(self) -> None:
+        self.since_hydro += 1
+
+
+def _rotate_dense(R: np.ndarray, Q: np.ndarray, spin: bool) -> np.ndarray:
+    """Q~ R Q~^T for node-block rotations (the trailing spin entry, if any, is a scalar)."""
+    n = R.shape[0] - (1 if spin else 0)
+    T = np.eye(R.shape[0])
+    for i in range(n // 3):
+        T[3 * i:3 * i + 3, 3 * i:3 * i + 3] = Q
+    return T @ R @ T.T
+
+
+class BandedNewtonSolver:
+    """Local RFT + Stokes head: block-diagonal resistance, exact banded Newton (O(N) per iteration)."""
+
+    def __init__(self, sim: "Simulator") -> None:
+        self.sim = sim
+        p, nm = sim.params, sim.numerics
+        self.zeta = rft_coefficients(p, nm.rft_coefficients)
+        self.first = 1 if p.has_head else 0
+        self.drag_t = 6.0 * math.pi * p.viscosity * p.head_radius
+        self.drag_r = 8.0 * math.pi * p.viscosity * p.head_radius**3
+        self.reset()
+
+    def reset(self) -> None:
+        self.blocks: np.ndarray | None = None
+
+    def begin_step(self, q_pred: np.ndarray, h: float) -> None:
+        t0 = time.perf_counter()
+        x = np.ascontiguousarray(nodes_of(q_pred)[self.first:])
+        self.blocks = rft_blocks(x, *self.zeta)
+        self.sim.stats.resistance_refreshes += 1
+        self.sim.stats.time_resistance_refresh += time.perf_counter() - t0
+
+    def hydro_force(self, q: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+        sim = self.sim
+        V = generalised_velocity(q, sim.q, h, sim.vdofs, sim.head_spins, sim.omega, _EYE)
+        G = np.empty_like(V)
+        f = 3 * self.first
+        m3 = 3 * self.blocks.shape[0]
+        G[f:f + m3] = -apply_blocks(self.blocks, V[f:f + m3])
+        if self.first:
+            G[0:3] = -self.drag_t * V[0:3]
+        if sim.head_spins:
+            G[-1] = -self.drag_r * V[-1]
+        return G, _EYE
+
+    def increment(self, r: np.ndarray, q: np.ndarray, h: float) -> np.ndarray:
+        sim = self.sim
+        t, d1, d2, rt, m1, m2 = sim.frames_at(q)
+        ab = elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *sim.rest_arrays)
+        _add_banded_hydro(ab, sim.mass / h**2, self.blocks / h, self.first,
+                          self.drag_t / h, self.drag_r / h if sim.head_spins else 0.0)
+        for k in sim.prescribed:
+            _banded_dirichlet(ab, int(k))
+        sim.stats.jacobian_factorisations += 1
+        try:
+            return solve_banded((BANDWIDTH, BANDWIDTH), ab, r, check_finite=False)
+        except (np.linalg.LinAlgError, ValueError) as exc:
+            raise StepFailed("Jacobian", f"banded Newton system is singular ({exc})") from None
+
+    def on_stall(self, q: np.ndarray, h: float) -> bool:
+        return False  # the Jacobian is exact at every iteration
+
+    def end_step(self) -> None:
+        pass
+
+
+@njit(cache=True)
+def _add_banded_hydro(ab: np.ndarray, mass_over_h2: np.ndarray, blocks_over_h: np.ndarray, first: int,
+                      head_t: float, head_r: float) -> None:
+    bw = 10  # BANDWIDTH of physics.elastic
+    for j in range(ab.shape[1]):
+        ab[bw, j] += mass_over_h2[j]
+    for j in range(blocks_over_h.shape[0]):
+        base = 4 * (j + first)
+        for p in range(3):
+            for k in range(3):
+                ab[bw + p - k, base + k] += blocks_over_h[j, p, k]
+    if first:
+        for k in range(3):
+            ab[bw, k] += head_t
+        ab[bw, 3] += head_r
+
+
+@njit(cache=True)
+def _banded_dirichlet(ab: np.ndarray, k: int) -> None:
+    bw = 10  # BANDWIDTH of physics.elastic
+    n = ab.shape[1]
+    for j in range(max(0, k - bw), min(n, k + bw + 1)):
+        ab[bw + k - j, j] = 0.0  # row k
+    for i in range(ab.shape[0]):
+        ab[i, k] = 0.0  # column k
+    ab[bw, k] = 1.0
