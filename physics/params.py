@@ -140,6 +140,8 @@ class NumericsConfig:
                                "strength of the force-smoothness regularisation of the LSBT inverse, in units of "
                                "1/(8 pi mu 2 delta) (0 = plain eqn (8), which is indefinite)", 0.0, 1e3)
     max_substeps: int = _f(6, "-", "times a failing step may be halved before SimulationError", 0, 20)
+    single_iteration: bool = _f(False, "-", "take exactly one Newton iteration per step (linearly implicit "
+                                "Euler): fastest, first-order accurate, no convergence check")
     anderson_depth: int = _f(4, "-", "Anderson acceleration depth of the Newton/chord iteration (0 = off)", 0, 20)
     hydro_model: str = _f("lsbt", "-", "flagellum hydrodynamics: lsbt (nonlocal, eqn 8, dense) or rft "
                           "(local resistive-force theory, O(N), banded)", choices=("lsbt", "rft"))
@@ -177,6 +179,8 @@ def parameter_table() -> list[dict[str, Any]]:
                 if hi is not None:
                     parts.append(f"<= {hi:g}")
                 allowed = " and ".join(parts) or "any finite"
+            if isinstance(f.default, bool):
+                allowed = "true or false"
             rows.append({"name": f.name, "group": group, "default": f.default, "unit": m["unit"],
                          "help": m["help"], "allowed": allowed})
     return rows
@@ -199,6 +203,11 @@ def apply_overrides(params: SwimmerParams, numerics: NumericsConfig,
             raise ValueError(f"unknown parameter {name!r}; known parameters: {known}")
         if fld.metadata.get("choices") is not None:
             target[name] = raw
+        elif isinstance(fld.default, bool):
+            low = str(raw).strip().lower()
+            if low not in ("true", "false", "1", "0", "yes", "no"):
+                raise ValueError(f"{name}={raw!r} must be true or false")
+            target[name] = low in ("true", "1", "yes")
         else:
             try:
                 val = float(raw)

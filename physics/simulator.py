@@ -272,6 +272,8 @@ class Simulator:
             z = self._solver.increment(r, q, h)
             self.stats.time_linear_solve += time.perf_counter() - t0
             q_plain = q - z
+            if nm.single_iteration:  # linearly implicit Euler: one solve from the predictor
+                return q_plain, r, grad, f, frames
             q = accel.update(q, q_plain, -z)
             # increment criterion: the iteration contracts, so an increment far below the step's
             # own displacement (and the twist resolution) means the residual is at tolerance

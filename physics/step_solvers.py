@@ -115,6 +115,9 @@ class DenseChordSolver:
         if self.lu is None or self.lu_h != h:
             self._refresh_jacobian(q_pred, h, keep_resistance=False)
             self.jac_fresh = True
+        elif nm.single_iteration:  # one linearly implicit solve per step needs the current Jacobian
+            self._refresh_jacobian(q_pred, h, keep_resistance=True)
+            self.jac_fresh = True
         elif self.since_hydro >= nm.hydro_refresh_max_steps:
             self._refresh_hydro(q_pred)
         else:

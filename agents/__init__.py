@@ -1,0 +1,1 @@
+"""Controllers that steer the swimmer: the paper's rule-based turn planner and PPO agents."""
