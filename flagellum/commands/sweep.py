@@ -1,0 +1,147 @@
+"""``flagellum sweep``: a parameter sweep from a YAML/TOML file, in parallel and resumable."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+from flagellum.commands.common import UsageError, parse_overrides
+from flagellum.sweep import (RESULTS_FILE, SweepConfig, SweepConfigError, SweepError, SweepIncomplete,
+                             SweepInterrupted, load_sweep_config, run_sweep)
+from flagellum.sweep_backends import default_workers
+
+NAME = "sweep"
+HELP = "run a parameter sweep (YAML/TOML file) on all cores or a Dask cluster; resumable"
+DESCRIPTION = ("Run one constant-speed swim per point of the sweep in FILE (see examples/sweep_small.yaml), "
+               "in parallel, and append each finished point to DIR/results.jsonl at once (trajectories in "
+               "DIR/points/). Ctrl-C keeps the finished points; --resume runs only the missing ones. "
+               "--set NAME=VALUE adds to the file's 'fixed' parameters.")
+
+MAX_TABLE_ROWS = 40
+_COLUMNS = (("displacement_m", "displacement_m", ".4g"), ("distance_per_motor_turn_m", "per_turn_m", ".4g"),
+            ("end_to_end_ratio", "L'/L", ".4f"), ("mean_motor_power_W", "power_W", ".3g"))
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--config", metavar="FILE", type=Path, required=True,
+                        help="sweep file: .yaml, .yml or .toml")
+    parser.add_argument("--out", metavar="DIR", type=Path,
+                        help="output directory (default: out/sweep/<FILE name without extension>)")
+    parser.add_argument("--workers", metavar="N",
+                        help=f"local worker processes, one simulation each (default: one per core, "
+                             f"{default_workers()} here)")
+    parser.add_argument("--resume", action="store_true",
+                        help="keep the results already in DIR and run only the missing points")
+    parser.add_argument("--retry-failed", action="store_true",
+                        help="with --resume, also run again the points that ended in an error")
+    parser.add_argument("--scheduler", metavar="ADDR",
+                        help="run the points on the Dask cluster at ADDR (tcp://HOST:PORT) instead of local "
+                             "processes; needs pip install 'dask[distributed]'")
+    parser.add_argument("--no-progress", action="store_true", help="do not show the progress bar")
+
+
+def _load(args: argparse.Namespace) -> SweepConfig:
+    """The sweep file with ``--set`` values added to its ``fixed`` parameters."""
+    overrides = parse_overrides(args.set)
+    try:
+        config = load_sweep_config(args.config)
+    except SweepConfigError as exc:
+        raise UsageError(str(exc)) from None
+    swept = [name for name in overrides if name in config.sweep]
+    if swept:
+        raise UsageError(f"--set {swept[0]}: {swept[0]} is swept in {args.config}; "
+                         "give it either under 'sweep' or with --set")
+    try:
+        return config.with_fixed(overrides) if overrides else config
+    except SweepConfigError as exc:
+        raise UsageError(f"--set: {exc}") from None
+
+
+def _workers(args: argparse.Namespace) -> int | None:
+    if args.workers is None:
+        return None
+    if args.scheduler is not None:
+        raise UsageError("--workers and --scheduler both given; --workers counts local processes, "
+                         "a cluster uses its own workers")
+    try:
+        n = int(args.workers)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise UsageError(f"--workers {args.workers!r} is not allowed; allowed: an integer >= 1")
+    return n
+
+
+def run(args: argparse.Namespace) -> int:
+    config = _load(args)
+    workers = _workers(args)
+    if args.retry_failed and not args.resume:
+        raise UsageError("--retry-failed needs --resume")
+    out: Path = args.out if args.out is not None else Path("out/sweep") / args.config.stem
+    print(f"sweep: {len(config)} points ({config.mode} over {', '.join(config.sweep)}), "
+          f"{config.duration_s:g} s each -> {out}")
+    try:
+        with _sigterm_as_interrupt():
+            records = run_sweep(config, out, workers=workers, resume=args.resume, progress=not args.no_progress,
+                                scheduler=args.scheduler, retry_failed=args.retry_failed)
+    except SweepInterrupted as exc:
+        print(f"flagellum: interrupted; {len(exc.results)} of {exc.total} points are saved in "
+              f"{out / RESULTS_FILE}; run again with --resume to finish", file=sys.stderr)
+        return 130
+    except SweepIncomplete as exc:
+        print(f"flagellum: {exc}", file=sys.stderr)
+        return 1
+    except (SweepError, ValueError) as exc:
+        raise UsageError(str(exc)) from None
+    if len(records) <= MAX_TABLE_ROWS:
+        print(format_table(records, list(config.sweep)))
+    print(f"wrote {out / RESULTS_FILE} ({len(records)} points)")
+    failed = [r for r in records if r["status"] != "ok"]
+    if failed:
+        print(f"flagellum: {len(failed)} of {len(records)} points ended in an error (first: point "
+              f"{failed[0]['index']}: {failed[0]['error'].splitlines()[0]}); see 'error' in {out / RESULTS_FILE}",
+              file=sys.stderr)
+        return 1
+    return 0
+
+
+def format_table(records: list[dict[str, Any]], names: list[str]) -> str:
+    """One row per point: index, swept values, status and the main summary numbers."""
+    head = ["#", *names, "status", *(title for _, title, _ in _COLUMNS), "wall_s"]
+    rows = []
+    for r in records:
+        s = r.get("summary") or {}
+        cells = [str(r["index"]), *(_cell(r["values"].get(n), "g") for n in names), r["status"],
+                 *(_cell(s.get(key), spec) for key, _, spec in _COLUMNS), _cell(r.get("wall_time_s"), ".1f")]
+        rows.append(cells)
+    widths = [max(len(h), *(len(row[i]) for row in rows)) if rows else len(h) for i, h in enumerate(head)]
+    return "\n".join("  ".join(c.rjust(w) for c, w in zip(row, widths)) for row in [head, *rows])
+
+
+def _cell(value: Any, spec: str) -> str:
+    if value is None:
+        return "n/a"
+    return format(value, spec) if isinstance(value, (int, float)) and not isinstance(value, bool) else str(value)
+
+
+@contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    """Treat SIGTERM (kill, job schedulers) like Ctrl-C while the sweep runs, so it ends cleanly."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)

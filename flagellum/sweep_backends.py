@@ -1,0 +1,123 @@
+"""Where sweep points run: a local process pool or a Dask distributed cluster.
+
+Both offer the same four calls, used by ``flagellum.sweep.run_sweep``: ``submit(task)`` ->
+future, ``as_completed(futures)`` -> futures as they finish, ``abort(futures)`` (Ctrl-C:
+drop what has not finished) and ``close()``. Futures answer ``result()`` with a
+``PointOutcome``, or raise when the infrastructure failed (a worker process died).
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import multiprocessing
+import os
+import uuid
+from collections.abc import Iterable, Iterator
+from concurrent.futures import ProcessPoolExecutor
+from typing import Any, Protocol
+
+from flagellum.sweep_store import SweepError
+from flagellum.sweep_worker import PointTask, init_worker, run_point
+
+
+class BackendError(SweepError):
+    """The backend cannot be used (Dask missing, scheduler unreachable)."""
+
+
+class Backend(Protocol):
+    description: str
+
+    def submit(self, task: PointTask) -> Any: ...
+    def as_completed(self, futures: Iterable[Any]) -> Iterator[Any]: ...
+    def abort(self, futures: Iterable[Any]) -> None: ...
+    def close(self) -> None: ...
+
+
+def default_workers() -> int:
+    """Cores this process may use (respects taskset/cgroup affinity where the OS reports it)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # macOS, Windows
+        return max(1, os.cpu_count() or 1)
+
+
+class LocalBackend:
+    """``workers`` fresh (spawned) processes with one BLAS thread each."""
+
+    def __init__(self, workers: int) -> None:
+        # spawn, not fork: a forked child inherits the parent's BLAS thread pool and threads
+        self._pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
+                                         initializer=init_worker)
+        self.description = f"{workers} local worker process{'es' if workers != 1 else ''}"
+
+    def submit(self, task: PointTask) -> concurrent.futures.Future:
+        return self._pool.submit(run_point, task)
+
+    def as_completed(self, futures: Iterable[Any]) -> Iterator[Any]:
+        return concurrent.futures.as_completed(list(futures))
+
+    def abort(self, futures: Iterable[Any]) -> None:
+        """Cancel queued points and stop the running ones (their partial work is dropped)."""
+        for fut in futures:
+            fut.cancel()
+        terminate = getattr(self._pool, "terminate_workers", None)  # Python >= 3.14
+        if terminate is not None:
+            terminate()
+            return
+        for proc in list((getattr(self._pool, "_processes", None) or {}).values()):
+            if proc.is_alive():
+                proc.terminate()
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+
+class DaskBackend:
+    """Points as tasks on a Dask distributed cluster.
+
+    ``scheduler``: an address ``"tcp://HOST:PORT"``, a cluster object with
+    ``scheduler_address`` (``LocalCluster``, ``SLURMCluster``...) or a ``distributed.Client``
+    (left open on ``close``). Workers need this package installed; start them with
+    ``--nthreads 1`` so each simulation has a core (Dask's nanny already sets one BLAS thread).
+    """
+
+    def __init__(self, scheduler: Any) -> None:
+        try:
+            import distributed
+        except ImportError:
+            raise BackendError("a Dask scheduler was given but dask.distributed is not installed; "
+                               "pip install 'dask[distributed]' (or the package's [cluster] extra)") from None
+        self._distributed = distributed
+        self._own_client = not isinstance(scheduler, distributed.Client)
+        if self._own_client:
+            address = getattr(scheduler, "scheduler_address", scheduler)
+            if not isinstance(address, str):
+                raise BackendError(f"scheduler={scheduler!r} is not allowed; allowed: an address 'tcp://HOST:PORT', "
+                                   "a cluster object or a distributed.Client")
+            try:
+                self.client = distributed.Client(address)
+            except Exception as exc:  # OSError, TimeoutError, ValueError for a malformed address
+                raise BackendError(f"cannot connect to the Dask scheduler {address!r}: {exc}") from None
+        else:
+            self.client = scheduler
+        self._token = uuid.uuid4().hex[:8]  # keys unique to this run
+        self.description = f"Dask cluster {self.client.scheduler.address}"
+
+    def submit(self, task: PointTask) -> Any:
+        return self.client.submit(run_point, task, key=f"flagellum-sweep-{task.point_id}-{self._token}",
+                                  pure=False)
+
+    def as_completed(self, futures: Iterable[Any]) -> Iterator[Any]:
+        return iter(self._distributed.as_completed(list(futures)))
+
+    def abort(self, futures: Iterable[Any]) -> None:
+        self.client.cancel(list(futures))
+
+    def close(self) -> None:
+        if self._own_client:
+            self.client.close()
+
+
+def make_backend(workers: int, scheduler: Any | None) -> Backend:
+    """``DaskBackend(scheduler)`` when a scheduler is given, else ``LocalBackend(workers)``."""
+    return LocalBackend(workers) if scheduler is None else DaskBackend(scheduler)

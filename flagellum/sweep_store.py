@@ -1,0 +1,170 @@
+"""A sweep's output directory: ``results.jsonl`` written point by point, trajectories beside it.
+
+Each finished point is one JSON line, appended with a single write and fsync'ed before the
+next point is handled, so a crash or kill loses at most the points still running. A line
+cut short by a crash (the file's last line) is dropped when the sweep resumes. When one point
+has several lines (a retried failure), the last one counts.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+try:
+    import fcntl
+except ImportError:  # Windows: no lock, the rest works
+    fcntl = None  # type: ignore[assignment]
+
+RESULTS_FILE = "results.jsonl"
+POINTS_DIR = "points"
+LOCK_FILE = ".sweep.lock"
+
+
+class SweepError(RuntimeError):
+    """A sweep cannot start or did not finish; the message says what to do."""
+
+
+def read_results(path: Path) -> tuple[dict[str, dict[str, Any]], int, bool]:
+    """Records of ``path`` by point id (last line wins), plus how to repair the file's end.
+
+    Returns ``(records, good_bytes, needs_newline)``: bytes after ``good_bytes`` are a torn
+    last line; ``needs_newline`` when the last record lacks its line end. SweepError names a
+    damaged line that is not the last.
+    """
+    if not path.exists():
+        return {}, 0, False
+    data = path.read_bytes()
+    records: dict[str, dict[str, Any]] = {}
+    start, number = 0, 0
+    while start < len(data):
+        end = data.find(b"\n", start)
+        last = end < 0
+        chunk = data[start:] if last else data[start:end]
+        number += 1
+        record = _parse(chunk)
+        if record is None and chunk.strip():
+            if last:  # torn by a crash while writing; drop it
+                return records, start, False
+            raise SweepError(f"{path} line {number} is not a sweep record; fix or delete that line, "
+                             "then run again")
+        if record is not None:
+            records[record["point_id"]] = record
+        if last:
+            return records, len(data), record is not None
+        start = end + 1
+    return records, len(data), False
+
+
+def _parse(chunk: bytes) -> dict[str, Any] | None:
+    try:
+        record = json.loads(chunk)
+    except (ValueError, UnicodeDecodeError):
+        return None
+    if isinstance(record, dict) and isinstance(record.get("point_id"), str):
+        return record
+    return None
+
+
+def _json_safe(value: Any) -> Any:
+    """Non-finite floats -> None, recursively (strict JSON)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    return value
+
+
+class ResultsStore:
+    """``out_dir`` opened for a sweep (use as a context manager); locked against a second sweep.
+
+    Without ``resume``, a non-empty ``results.jsonl`` is a SweepError. ``records`` holds the
+    results already there, by point id.
+    """
+
+    def __init__(self, out_dir: str | os.PathLike[str], resume: bool) -> None:
+        self.out_dir = Path(out_dir)
+        self.path = self.out_dir / RESULTS_FILE
+        self.points_dir = self.out_dir / POINTS_DIR
+        self.resume = resume
+        self.records: dict[str, dict[str, Any]] = {}
+        self._fd: int | None = None
+        self._lock_fd: int | None = None
+
+    def __enter__(self) -> ResultsStore:
+        try:
+            self.out_dir.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise SweepError(f"cannot create the output directory {str(self.out_dir)!r} ({exc.strerror})") from None
+        self._lock()
+        try:
+            if not self.resume and self.path.exists() and self.path.stat().st_size > 0:
+                n = len(read_results(self.path)[0])
+                raise SweepError(f"{self.path} already holds {n} result{'s' if n != 1 else ''}; pass --resume "
+                                 "(resume=True) to continue that sweep, or choose another --out directory")
+            self.records, good, needs_newline = read_results(self.path)
+            self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
+            if good < os.fstat(self._fd).st_size:
+                os.truncate(self.path, good)
+            if needs_newline:
+                self._write(b"\n")
+        except BaseException:
+            self.__exit__()
+            raise
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+        if self._lock_fd is not None:
+            os.close(self._lock_fd)  # releases the flock
+            self._lock_fd = None
+
+    def reload(self) -> dict[str, dict[str, Any]]:
+        """Re-read ``records`` from the file (after an interrupt, the file is what counts)."""
+        self.records = read_results(self.path)[0]
+        return self.records
+
+    def append(self, record: dict[str, Any], trajectory: Any | None = None) -> dict[str, Any]:
+        """Save the trajectory (if any), then the record as one fsync'ed line; returns the record."""
+        record = _json_safe(dict(record))
+        if trajectory is not None:
+            record["trajectory"] = self._save_trajectory(record["point_id"], trajectory)
+        line = json.dumps(record, allow_nan=False, separators=(",", ":")) + "\n"
+        self._write(line.encode("utf-8"))
+        self.records[record["point_id"]] = record
+        return record
+
+    def _save_trajectory(self, pid: str, trajectory: Any) -> str:
+        """``points/<pid>.npz`` written under a temporary name first; returns the path relative to out_dir."""
+        self.points_dir.mkdir(exist_ok=True)
+        final = self.points_dir / f"{pid}.npz"
+        tmp = self.points_dir / f"{pid}.partial.npz"
+        trajectory.save_npz(tmp)
+        os.replace(tmp, final)
+        return f"{POINTS_DIR}/{pid}.npz"
+
+    def _write(self, data: bytes) -> None:
+        assert self._fd is not None, "ResultsStore used outside 'with'"
+        view = memoryview(data)
+        while view:
+            view = view[os.write(self._fd, view):]
+        os.fsync(self._fd)
+
+    def _lock(self) -> None:
+        self._lock_fd = os.open(self.out_dir / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o644)
+        if fcntl is None:
+            return
+        try:
+            fcntl.flock(self._lock_fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(self._lock_fd)
+            self._lock_fd = None
+            raise SweepError(f"another sweep is writing to {self.out_dir}; wait for it to end or choose "
+                             "another --out directory") from None
