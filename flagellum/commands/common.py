@@ -7,6 +7,7 @@ import math
 from collections.abc import Sequence
 
 from physics.params import NumericsConfig, SwimmerParams, apply_overrides
+from physics.presets import apply_preset, preset_names
 
 
 class UsageError(Exception):
@@ -18,6 +19,9 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--set", metavar="NAME=VALUE", action="append", default=[], dest="set",
                         help="override a physical or numerical parameter (repeatable; "
                              "see 'flagellum params' for names, units and ranges)")
+    parser.add_argument("--preset", choices=preset_names(), default=None,
+                        help="speed/accuracy preset applied before --set (paper = the reference; "
+                             "see docs/fidelity.md); default: the parameter defaults (paper's model, h = 1 ms)")
 
 
 def parse_overrides(items: Sequence[str]) -> dict[str, str]:
@@ -34,10 +38,11 @@ def parse_overrides(items: Sequence[str]) -> dict[str, str]:
     return out
 
 
-def build_config(overrides: dict[str, str]) -> tuple[SwimmerParams, NumericsConfig]:
-    """Default parameters with ``overrides`` applied; UsageError names the bad value and range."""
+def build_config(overrides: dict[str, str], preset: str | None = None) -> tuple[SwimmerParams, NumericsConfig]:
+    """Default parameters, then the preset (if any), then ``overrides``; UsageError names bad values."""
     try:
-        return apply_overrides(SwimmerParams(), NumericsConfig(), overrides)
+        params, numerics = apply_preset(preset) if preset else (SwimmerParams(), NumericsConfig())
+        return apply_overrides(params, numerics, overrides)
     except (ValueError, TypeError) as exc:
         raise UsageError(str(exc)) from None
 

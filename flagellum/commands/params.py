@@ -21,9 +21,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print a JSON list instead of a table")
 
 
-def rows_with_values(overrides: dict[str, str]) -> list[dict[str, Any]]:
-    """``parameter_table()`` rows plus the ``value`` after ``overrides``."""
-    params, numerics = build_config(overrides)
+def rows_with_values(overrides: dict[str, str], preset: str | None = None) -> list[dict[str, Any]]:
+    """``parameter_table()`` rows plus the ``value`` after the preset and ``overrides``."""
+    params, numerics = build_config(overrides, preset)
     values = {**dataclasses.asdict(params), **dataclasses.asdict(numerics)}
     return [{**row, "value": values[row["name"]]} for row in parameter_table()]
 
@@ -49,9 +49,9 @@ def format_table(rows: list[dict[str, Any]], show_value: bool) -> str:
 
 def run(args: argparse.Namespace) -> int:
     overrides = parse_overrides(args.set)
-    rows = rows_with_values(overrides)
+    rows = rows_with_values(overrides, args.preset)
     if args.json:
         print(json.dumps(rows, indent=2))
     else:
-        print(format_table(rows, show_value=bool(overrides)))
+        print(format_table(rows, show_value=bool(overrides) or args.preset is not None))
     return 0

@@ -51,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
             raise UsageError("--head-radius and --set head_radius both given; use one")
         parse_number("--head-radius", args.head_radius, "a radius >= 0 m (0 = no head)")
         overrides["head_radius"] = args.head_radius
-    params, numerics = build_config(overrides)
+    params, numerics = build_config(overrides, getattr(args, 'preset', None))
     schedule = _schedule(args)
     duration = parse_number("--duration", args.duration, "a finite time > 0 s", positive=True)
     record = parse_number("--record-interval", args.record_interval, "a finite time > 0 s", positive=True)

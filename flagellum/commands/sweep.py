@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import signal
 import sys
 import threading
@@ -57,6 +58,10 @@ def _load(args: argparse.Namespace) -> SweepConfig:
     if swept:
         raise UsageError(f"--set {swept[0]}: {swept[0]} is swept in {args.config}; "
                          "give it either under 'sweep' or with --set")
+    if args.preset is not None:
+        if config.preset is not None and config.preset != args.preset:
+            raise UsageError(f"--preset {args.preset} conflicts with preset: {config.preset} in {args.config}")
+        config = dataclasses.replace(config, preset=args.preset)
     try:
         return config.with_fixed(overrides) if overrides else config
     except SweepConfigError as exc:
