@@ -3,6 +3,11 @@
 Every function here is a Numba kernel over plain arrays. The DOF vector ``q`` of an
 ``n``-node rod has length ``4n-1``: node ``i`` is ``q[4i:4i+3]`` (metres) and the twist
 angle of edge ``i`` is ``q[4i+3]`` (radians), as in Section 2.2 of Huang & Jawed 2020.
+
+Inside loops, 3-vectors are 3-tuples of floats (``vcross``, ``row3``, ...), which Numba
+keeps in registers, so the per-edge work allocates nothing; only the returned arrays are
+allocated. :func:`update_frames` is the fused per-step kernel behind
+``physics.elastic.rod_frames``.
 """
 
 from __future__ import annotations
@@ -32,8 +37,8 @@ def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
-# Allocation-free 3-vector helpers. A "vec" is a 3-tuple of floats, which Numba keeps in
-# registers; arrays of shape (3,) are accepted wherever a vec is read.
+# Allocation-free 3-vector helpers: a 3-vector is a 3-tuple of floats; arrays of shape
+# (3,) are accepted wherever one is read.
 
 
 @njit(cache=True)
@@ -42,13 +47,13 @@ def vec(a: np.ndarray) -> tuple[float, float, float]:
     return (a[0], a[1], a[2])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def row3(a: np.ndarray, i: int) -> tuple[float, float, float]:
     """Row ``i`` of an (m, 3) array as a 3-tuple (no view is created)."""
     return (a[i, 0], a[i, 1], a[i, 2])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def vcross(a, b) -> tuple[float, float, float]:
     """Cross product ``a x b`` of two 3-vectors, as a 3-tuple."""
     return (
@@ -58,7 +63,7 @@ def vcross(a, b) -> tuple[float, float, float]:
     )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def write3(out: np.ndarray, i: int, v) -> None:
     """``out[i, :] = v`` for an (m, 3) array ``out`` and 3-vector ``v``."""
     out[i, 0] = v[0]
@@ -75,7 +80,7 @@ def _half_turn(u, t1) -> tuple[float, float, float]:
     return (s * p[0] - u[0], s * p[1] - u[1], s * p[2] - u[2])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _transport(u, t1, t2) -> tuple[float, float, float]:
     """Tuple form of :func:`parallel_transport`."""
     c = dot3(t1, t2)
@@ -93,7 +98,8 @@ def _transport(u, t1, t2) -> tuple[float, float, float]:
 
 @njit(cache=True)
 def _normal_of(t) -> tuple[float, float, float]:
-    """Tuple form of :func:`_any_normal`."""
+    """A deterministic unit vector normal to unit ``t`` (3-vector): the coordinate axis
+    least aligned with ``t``, with its ``t`` component removed."""
     k = 0
     if abs(t[1]) < abs(t[k]):
         k = 1
@@ -103,9 +109,9 @@ def _normal_of(t) -> tuple[float, float, float]:
     return _normal_part(a, t)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _normal_part(u, t) -> tuple[float, float, float]:
-    """Tuple form of :func:`_unit_normal_part`."""
+    """3-vector ``u`` with its component along unit ``t`` removed, normalised."""
     s = dot3(u, t)
     o0 = u[0] - s * t[0]
     o1 = u[1] - s * t[1]
@@ -138,19 +144,6 @@ def parallel_transport(u: np.ndarray, t1: np.ndarray, t2: np.ndarray) -> np.ndar
 
 
 @njit(cache=True)
-def _any_normal(t: np.ndarray) -> np.ndarray:
-    """A deterministic unit vector normal to unit ``t`` (3,): the coordinate axis least
-    aligned with ``t``, with its ``t`` component removed."""
-    return _as_array(_normal_of(vec(t)))
-
-
-@njit(cache=True)
-def _unit_normal_part(u: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """``u`` (3,) with its component along unit ``t`` removed, normalised."""
-    return _as_array(_normal_part(vec(u), vec(t)))
-
-
-@njit(cache=True, inline="always")
 def edge_tangent(q: np.ndarray, i: int) -> tuple[float, float, float]:
     """Unit tangent of edge ``i`` of DOF vector ``q`` (4n-1,), as a 3-tuple."""
     p = 4 * i
@@ -171,14 +164,14 @@ def tangents(q: np.ndarray) -> np.ndarray:
     return t
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def transported_director(d1_old, t_old, t_new) -> tuple[float, float, float]:
     """Reference director ``d1_old`` time-parallel transported from ``t_old`` to ``t_new``
     and re-orthonormalised against ``t_new`` (3-vectors in, 3-tuple out)."""
     return _normal_part(_transport(d1_old, t_old, t_new), t_new)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def node_reference_twist(d1_prev, t_prev, d1_i, t_i, ref_old: float) -> float:
     """Signed angle about ``t_i`` from ``d1_prev`` transported ``t_prev -> t_i`` to
     ``d1_i``, shifted by a multiple of 2*pi to lie closest to ``ref_old`` (rad)."""
@@ -188,7 +181,7 @@ def node_reference_twist(d1_prev, t_prev, d1_i, t_i, ref_old: float) -> float:
     return ang
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def rotated_directors(d1, d2, theta: float):
     """``(m1, m2)`` = ``(cos d1 + sin d2, -sin d1 + cos d2)`` of ``theta`` (3-tuples)."""
     c = np.cos(theta)
@@ -280,3 +273,124 @@ def material_frames(
         write3(m1, i, a)
         write3(m2, i, b)
     return m1, m2
+
+
+@njit(cache=True, error_model="numpy")
+def update_frames(
+    q: np.ndarray, d1_old: np.ndarray, t_old: np.ndarray, ref_twist_old: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """All frames of configuration ``q`` (4n-1,) reached from the previous step: the
+    results of :func:`tangents`, :func:`time_parallel_transport` (from ``d1_old`` along
+    ``t_old -> t``, both (n-1, 3)), :func:`reference_twist` (continuous with
+    ``ref_twist_old`` (n-2,)) and :func:`material_frames` (angles ``q[3::4]``), with the
+    same formulas. Returns ``(t, d1, d2, ref_twist, m1, m2)``.
+
+    This is the per-step hot path, so it works on a structure-of-arrays scratch block
+    that lets the compiler vectorise the transport arithmetic across edges; the rare
+    anti-parallel transports are redone afterwards with the scalar formulas, and the
+    libm calls (``arctan2``, ``sin``, ``cos``) get loops of their own. A zero-length edge
+    raises ``ZeroDivisionError`` as :func:`tangents` does.
+    """
+    m = (q.shape[0] + 1) // 4 - 1
+    t = np.empty((m, 3))
+    d1 = np.empty((m, 3))
+    d2 = np.empty((m, 3))
+    ref = np.empty(max(m - 1, 0))
+    m1 = np.empty((m, 3))
+    m2 = np.empty((m, 3))
+    w = np.empty((13, m))
+    tx, ty, tz = w[0], w[1], w[2]  # edge vectors, then unit tangents
+    ax, ay, az = w[3], w[4], w[5]  # old tangents, then d1
+    ux, uy, uz = w[6], w[7], w[8]  # old d1, then d2
+    cpl = w[9]  # 1 + cos of the transport angle (anti-parallel test)
+    xs, ys = w[10], w[11]  # arctan2 arguments of the reference twist
+    ang = w[12]  # material angles
+
+    for i in range(m):
+        p = 4 * i
+        e0 = q[p + 4] - q[p]
+        e1 = q[p + 5] - q[p + 1]
+        e2 = q[p + 6] - q[p + 2]
+        if e0 * e0 + e1 * e1 + e2 * e2 == 0.0:
+            raise ZeroDivisionError("division by zero")
+        tx[i], ty[i], tz[i] = e0, e1, e2
+        ax[i], ay[i], az[i] = t_old[i, 0], t_old[i, 1], t_old[i, 2]
+        ux[i], uy[i], uz[i] = d1_old[i, 0], d1_old[i, 1], d1_old[i, 2]
+        ang[i] = q[p + 3]
+
+    # tangent, time-parallel transport of d1 (transported_director) and d2 = t x d1
+    for i in range(m):
+        e0, e1, e2 = tx[i], ty[i], tz[i]
+        inv = 1.0 / np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+        t0, t1, t2 = e0 * inv, e1 * inv, e2 * inv
+        a0, a1, a2 = ax[i], ay[i], az[i]
+        u0, u1, u2 = ux[i], uy[i], uz[i]
+        c = a0 * t0 + a1 * t1 + a2 * t2
+        b0 = a1 * t2 - a2 * t1
+        b1 = a2 * t0 - a0 * t2
+        b2 = a0 * t1 - a1 * t0
+        s = (b0 * u0 + b1 * u1 + b2 * u2) / (1.0 + c)
+        v0 = c * u0 + (b1 * u2 - b2 * u1) + s * b0
+        v1 = c * u1 + (b2 * u0 - b0 * u2) + s * b1
+        v2 = c * u2 + (b0 * u1 - b1 * u0) + s * b2
+        s = v0 * t0 + v1 * t1 + v2 * t2
+        v0 = v0 - s * t0
+        v1 = v1 - s * t1
+        v2 = v2 - s * t2
+        inv = 1.0 / np.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+        v0, v1, v2 = v0 * inv, v1 * inv, v2 * inv
+        tx[i], ty[i], tz[i] = t0, t1, t2
+        ax[i], ay[i], az[i] = v0, v1, v2
+        ux[i], uy[i], uz[i] = t1 * v2 - t2 * v1, t2 * v0 - t0 * v2, t0 * v1 - t1 * v0
+        cpl[i] = 1.0 + c
+    for i in range(m):
+        if cpl[i] <= 1e-12:  # anti-parallel: redo with the half-turn fallback
+            ti = (tx[i], ty[i], tz[i])
+            dn = transported_director(row3(d1_old, i), row3(t_old, i), ti)
+            ax[i], ay[i], az[i] = dn
+            ux[i], uy[i], uz[i] = vcross(ti, dn)
+
+    # reference twist: d1[i-1] transported t[i-1] -> t[i], signed angle to d1[i]
+    for i in range(1, m):
+        a0, a1, a2 = tx[i - 1], ty[i - 1], tz[i - 1]
+        t0, t1, t2 = tx[i], ty[i], tz[i]
+        u0, u1, u2 = ax[i - 1], ay[i - 1], az[i - 1]
+        d0, dd1, d2_ = ax[i], ay[i], az[i]
+        c = a0 * t0 + a1 * t1 + a2 * t2
+        b0 = a1 * t2 - a2 * t1
+        b1 = a2 * t0 - a0 * t2
+        b2 = a0 * t1 - a1 * t0
+        s = (b0 * u0 + b1 * u1 + b2 * u2) / (1.0 + c)
+        v0 = c * u0 + (b1 * u2 - b2 * u1) + s * b0
+        v1 = c * u1 + (b2 * u0 - b0 * u2) + s * b1
+        v2 = c * u2 + (b0 * u1 - b1 * u0) + s * b2
+        ys[i] = (v1 * d2_ - v2 * dd1) * t0 + (v2 * d0 - v0 * d2_) * t1 + (v0 * dd1 - v1 * d0) * t2
+        xs[i] = v0 * d0 + v1 * dd1 + v2 * d2_
+        cpl[i] = 1.0 + c
+    for i in range(1, m):
+        if cpl[i] <= 1e-12:
+            ti = (tx[i], ty[i], tz[i])
+            di = (ax[i], ay[i], az[i])
+            u = _transport((ax[i - 1], ay[i - 1], az[i - 1]), (tx[i - 1], ty[i - 1], tz[i - 1]), ti)
+            ys[i] = dot3(vcross(u, di), ti)
+            xs[i] = dot3(u, di)
+    for i in range(1, m):
+        phi = np.arctan2(ys[i], xs[i])
+        ref[i - 1] = phi + _TWO_PI * np.round((ref_twist_old[i - 1] - phi) * _INV_TWO_PI)
+
+    # material frames
+    for i in range(m):
+        th = ang[i]
+        xs[i] = np.cos(th)
+        ys[i] = np.sin(th)
+    for i in range(m):
+        c = xs[i]
+        s = ys[i]
+        a0, a1, a2 = ax[i], ay[i], az[i]
+        b0, b1, b2 = ux[i], uy[i], uz[i]
+        t[i, 0], t[i, 1], t[i, 2] = tx[i], ty[i], tz[i]
+        d1[i, 0], d1[i, 1], d1[i, 2] = a0, a1, a2
+        d2[i, 0], d2[i, 1], d2[i, 2] = b0, b1, b2
+        m1[i, 0], m1[i, 1], m1[i, 2] = c * a0 + s * b0, c * a1 + s * b1, c * a2 + s * b2
+        m2[i, 0], m2[i, 1], m2[i, 2] = -s * a0 + c * b0, -s * a1 + c * b1, -s * a2 + c * b2
+    return t, d1, d2, ref, m1, m2

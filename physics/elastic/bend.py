@@ -38,35 +38,62 @@ _MAP_COEF = np.array(
 )
 
 
-@njit(cache=True)
-def add_outer(M: np.ndarray, r0: int, c0: int, alpha: float, u: np.ndarray, v: np.ndarray) -> None:
-    """``M[r0:r0+3, c0:c0+3] += alpha * u v^T`` for (3,) vectors ``u``, ``v``."""
-    for r in range(3):
-        for c in range(3):
-            M[r0 + r, c0 + c] += alpha * u[r] * v[c]
-
-
-@njit(cache=True)
-def add_projector(M: np.ndarray, r0: int, c0: int, alpha: float, t: np.ndarray) -> None:
-    """``M[r0:r0+3, c0:c0+3] += alpha * (I - t t^T)`` for a unit (3,) vector ``t``."""
-    for r in range(3):
-        M[r0 + r, c0 + r] += alpha
-        for c in range(3):
-            M[r0 + r, c0 + c] -= alpha * t[r] * t[c]
-
-
-@njit(cache=True)
-def add_skew_projected(
-    M: np.ndarray, r0: int, c0: int, alpha: float, w: np.ndarray, t: np.ndarray
+@njit(cache=True, inline="always")
+def _add_row(
+    M: np.ndarray, i: int, c0: int, x1: float, v1, x2: float, v2, x3: float, v3, x4: float, v4,
+    e0: float, e1: float, e2: float,
 ) -> None:
-    """``M[r0:r0+3, c0:c0+3] += alpha * [w]_x (I - t t^T)`` where ``[w]_x v = w x v``."""
-    M[r0 + 0, c0 + 1] -= alpha * w[2]
-    M[r0 + 0, c0 + 2] += alpha * w[1]
-    M[r0 + 1, c0 + 0] += alpha * w[2]
-    M[r0 + 1, c0 + 2] -= alpha * w[0]
-    M[r0 + 2, c0 + 0] -= alpha * w[1]
-    M[r0 + 2, c0 + 1] += alpha * w[0]
-    add_outer(M, r0, c0, -alpha, vcross(w, t), t)
+    """``M[i, c0:c0+3] += x1 v1 + x2 v2 + x3 v3 + x4 v4 + (e0, e1, e2)``."""
+    M[i, c0] += x1 * v1[0] + x2 * v2[0] + x3 * v3[0] + x4 * v4[0] + e0
+    M[i, c0 + 1] += x1 * v1[1] + x2 * v2[1] + x3 * v3[1] + x4 * v4[1] + e1
+    M[i, c0 + 2] += x1 * v1[2] + x2 * v2[2] + x3 * v3[2] + x4 * v4[2] + e2
+
+
+@njit(cache=True, inline="always")
+def add_block(
+    M: np.ndarray, r0: int, c0: int,
+    a1: float, u1, v1, a2: float, u2, v2, a3: float, u3, v3, a4: float, u4, v4,
+    d: float, k: float, w,
+) -> None:
+    """``M[r0:r0+3, c0:c0+3] += a1 u1 v1^T + a2 u2 v2^T + a3 u3 v3^T + a4 u4 v4^T + d I
+    + k [w]_x`` for 3-vectors (``[w]_x v = w x v``), with a single read-modify-write per
+    entry. Inlined so all indices are static."""
+    kw0 = k * w[0]
+    kw1 = k * w[1]
+    kw2 = k * w[2]
+    _add_row(
+        M, r0, c0, a1 * u1[0], v1, a2 * u2[0], v2, a3 * u3[0], v3, a4 * u4[0], v4, d, -kw2, kw1
+    )
+    _add_row(
+        M, r0 + 1, c0, a1 * u1[1], v1, a2 * u2[1], v2, a3 * u3[1], v3, a4 * u4[1], v4, kw2, d, -kw0
+    )
+    _add_row(
+        M, r0 + 2, c0, a1 * u1[2], v1, a2 * u2[2], v2, a3 * u3[2], v3, a4 * u4[2], v4, -kw1, kw0, d
+    )
+
+
+@njit(cache=True, inline="always")
+def _add_row2(
+    M: np.ndarray, i: int, c0: int, x1: float, v1, x2: float, v2, e0: float, e1: float, e2: float
+) -> None:
+    """``M[i, c0:c0+3] += x1 v1 + x2 v2 + (e0, e1, e2)``."""
+    M[i, c0] += x1 * v1[0] + x2 * v2[0] + e0
+    M[i, c0 + 1] += x1 * v1[1] + x2 * v2[1] + e1
+    M[i, c0 + 2] += x1 * v1[2] + x2 * v2[2] + e2
+
+
+@njit(cache=True, inline="always")
+def add_block2(
+    M: np.ndarray, r0: int, c0: int, a1: float, u1, v1, a2: float, u2, v2, k: float, w
+) -> None:
+    """``M[r0:r0+3, c0:c0+3] += a1 u1 v1^T + a2 u2 v2^T + k [w]_x`` for 3-vectors, with a
+    single read-modify-write per entry (see :func:`add_block`)."""
+    kw0 = k * w[0]
+    kw1 = k * w[1]
+    kw2 = k * w[2]
+    _add_row2(M, r0, c0, a1 * u1[0], v1, a2 * u2[0], v2, 0.0, -kw2, kw1)
+    _add_row2(M, r0 + 1, c0, a1 * u1[1], v1, a2 * u2[1], v2, kw2, 0.0, -kw0)
+    _add_row2(M, r0 + 2, c0, a1 * u1[2], v1, a2 * u2[2], v2, -kw1, kw0, 0.0)
 
 
 @njit(cache=True)
@@ -112,15 +139,22 @@ def edge_pair_to_nodes(
 
 
 @njit(cache=True)
+def _sym(M: np.ndarray, a: int, b: int) -> float:
+    """Entry ``(a, b)`` of the symmetric part ``(M + M^T) / 2`` (as :func:`symmetrize`)."""
+    return 0.5 * (M[a, b] + M[b, a])
+
+
+@njit(cache=True)
 def edge_pair_scatter(
     gy: np.ndarray, Hy: np.ndarray, b: int, order: int, need_grad: bool,
     grad: np.ndarray, ab: np.ndarray,
 ) -> None:
-    """Add an edge-pair gradient (8,) / symmetric Hessian (8, 8) in ``[e, f, theta_e,
-    theta_f]`` to the rod's gradient ``grad`` (4n-1,) (if ``need_grad``) and, if ``order``
-    >= 2, its banded Hessian ``ab`` (21, 4n-1). The element's nodes ``x0, x1, x2`` sit at
-    ``q[b:b+3]``, ``q[b+4:b+7]``, ``q[b+8:b+11]`` and its angles at ``q[b+3]``, ``q[b+7]``;
-    same map as :func:`edge_pair_to_nodes`."""
+    """Add an edge-pair gradient (8,) / Hessian (8, 8) in ``[e, f, theta_e, theta_f]`` to
+    the rod's gradient ``grad`` (4n-1,) (if ``need_grad``) and, if ``order`` >= 2, the
+    symmetric part of ``Hy`` to its banded Hessian ``ab`` (21, 4n-1) (so ``Hy`` need not
+    be symmetrised first). The element's nodes ``x0, x1, x2`` sit at ``q[b:b+3]``,
+    ``q[b+4:b+7]``, ``q[b+8:b+11]`` and its angles at ``q[b+3]``, ``q[b+7]``; same map as
+    :func:`edge_pair_to_nodes`."""
     if need_grad:
         for k in range(3):
             grad[b + k] -= gy[k]
@@ -132,10 +166,10 @@ def edge_pair_scatter(
         return
     for p in range(3):
         for r in range(3):
-            hee = Hy[p, r]
-            hef = Hy[p, 3 + r]
-            hfe = Hy[3 + p, r]
-            hff = Hy[3 + p, 3 + r]
+            hee = _sym(Hy, p, r)
+            hef = _sym(Hy, p, 3 + r)
+            hfe = _sym(Hy, 3 + p, r)
+            hff = _sym(Hy, 3 + p, 3 + r)
             v01 = -hee + hef
             v12 = hef - hff
             add_band(ab, b + p, b + r, hee)
@@ -143,14 +177,15 @@ def edge_pair_scatter(
             add_band(ab, b + 4 + r, b + p, v01)
             add_band(ab, b + p, b + 8 + r, -hef)
             add_band(ab, b + 8 + r, b + p, -hef)
-            add_band(ab, b + 4 + p, b + 4 + r, hee - hef - hfe + hff)
+            # grouped so that the (r, p) entry gets bit-for-bit the same value
+            add_band(ab, b + 4 + p, b + 4 + r, (hee + hff) - (hef + hfe))
             add_band(ab, b + 4 + p, b + 8 + r, v12)
             add_band(ab, b + 8 + r, b + 4 + p, v12)
             add_band(ab, b + 8 + p, b + 8 + r, hff)
         for j in range(2):
             col = b + 3 + 4 * j
-            he = Hy[p, 6 + j]
-            hf = Hy[3 + p, 6 + j]
+            he = _sym(Hy, p, 6 + j)
+            hf = _sym(Hy, 3 + p, 6 + j)
             v0 = -he
             v1 = he - hf
             add_band(ab, b + p, col, v0)
@@ -159,16 +194,19 @@ def edge_pair_scatter(
             add_band(ab, col, b + 4 + p, v1)
             add_band(ab, b + 8 + p, col, hf)
             add_band(ab, col, b + 8 + p, hf)
+    h67 = _sym(Hy, 6, 7)
     add_band(ab, b + 3, b + 3, Hy[6, 6])
-    add_band(ab, b + 3, b + 7, Hy[6, 7])
-    add_band(ab, b + 7, b + 3, Hy[7, 6])
+    add_band(ab, b + 3, b + 7, h67)
+    add_band(ab, b + 7, b + 3, h67)
     add_band(ab, b + 7, b + 7, Hy[7, 7])
 
 
 @njit(cache=True)
 def edge_pair_geom(x0, x1, x2):
-    """Tuple form of :func:`edge_pair_geometry` for 3-vector nodes ``x0, x1, x2``:
-    returns ``(te, tf, le, lf, chi, kb)`` with ``te``, ``tf``, ``kb`` 3-tuples."""
+    """Edge-pair geometry of nodes ``x0, x1, x2`` (3-vectors, m): unit tangents ``te``,
+    ``tf``, lengths ``le``, ``lf`` (m), ``chi = 1 + te.tf`` and the dimensionless curvature
+    binormal ``kb = 2 te x tf / chi``, eqn (2) of Huang & Jawed 2020. Returns
+    ``(te, tf, le, lf, chi, kb)`` with ``te``, ``tf``, ``kb`` 3-tuples."""
     e0 = x1[0] - x0[0]
     e1 = x1[1] - x0[1]
     e2 = x1[2] - x0[2]
@@ -187,24 +225,6 @@ def edge_pair_geom(x0, x1, x2):
 
 
 @njit(cache=True)
-def edge_pair_geometry(
-    x0: np.ndarray, x1: np.ndarray, x2: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, float, float, float, np.ndarray]:
-    """Edge-pair geometry of nodes ``x0, x1, x2`` (3,) m: unit tangents ``te``, ``tf`` (3,),
-    lengths ``le``, ``lf`` (m), ``chi = 1 + te.tf`` and the dimensionless curvature binormal
-    ``kb = 2 te x tf / chi`` (3,), eqn (2) of Huang & Jawed 2020."""
-    te, tf, le, lf, chi, kb = edge_pair_geom(vec(x0), vec(x1), vec(x2))
-    te_a = np.empty(3)
-    tf_a = np.empty(3)
-    kb_a = np.empty(3)
-    for k in range(3):
-        te_a[k] = te[k]
-        tf_a[k] = tf[k]
-        kb_a[k] = kb[k]
-    return te_a, tf_a, le, lf, chi, kb_a
-
-
-@njit(cache=True)
 def _kappa(ae, af, kb) -> float:
     """``0.5 (ae + af) . kb`` for 3-vectors."""
     return (
@@ -217,8 +237,8 @@ def _kappa(ae, af, kb) -> float:
 @njit(cache=True)
 def _curvature_into(
     te, tf, le: float, lf: float, chi: float, kb, ae, be, af, bf, kappa: float,
-    gk: np.ndarray, Hy: np.ndarray, alpha: float, order: int,
-) -> None:
+    Hy: np.ndarray, alpha: float, beta: float, order: int,
+):
     """Derivatives in ``y`` of one material curvature ``kappa = 0.5 (ae + af) . kb``.
 
     ``kappa1`` (eqn (3a)) uses ``a = m2``, ``b = -m1``; ``kappa2`` (eqn (3b)) uses
@@ -227,8 +247,10 @@ def _curvature_into(
     ``dk/df = (-2 te x w - k (te + tf)) / (|f| chi)`` with ``w = 0.5 (ae + af)``, and
     ``dk/dtheta = 0.5 b . kb``. The Hessian is the symmetric part of the derivative of
     that gradient when directors follow their edges (``d a_e = -(a_e . d te) te``).
-    Writes the gradient into ``gk`` (8,) and, if ``order`` >= 2, adds ``alpha`` times the
-    (not yet symmetrised) Hessian into ``Hy`` (8, 8); the caller symmetrises ``Hy``.
+    Returns the gradient ``g`` as an 8-tuple and, if ``order`` >= 2, adds ``alpha H +
+    beta g g^T`` into ``Hy`` (8, 8), ``H`` being the Hessian of ``kappa``; with ``alpha =
+    stiff (kappa - kappa_bar)`` and ``beta = stiff`` that is the Hessian of ``0.5 stiff
+    (kappa - kappa_bar)^2``. ``Hy`` is not symmetrised (only its symmetric part is used).
     All vectors are 3-tuples; allocation-free.
     """
     w = (0.5 * (ae[0] + af[0]), 0.5 * (ae[1] + af[1]), 0.5 * (ae[2] + af[2]))
@@ -249,13 +271,9 @@ def _curvature_into(
     )
     be_kb = dot3(be, kb)
     bf_kb = dot3(bf, kb)
-    for k in range(3):
-        gk[k] = ge[k]
-        gk[3 + k] = gf[k]
-    gk[6] = 0.5 * be_kb
-    gk[7] = 0.5 * bf_kb
+    g = (ge[0], ge[1], ge[2], gf[0], gf[1], gf[2], 0.5 * be_kb, 0.5 * bf_kb)
     if order < 2:
-        return
+        return g
 
     c = chi - 1.0  # te . tf
     Pe_tf = (tf[0] - c * te[0], tf[1] - c * te[1], tf[2] - c * te[2])  # (I - te te^T) tf
@@ -267,62 +285,85 @@ def _curvature_into(
     Pe_ae = (ae[0] - ae_te * te[0], ae[1] - ae_te * te[1], ae[2] - ae_te * te[2])
     Pf_af = (af[0] - af_tf * tf[0], af[1] - af_tf * tf[1], af[2] - af_tf * tf[2])
 
-    # d(ge)/de
-    add_outer(Hy, 0, 0, alpha * (-1.0 / le), ge, ve)
-    add_outer(Hy, 0, 0, alpha * (0.5 / (le * le)), kb, Pe_ae)  # directors of e follow e
-    add_outer(Hy, 0, 0, alpha * -ce, s, ge)
-    add_projector(Hy, 0, 0, alpha * (-kappa * ce / le), te)
+    g6 = g[6]
+    g7 = g[7]
+    # Each 3x3 block is a few outer products, a projector p (I - t t^T) = p I - p t t^T
+    # and a skewed projector k [w]_x (I - t t^T) = k [w]_x - k (w x t) t^T; the
+    # beta g g^T blocks share their left vector with the first term.
+    # d(ge)/de; the kb Pe_ae term is from the directors of e following e
+    x = alpha * (-1.0 / le)
+    v = (x * ve[0] + beta * ge[0], x * ve[1] + beta * ge[1], x * ve[2] + beta * ge[2])
+    p = alpha * (-kappa * ce / le)
+    add_block(
+        Hy, 0, 0, 1.0, ge, v, alpha * (0.5 / (le * le)), kb, Pe_ae,
+        alpha * -ce, s, ge, -p, te, te, p, 0.0, w,
+    )
     # d(ge)/df
-    add_outer(Hy, 0, 3, alpha * (-1.0 / (chi * lf)), ge, Pf_te)
-    add_skew_projected(Hy, 0, 3, alpha * (-2.0 * ce / lf), w, tf)
-    add_outer(Hy, 0, 3, alpha * -ce, s, gf)
-    add_projector(Hy, 0, 3, alpha * (-kappa * ce / lf), tf)
-    # d(gf)/df
-    add_outer(Hy, 3, 3, alpha * (-1.0 / lf), gf, vf)
-    add_outer(Hy, 3, 3, alpha * (0.5 / (lf * lf)), kb, Pf_af)  # directors of f follow f
-    add_outer(Hy, 3, 3, alpha * -cf, s, gf)
-    add_projector(Hy, 3, 3, alpha * (-kappa * cf / lf), tf)
+    x = alpha * (-1.0 / (chi * lf))
+    v = (x * Pf_te[0] + beta * gf[0], x * Pf_te[1] + beta * gf[1], x * Pf_te[2] + beta * gf[2])
+    p = alpha * (-kappa * ce / lf)
+    k = alpha * (-2.0 * ce / lf)
+    add_block(
+        Hy, 0, 3, 1.0, ge, v, -k, vcross(w, tf), tf,
+        alpha * -ce, s, gf, -p, tf, tf, p, k, w,
+    )
+    # d(gf)/df; the kb Pf_af term is from the directors of f following f
+    x = alpha * (-1.0 / lf)
+    v = (x * vf[0] + beta * gf[0], x * vf[1] + beta * gf[1], x * vf[2] + beta * gf[2])
+    p = alpha * (-kappa * cf / lf)
+    add_block(
+        Hy, 3, 3, 1.0, gf, v, alpha * (0.5 / (lf * lf)), kb, Pf_af,
+        alpha * -cf, s, gf, -p, tf, tf, p, 0.0, w,
+    )
     # d(gf)/de
-    add_outer(Hy, 3, 0, alpha * (-1.0 / (chi * le)), gf, Pe_tf)
-    add_skew_projected(Hy, 3, 0, alpha * (2.0 * cf / le), w, te)
-    add_outer(Hy, 3, 0, alpha * -cf, s, ge)
-    add_projector(Hy, 3, 0, alpha * (-kappa * cf / le), te)
-    # position-angle blocks (already symmetric pairs)
+    x = alpha * (-1.0 / (chi * le))
+    v = (x * Pe_tf[0] + beta * ge[0], x * Pe_tf[1] + beta * ge[1], x * Pe_tf[2] + beta * ge[2])
+    p = alpha * (-kappa * cf / le)
+    k = alpha * (2.0 * cf / le)
+    add_block(
+        Hy, 3, 0, 1.0, gf, v, -k, vcross(w, te), te,
+        alpha * -cf, s, ge, -p, te, te, p, k, w,
+    )
+    # position-angle blocks (symmetric pairs)
     tfxbe = vcross(tf, be)
     tfxbf = vcross(tf, bf)
     texbe = vcross(te, be)
     texbf = vcross(te, bf)
     ace = alpha * ce
     acf = alpha * cf
+    b6 = beta * g6
+    b7 = beta * g7
     for k in range(3):
-        v = ace * (tfxbe[k] - 0.5 * be_kb * s[k])
+        v = ace * (tfxbe[k] - 0.5 * be_kb * s[k]) + b6 * ge[k]
         Hy[k, 6] += v
         Hy[6, k] += v
-        v = ace * (tfxbf[k] - 0.5 * bf_kb * s[k])
+        v = ace * (tfxbf[k] - 0.5 * bf_kb * s[k]) + b7 * ge[k]
         Hy[k, 7] += v
         Hy[7, k] += v
-        v = acf * (-texbe[k] - 0.5 * be_kb * s[k])
+        v = acf * (-texbe[k] - 0.5 * be_kb * s[k]) + b6 * gf[k]
         Hy[3 + k, 6] += v
         Hy[6, 3 + k] += v
-        v = acf * (-texbf[k] - 0.5 * bf_kb * s[k])
+        v = acf * (-texbf[k] - 0.5 * bf_kb * s[k]) + b7 * gf[k]
         Hy[3 + k, 7] += v
         Hy[7, 3 + k] += v
-    Hy[6, 6] += alpha * (-0.5 * dot3(ae, kb))
-    Hy[7, 7] += alpha * (-0.5 * dot3(af, kb))
+    Hy[6, 6] += alpha * (-0.5 * dot3(ae, kb)) + b6 * g6
+    Hy[7, 7] += alpha * (-0.5 * dot3(af, kb)) + b7 * g7
+    Hy[6, 7] += b6 * g7
+    Hy[7, 6] += b6 * g7
+    return g
 
 
 @njit(cache=True)
 def bend_into(
     te, tf, le: float, lf: float, chi: float, kb, m1e, m2e, m1f, m2f,
-    kappa_bar1: float, kappa_bar2: float, stiff: float,
-    gy: np.ndarray, Hy: np.ndarray, g1: np.ndarray, g2: np.ndarray, order: int,
+    kappa_bar1: float, kappa_bar2: float, stiff: float, gy: np.ndarray, Hy: np.ndarray,
+    order: int,
 ) -> float:
     """Bending energy (J) of an edge pair with geometry from :func:`edge_pair_geom` and
     directors ``m1e, m2e, m1f, m2f`` (3-tuples); ``stiff = EI / l_vor`` (N m).
 
     ``order`` >= 1 adds the gradient in ``y = [e, f, theta_e, theta_f]`` into ``gy`` (8,),
-    ``order`` >= 2 the Hessian, not yet symmetrised, into ``Hy`` (8, 8). ``g1``, ``g2``
-    (8,) are scratch. Allocation-free.
+    ``order`` >= 2 the Hessian, not symmetrised, into ``Hy`` (8, 8). Allocation-free.
     """
     na = (-m1e[0], -m1e[1], -m1e[2])
     nb = (-m1f[0], -m1f[1], -m1f[2])
@@ -335,16 +376,21 @@ def bend_into(
     E = 0.5 * stiff * (d1 * d1 + d2 * d2)
     if order < 1:
         return E
-    _curvature_into(te, tf, le, lf, chi, kb, m2e, na, m2f, nb, k1, g1, Hy, stiff * d1, order)
-    _curvature_into(te, tf, le, lf, chi, kb, na, nc, nb, nd, k2, g2, Hy, stiff * d2, order)
-    for a in range(8):
-        gy[a] += stiff * (d1 * g1[a] + d2 * g2[a])
-    if order >= 2:
-        for a in range(8):
-            g1a = g1[a]
-            g2a = g2[a]
-            for c in range(8):
-                Hy[a, c] += stiff * (g1a * g1[c] + g2a * g2[c])
+    # the Hessian is stiff (d1 H1 + g1 g1^T + d2 H2 + g2 g2^T), H_i that of kappa_i
+    g1 = _curvature_into(
+        te, tf, le, lf, chi, kb, m2e, na, m2f, nb, k1, Hy, stiff * d1, stiff, order
+    )
+    g2 = _curvature_into(
+        te, tf, le, lf, chi, kb, na, nc, nb, nd, k2, Hy, stiff * d2, stiff, order
+    )
+    gy[0] += stiff * (d1 * g1[0] + d2 * g2[0])
+    gy[1] += stiff * (d1 * g1[1] + d2 * g2[1])
+    gy[2] += stiff * (d1 * g1[2] + d2 * g2[2])
+    gy[3] += stiff * (d1 * g1[3] + d2 * g2[3])
+    gy[4] += stiff * (d1 * g1[4] + d2 * g2[4])
+    gy[5] += stiff * (d1 * g1[5] + d2 * g2[5])
+    gy[6] += stiff * (d1 * g1[6] + d2 * g2[6])
+    gy[7] += stiff * (d1 * g1[7] + d2 * g2[7])
     return E
 
 
@@ -392,12 +438,10 @@ def bend_element(
     """
     te, tf, le, lf, chi, kb = edge_pair_geom(vec(x0), vec(x1), vec(x2))
     gy = np.zeros(8)
-    g1 = np.empty(8)
-    g2 = np.empty(8)
     Hy = np.zeros((8, 8))
     E = bend_into(
         te, tf, le, lf, chi, kb, vec(m1e), vec(m2e), vec(m1f), vec(m2f),
-        kappa_bar[0], kappa_bar[1], EI / l_vor, gy, Hy, g1, g2, order,
+        kappa_bar[0], kappa_bar[1], EI / l_vor, gy, Hy, order,
     )
     if order < 1:
         return E

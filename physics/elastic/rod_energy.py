@@ -19,21 +19,16 @@ import numpy as np
 from numba import njit
 
 from physics.elastic.banded import BANDWIDTH
-from physics.elastic.bend import bend_into, edge_pair_geom, edge_pair_scatter, material_curvatures, symmetrize
+from physics.elastic.bend import bend_into, edge_pair_geom, edge_pair_scatter, material_curvatures
 from physics.elastic.stretch import stretch_into
 from physics.elastic.twist import twist_into
 from physics.frames import (
-    edge_tangent,
     material_frames,
-    node_reference_twist,
     reference_twist,
-    rotated_directors,
     row3,
     space_parallel_frames,
     tangents,
-    transported_director,
-    vcross,
-    write3,
+    update_frames,
 )
 
 
@@ -98,32 +93,9 @@ def rod_frames(
     Returns ``(t, d1, d2, ref_twist, m1, m2)``.
 
     Same results as ``tangents``, ``time_parallel_transport``, ``reference_twist`` and
-    ``material_frames`` in sequence, done in one allocation-free pass over the edges.
+    ``material_frames`` in sequence (see :func:`physics.frames.update_frames`).
     """
-    m = (q.shape[0] + 1) // 4 - 1
-    t = np.empty((m, 3))
-    d1 = np.empty((m, 3))
-    d2 = np.empty((m, 3))
-    ref = np.empty(max(m - 1, 0))
-    m1 = np.empty((m, 3))
-    m2 = np.empty((m, 3))
-    t_prev = (0.0, 0.0, 0.0)
-    a_prev = (0.0, 0.0, 0.0)
-    for i in range(m):
-        ti = edge_tangent(q, i)
-        a = transported_director(row3(d1_old, i), row3(t_old, i), ti)
-        b = vcross(ti, a)
-        write3(t, i, ti)
-        write3(d1, i, a)
-        write3(d2, i, b)
-        if i >= 1:
-            ref[i - 1] = node_reference_twist(a_prev, t_prev, a, ti, ref_twist_old[i - 1])
-        u, v = rotated_directors(a, b, q[4 * i + 3])
-        write3(m1, i, u)
-        write3(m2, i, v)
-        t_prev = ti
-        a_prev = a
-    return t, d1, d2, ref, m1, m2
+    return update_frames(q, d1_old, t_old, ref_twist_old)
 
 
 @njit(cache=True)
@@ -146,7 +118,7 @@ def _assemble(
 ) -> float:
     """Sum the stretch, bend and twist elements. Returns the energy (J); ``order`` >= 1
     with ``need_grad`` adds the gradient into ``grad`` (4n-1,), ``order`` >= 2 the banded
-    Hessian into ``ab`` (21, 4n-1). O(n). The only allocation is one (11, 8) scratch
+    Hessian into ``ab`` (21, 4n-1). O(n). The only allocation is one (9, 8) scratch
     block per call; bending and twisting of a node share its edge-pair geometry and are
     summed in the reduced coordinates before one scatter to the rod's DOFs."""
     n = (q.shape[0] + 1) // 4
@@ -154,11 +126,9 @@ def _assemble(
     for i in range(n - 1):
         E += stretch_into(q, i, l_bar[i], EA[i], order, need_grad, grad, ab)
 
-    work = np.empty((11, 8))
-    Hy = work[0:8]  # (8, 8) Hessian in y = [e, f, theta_e, theta_f]
+    work = np.empty((9, 8))
+    Hy = work[0:8]  # (8, 8) Hessian in y = [e, f, theta_e, theta_f], symmetric part used
     gy = work[8]  # (8,) gradient in y
-    g1 = work[9]  # (8,) scratch
-    g2 = work[10]  # (8,) scratch
     for i in range(1, n - 1):
         b = 4 * (i - 1)
         te, tf, le, lf, chi, kb = edge_pair_geom(
@@ -176,15 +146,13 @@ def _assemble(
         E += bend_into(
             te, tf, le, lf, chi, kb, row3(m1, i - 1), row3(m2, i - 1), row3(m1, i), row3(m2, i),
             kappa_bar[i - 1, 0], kappa_bar[i - 1, 1], EI[i - 1] / l_vor[i - 1],
-            gy, Hy, g1, g2, order,
+            gy, Hy, order,
         )
         E += twist_into(
             te, tf, le, lf, chi, kb, q[b + 3], q[b + 7], ref_twist[i - 1], twist_bar[i - 1],
-            GJ[i - 1] / l_vor[i - 1], gy, Hy, g1, order,
+            GJ[i - 1] / l_vor[i - 1], gy, Hy, order,
         )
         if order >= 1:
-            if order >= 2:
-                symmetrize(Hy)
             edge_pair_scatter(gy, Hy, b, order, need_grad, grad, ab)
     return E
 

@@ -11,16 +11,15 @@ from physics.elastic.banded import add_band
 @njit(cache=True)
 def stretch_terms(
     e0: float, e1: float, e2: float, l_bar: float, EA: float
-) -> tuple[float, float, float, float]:
-    """Scalars of the stretching of edge ``e = (e0, e1, e2)`` (m): returns ``(E, le, f,
-    b)`` with ``E = 0.5 EA l_bar (|e|/l_bar - 1)^2`` (J), ``le = |e|`` (m), ``f = dE/d|e|``
-    (N) and ``b = f / |e|`` (N/m). Gradient: ``dE/dx1 = -dE/dx0 = f e/|e|``; Hessian
-    block ``K = (EA/l_bar - b) e e^T / |e|^2 + b I`` in ``[[K, -K], [-K, K]]``."""
+) -> tuple[float, float, float]:
+    """Scalars of the stretching of edge ``e = (e0, e1, e2)`` (m): returns ``(E, le, f)``
+    with ``E = 0.5 EA l_bar (|e|/l_bar - 1)^2`` (J), ``le = |e|`` (m) and ``f = dE/d|e|``
+    (N). Gradient: ``dE/dx1 = -dE/dx0 = f e/|e|``; Hessian block ``K = (EA/l_bar - b) e
+    e^T / |e|^2 + b I`` with ``b = f / |e|``, in ``[[K, -K], [-K, K]]``."""
     le = np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
     strain = le / l_bar - 1.0
     E = 0.5 * EA * l_bar * strain * strain
-    f = EA * strain
-    return E, le, f, f / le
+    return E, le, EA * strain
 
 
 @njit(cache=True)
@@ -36,7 +35,7 @@ def stretch_into(
     e0 = q[p + 4] - q[p]
     e1 = q[p + 5] - q[p + 1]
     e2 = q[p + 6] - q[p + 2]
-    E, le, f, b = stretch_terms(e0, e1, e2, l_bar, EA)
+    E, le, f = stretch_terms(e0, e1, e2, l_bar, EA)
     if order < 1:
         return E
     if need_grad:
@@ -52,6 +51,7 @@ def stretch_into(
     if order < 2:
         return E
     a = EA / l_bar
+    b = f / le
     ll = le * le
     for r in range(3):
         er = q[p + 4 + r] - q[p + r]
@@ -87,7 +87,7 @@ def stretch_element(
     e0 = x1[0] - x0[0]
     e1 = x1[1] - x0[1]
     e2 = x1[2] - x0[2]
-    E, le, f, b = stretch_terms(e0, e1, e2, l_bar, EA)
+    E, le, f = stretch_terms(e0, e1, e2, l_bar, EA)
     if order < 1:
         return E
     e = (e0, e1, e2)
@@ -98,6 +98,7 @@ def stretch_element(
     if order < 2:
         return E
     a = EA / l_bar  # coefficient of t t^T
+    b = f / le  # coefficient of (I - t t^T)
     for r in range(3):
         for c in range(3):
             tt = e[r] * e[c] / (le * le)

@@ -14,78 +14,106 @@ import numpy as np
 from numba import njit
 
 from physics.elastic.bend import (
-    add_outer,
-    add_skew_projected,
+    add_block2,
     edge_pair_geom,
     edge_pair_to_nodes,
     symmetrize,
 )
-from physics.frames import vec
+from physics.frames import vcross, vec
 
 
 @njit(cache=True)
-def _reference_twist_hessian(
-    te, tf, le: float, lf: float, chi: float, kb, Hy: np.ndarray, alpha: float
+def _twist_hessian(
+    te, tf, le: float, lf: float, chi: float, kb, Hy: np.ndarray, stiff: float, sd: float
 ) -> None:
-    """Add ``alpha`` times the derivative (8, 8) of ``[kb/(2|e|), kb/(2|f|), 0, 0]`` with
-    respect to ``y = [e, f, theta_e, theta_f]`` into ``Hy``, not yet symmetrised (only the
-    6x6 position block is touched). Uses ``d kb = ((2 dte x tf - kb (tf . dte)) + (2 te x
-    dtf - kb (te . dtf))) / chi``. ``te``, ``tf``, ``kb`` are 3-vectors; allocation-free.
+    """Add the twisting Hessian ``stiff dtau dtau^T + sd d(dtau)/dy`` into ``Hy`` (8, 8),
+    not yet symmetrised, where ``dtau = d(tau)/dy = [kb/(2|e|), kb/(2|f|), -1, 1]`` and
+    ``sd = stiff (tau - twist_bar)``. ``d(dtau)/dy`` is the derivative of the reference
+    twist rate, using ``d kb = ((2 dte x tf - kb (tf . dte)) + (2 te x dtf - kb (te .
+    dtf))) / chi``; in each 3x3 block the terms along ``kb`` are merged into one outer
+    product. ``te``, ``tf``, ``kb`` are 3-vectors; allocation-free.
     """
     c = chi - 1.0
-    Pe_tf = (tf[0] - c * te[0], tf[1] - c * te[1], tf[2] - c * te[2])
-    Pf_te = (te[0] - c * tf[0], te[1] - c * tf[1], te[2] - c * tf[2])
-    # d(kb/(2|e|))/de and d(kb/(2|f|))/de: d kb/de = (-2 [tf]_x - kb tf^T) Pe / (chi |e|)
+    Pe_tf = (tf[0] - c * te[0], tf[1] - c * te[1], tf[2] - c * te[2])  # (I - te te^T) tf
+    Pf_te = (te[0] - c * tf[0], te[1] - c * tf[1], te[2] - c * tf[2])  # (I - tf tf^T) te
+    # k [w]_x (I - t t^T) = k [w]_x - k (w x t) t^T
+    tfxte = vcross(tf, te)
+    texf = vcross(te, tf)
+    he = 0.5 / le  # dtau_e = he kb
+    hf = 0.5 / lf  # dtau_f = hf kb
+    # d kb/de = (-2 [tf]_x - kb tf^T) Pe / (chi |e|), applied to kb/(2|e|) and kb/(2|f|);
+    # (0, 0) also has the derivative of the 1/(2|e|) prefactor
     a = 1.0 / (2.0 * le * chi * le)
-    add_skew_projected(Hy, 0, 0, alpha * (-2.0 * a), tf, te)
-    add_outer(Hy, 0, 0, alpha * -a, kb, Pe_tf)
+    k = sd * (-2.0 * a)
+    x = sd * -a
+    y = sd * (-0.5 / (le * le))
+    z = stiff * he * he
+    v = (x * Pe_tf[0] + y * te[0] + z * kb[0], x * Pe_tf[1] + y * te[1] + z * kb[1],
+         x * Pe_tf[2] + y * te[2] + z * kb[2])
+    add_block2(Hy, 0, 0, -k, tfxte, te, 1.0, kb, v, k, tf)
     a = 1.0 / (2.0 * lf * chi * le)
-    add_skew_projected(Hy, 3, 0, alpha * (-2.0 * a), tf, te)
-    add_outer(Hy, 3, 0, alpha * -a, kb, Pe_tf)
-    # d kb/df = (2 [te]_x - kb te^T) Pf / (chi |f|)
+    k = sd * (-2.0 * a)
+    x = sd * -a
+    z = stiff * hf * he
+    v = (x * Pe_tf[0] + z * kb[0], x * Pe_tf[1] + z * kb[1], x * Pe_tf[2] + z * kb[2])
+    add_block2(Hy, 3, 0, -k, tfxte, te, 1.0, kb, v, k, tf)
+    # d kb/df = (2 [te]_x - kb te^T) Pf / (chi |f|); (3, 3) also has the derivative of 1/(2|f|)
     a = 1.0 / (2.0 * le * chi * lf)
-    add_skew_projected(Hy, 0, 3, alpha * (2.0 * a), te, tf)
-    add_outer(Hy, 0, 3, alpha * -a, kb, Pf_te)
+    k = sd * (2.0 * a)
+    x = sd * -a
+    z = stiff * he * hf
+    v = (x * Pf_te[0] + z * kb[0], x * Pf_te[1] + z * kb[1], x * Pf_te[2] + z * kb[2])
+    add_block2(Hy, 0, 3, -k, texf, tf, 1.0, kb, v, k, te)
     a = 1.0 / (2.0 * lf * chi * lf)
-    add_skew_projected(Hy, 3, 3, alpha * (2.0 * a), te, tf)
-    add_outer(Hy, 3, 3, alpha * -a, kb, Pf_te)
-    # derivative of the 1/(2|e|) and 1/(2|f|) prefactors
-    add_outer(Hy, 0, 0, alpha * (-0.5 / (le * le)), kb, te)
-    add_outer(Hy, 3, 3, alpha * (-0.5 / (lf * lf)), kb, tf)
+    k = sd * (2.0 * a)
+    x = sd * -a
+    y = sd * (-0.5 / (lf * lf))
+    z = stiff * hf * hf
+    v = (x * Pf_te[0] + y * tf[0] + z * kb[0], x * Pf_te[1] + y * tf[1] + z * kb[1],
+         x * Pf_te[2] + y * tf[2] + z * kb[2])
+    add_block2(Hy, 3, 3, -k, texf, tf, 1.0, kb, v, k, te)
+    # rows / columns of the angles in stiff dtau dtau^T (dtau_theta = [-1, 1])
+    for i in range(3):
+        xe = stiff * (0.5 * kb[i] / le)
+        xf = stiff * (0.5 * kb[i] / lf)
+        Hy[i, 6] -= xe
+        Hy[6, i] -= xe
+        Hy[i, 7] += xe
+        Hy[7, i] += xe
+        Hy[3 + i, 6] -= xf
+        Hy[6, 3 + i] -= xf
+        Hy[3 + i, 7] += xf
+        Hy[7, 3 + i] += xf
+    Hy[6, 6] += stiff
+    Hy[6, 7] -= stiff
+    Hy[7, 6] -= stiff
+    Hy[7, 7] += stiff
 
 
 @njit(cache=True)
 def twist_into(
     te, tf, le: float, lf: float, chi: float, kb, theta_e: float, theta_f: float,
     ref_twist: float, twist_bar: float, stiff: float,
-    gy: np.ndarray, Hy: np.ndarray, dtau: np.ndarray, order: int,
+    gy: np.ndarray, Hy: np.ndarray, order: int,
 ) -> float:
     """Twisting energy (J) of an edge pair with geometry from
     :func:`physics.elastic.bend.edge_pair_geom`; ``stiff = GJ / l_vor`` (N m).
 
     ``order`` >= 1 adds the gradient in ``y = [e, f, theta_e, theta_f]`` into ``gy`` (8,),
-    ``order`` >= 2 the Hessian, not yet symmetrised, into ``Hy`` (8, 8). ``dtau`` (8,) is
-    scratch. Allocation-free.
+    ``order`` >= 2 the Hessian, not yet symmetrised, into ``Hy`` (8, 8). Allocation-free.
     """
     d = theta_f - theta_e + ref_twist - twist_bar
     E = 0.5 * stiff * d * d
     if order < 1:
         return E
-    for k in range(3):
-        dtau[k] = 0.5 * kb[k] / le
-        dtau[3 + k] = 0.5 * kb[k] / lf
-    dtau[6] = -1.0
-    dtau[7] = 1.0
     sd = stiff * d
-    for a in range(8):
-        gy[a] += sd * dtau[a]
-    if order < 2:
-        return E
-    for a in range(8):
-        da = stiff * dtau[a]
-        for b in range(8):
-            Hy[a, b] += da * dtau[b]
-    _reference_twist_hessian(te, tf, le, lf, chi, kb, Hy, sd)
+    for k in range(3):
+        gy[k] += sd * (0.5 * kb[k] / le)
+        gy[3 + k] += sd * (0.5 * kb[k] / lf)
+    gy[6] -= sd
+    gy[7] += sd
+    if order >= 2:
+        _twist_hessian(te, tf, le, lf, chi, kb, Hy, stiff, sd)
     return E
 
 
@@ -111,16 +139,16 @@ def twist_element(
     twist_bar)^2`` (eqn (5c) of Huang & Jawed 2020, with a rest twist). Angles in rad,
     ``GJ`` in N m^2, ``l_vor`` in m.
     """
+    stiff = GJ / l_vor
+    if order < 1:  # the energy needs no geometry
+        d = theta_f - theta_e + ref_twist - twist_bar
+        return 0.5 * stiff * d * d
     te, tf, le, lf, chi, kb = edge_pair_geom(vec(x0), vec(x1), vec(x2))
     gy = np.zeros(8)
-    dtau = np.empty(8)
     Hy = np.zeros((8, 8))
     E = twist_into(
-        te, tf, le, lf, chi, kb, theta_e, theta_f, ref_twist, twist_bar, GJ / l_vor,
-        gy, Hy, dtau, order,
+        te, tf, le, lf, chi, kb, theta_e, theta_f, ref_twist, twist_bar, stiff, gy, Hy, order
     )
-    if order < 1:
-        return E
     if order >= 2:
         symmetrize(Hy)
     edge_pair_to_nodes(gy, Hy, g, H, order)

@@ -12,6 +12,7 @@ from physics.frames import (
     space_parallel_frames,
     tangents,
     time_parallel_transport,
+    update_frames,
 )
 
 
@@ -150,3 +151,33 @@ def test_material_frames_are_orthonormal_and_rotated_by_theta() -> None:
     _assert_adapted_orthonormal(m1, m2, t)
     np.testing.assert_allclose(np.einsum("ij,ij->i", m1, d1), np.cos(theta), atol=1e-13)
     np.testing.assert_allclose(np.einsum("ij,ij->i", m1, d2), np.sin(theta), atol=1e-13)
+
+
+@pytest.mark.parametrize("case", ["generic", "edge_reversed", "hairpin"])
+def test_update_frames_matches_the_frame_functions_in_sequence(case: str) -> None:
+    """The fused per-step kernel behind ``rod_frames`` gives what ``tangents`` ->
+    ``time_parallel_transport`` -> ``reference_twist`` -> ``material_frames`` give,
+    including the anti-parallel fallbacks (an edge reversed between steps; a hairpin)."""
+    rng = np.random.default_rng(9)
+    q_old = _random_q(rng, 9)
+    t_old = tangents(q_old)
+    d1_old, _ = space_parallel_frames(t_old)
+    ref_old = rng.uniform(-1.0, 1.0, 7)
+    q = q_old + 0.05 * rng.normal(size=q_old.shape)
+    if case == "edge_reversed":  # edge 3 flips direction: t_old[3] -> -t_old[3]
+        e = q_old[16:19] - q_old[12:15]
+        q[16:19] = q[12:15] - e
+        q[20:23] = q[16:19] + (q_old[20:23] - q_old[16:19])
+    elif case == "hairpin":  # edge 5 (nodes 5 -> 6) folds back onto edge 4 (nodes 4 -> 5)
+        q[24:27] = q[20:23] - 0.7 * (q[20:23] - q[16:19])
+    t = tangents(q)
+    d1, d2 = time_parallel_transport(d1_old, t_old, t)
+    ref = reference_twist(d1, t, ref_old)
+    m1, m2 = material_frames(d1, d2, np.ascontiguousarray(q[3::4]))
+    got = update_frames(q, d1_old, t_old, ref_old)
+    for a, b in zip(got, (t, d1, d2, ref, m1, m2)):
+        np.testing.assert_allclose(a, b, rtol=0.0, atol=1e-14)
+    if case == "edge_reversed":
+        assert 1.0 + t_old[3] @ t[3] <= 1e-12
+    if case == "hairpin":
+        assert 1.0 + t[4] @ t[5] <= 1e-12

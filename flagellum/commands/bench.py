@@ -1,0 +1,45 @@
+"""``flagellum bench``: measure the speed/accuracy ladder against the paper preset."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+NAME = "bench"
+HELP = "measure speed and accuracy of the fidelity configurations against the paper preset"
+DESCRIPTION = ("Runs every configuration of the fidelity ladder on the same tasks (swim speed at 10 rpm, "
+               "L'/L after 100 s at 90 rpm; with --full also turning angles and the buckling threshold), "
+               "in parallel and resumably, and reports real-time factors and relative errors against 'paper'.")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--quick", action="store_true", help="only the swim-speed metric (minutes, not hours)")
+    parser.add_argument("--full", action="store_true", help="all metrics (turning angles, omega_b): hours")
+    parser.add_argument("--json", default="out/bench/fidelity.json", help="where to write the JSON report")
+    parser.add_argument("--results", default=None,
+                        help="task results file (JSONL, resumable); default: next to --json")
+    parser.add_argument("--workers", type=int, default=None, help="parallel processes (default: all cores)")
+    parser.add_argument("--no-progress", action="store_true")
+
+
+def run(args: argparse.Namespace) -> int:
+    from flagellum.fidelity import FULL_METRICS, LADDER, QUICK_METRICS, rows_from, run_fidelity
+    from flagellum.fidelity_report import write_report
+
+    metrics = ("swim_per_turn_10rpm",) if args.quick else (FULL_METRICS if args.full else QUICK_METRICS)
+    out = Path(args.json)
+    results = Path(args.results) if args.results else out.with_suffix(".results.jsonl")
+    t0 = time.perf_counter()
+    done = run_fidelity(results, LADDER, metrics, workers=args.workers, progress=not args.no_progress)
+    rows = rows_from(done)
+    write_report(rows, out, out.with_suffix(".md"), out.with_suffix(".png"),
+                 "flagellum bench " + ("--quick" if args.quick else "--full" if args.full else ""),
+                 time.perf_counter() - t0)
+    for r in rows:
+        err = r["errors"].get("swim_per_turn_10rpm")
+        rtf = r["real_time_factor"]
+        print(f"{r['config']:45s} RTF {rtf if rtf is None else round(rtf, 2)!s:>8}  "
+              f"swim-speed error {'—' if err is None else f'{100 * err:.2f} %'}")
+    print(f"wrote {out}, {out.with_suffix('.md')}, {out.with_suffix('.png')}")
+    return 0
