@@ -12,11 +12,13 @@ install: $(STAMP)
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --upgrade pip
-	$(BIN)/python -m pip install -e ".[test]"
+	# the pinned CPU build of PyTorch first (a plain `torch` would pull a multi-GB CUDA build)
+	$(BIN)/python -m pip install torch==2.13.0
+	$(BIN)/python -m pip install -e ".[test,rl]"
 	touch $(STAMP)
 
 test: install
-	$(BIN)/python -m pytest -q
+	OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -q -n 2 --durations=10
 
 # A short swim at 10 rpm, then 90 rpm until the flagellum buckles (examples/demo_schedule.csv).
 demo: install

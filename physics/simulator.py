@@ -172,6 +172,7 @@ class Simulator:
         self.step_count = int(self.step_count)
         self._solver.reset()  # factorisations are rebuilt at the next step
         self._v_prev = None
+        self._h_prev = -1.0
 
     @property
     def nodes(self) -> np.ndarray:

@@ -1,0 +1,273 @@
+"""Waypoint paths for the steering task: the path model, JSON files, the paper's square, random paths.
+
+Every path lives in the *start frame* of an episode: origin at the head centre when the
+episode starts, +x the initial swimming direction (the head's body axis X_b), +z the head's
+Z_b at that instant and y = z x x. Units are metres. The swimmer starts at the origin, so the
+first segment runs from the origin to the first waypoint.
+
+Path file (JSON)::
+
+    {"name": "zigzag", "waypoints": [[0.04, 0.0, 0.0], [0.08, 0.03, 0.0]], "reach_radius_m": 0.015}
+
+``name`` and ``reach_radius_m`` are optional; ``waypoints`` holds at least one ``[x, y, z]``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: Side of the paper's square path, m.
+PAPER_SQUARE_SIDE_M = 0.25
+#: Segments shorter than this count as zero-length, m.
+MIN_SEGMENT_M = 1e-6
+
+_FILE_KEYS = ("name", "waypoints", "reach_radius_m")
+
+
+@dataclass(frozen=True)
+class WaypointPath:
+    """A polyline of waypoints to visit in order, starting from the origin of the start frame.
+
+    waypoints: (k, 3) float64, metres, start frame (read-only). reach_radius_m: the radius
+    the path asks for (None: the environment's default).
+    """
+
+    name: str
+    waypoints: np.ndarray
+    reach_radius_m: float | None = None
+
+    def __post_init__(self) -> None:
+        pts = _validated_waypoints(self.waypoints, source=f"path {self.name!r}")
+        pts.setflags(write=False)
+        object.__setattr__(self, "waypoints", pts)
+        if self.reach_radius_m is not None:
+            r = _finite_float(self.reach_radius_m, f"path {self.name!r}: reach_radius_m")
+            if r <= 0.0:
+                raise ValueError(f"path {self.name!r}: reach_radius_m={r!r} must be > 0 (metres)")
+            object.__setattr__(self, "reach_radius_m", r)
+
+    @property
+    def n_waypoints(self) -> int:
+        return int(self.waypoints.shape[0])
+
+    @property
+    def vertices(self) -> np.ndarray:
+        """The origin followed by the waypoints, (k + 1, 3), m."""
+        return np.vstack([np.zeros((1, 3)), self.waypoints])
+
+    @property
+    def segment_lengths(self) -> np.ndarray:
+        """Length of each segment (origin -> w0, w0 -> w1, ...), (k,), m."""
+        return np.linalg.norm(np.diff(self.vertices, axis=0), axis=1)
+
+    @property
+    def length_m(self) -> float:
+        """Total length of the polyline from the origin, m."""
+        return float(self.segment_lengths.sum())
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON form (see the module docstring)."""
+        d: dict[str, Any] = {"name": self.name, "waypoints": self.waypoints.tolist()}
+        if self.reach_radius_m is not None:
+            d["reach_radius_m"] = self.reach_radius_m
+        return d
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, WaypointPath):
+            return NotImplemented
+        return (self.name == other.name and self.reach_radius_m == other.reach_radius_m
+                and np.array_equal(self.waypoints, other.waypoints))
+
+    def __hash__(self) -> int:
+        return hash((self.name, self.reach_radius_m, self.waypoints.tobytes()))
+
+
+@dataclass(frozen=True)
+class RandomPathConfig:
+    """Settings of the seeded random-path generator.
+
+    Each segment has a length drawn uniformly from ``segment_length_m`` (m) and turns from the
+    previous heading (+x for the first segment) by an angle drawn uniformly from
+    [-max_turn_deg, max_turn_deg]: about +z when ``planar`` (the path stays in the x-y plane),
+    otherwise about a uniformly drawn axis perpendicular to the heading.
+    """
+
+    n_waypoints: int = 3
+    segment_length_m: tuple[float, float] = (0.03, 0.08)
+    max_turn_deg: float = 90.0
+    planar: bool = True
+
+    def __post_init__(self) -> None:
+        n = self.n_waypoints
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= 1000:
+            raise ValueError(f"random_path.n_waypoints={n!r} must be an integer from 1 to 1000")
+        object.__setattr__(self, "n_waypoints", int(n))
+        lo, hi = _pair(self.segment_length_m, "random_path.segment_length_m")
+        if not 0.0 < lo <= hi:
+            raise ValueError(f"random_path.segment_length_m={self.segment_length_m!r} must be (lo, hi) metres "
+                             f"with 0 < lo <= hi")
+        object.__setattr__(self, "segment_length_m", (lo, hi))
+        turn = _finite_float(self.max_turn_deg, "random_path.max_turn_deg")
+        if not 0.0 <= turn <= 180.0:
+            raise ValueError(f"random_path.max_turn_deg={turn!r} must be between 0 and 180 degrees")
+        object.__setattr__(self, "max_turn_deg", turn)
+        if not isinstance(self.planar, (bool, np.bool_)):
+            raise ValueError(f"random_path.planar={self.planar!r} must be True or False")
+        object.__setattr__(self, "planar", bool(self.planar))
+
+
+def square_path(side_m: float = PAPER_SQUARE_SIDE_M) -> WaypointPath:
+    """The paper's square: ahead along +x, then three left turns back to the start (x-y plane)."""
+    s = _finite_float(side_m, "side_m")
+    if s <= 0.0:
+        raise ValueError(f"side_m={side_m!r} must be > 0 (metres)")
+    pts = np.array([[s, 0.0, 0.0], [s, s, 0.0], [0.0, s, 0.0], [0.0, 0.0, 0.0]])
+    return WaypointPath(name="square", waypoints=pts)
+
+
+def random_path(rng: np.random.Generator, config: RandomPathConfig | None = None) -> WaypointPath:
+    """A random polyline drawn from ``rng`` only (same generator state -> same path)."""
+    cfg = config or RandomPathConfig()
+    lo, hi = cfg.segment_length_m
+    max_turn = math.radians(cfg.max_turn_deg)
+    heading = np.array([1.0, 0.0, 0.0])
+    point = np.zeros(3)
+    pts = []
+    for _ in range(cfg.n_waypoints):
+        length = float(rng.uniform(lo, hi))
+        angle = float(rng.uniform(-max_turn, max_turn))
+        if cfg.planar:
+            axis = np.array([0.0, 0.0, 1.0])
+        else:
+            axis = _random_perpendicular(rng, heading)
+        heading = _rotate(heading, axis, angle)
+        heading /= np.linalg.norm(heading)
+        point = point + length * heading
+        pts.append(point)
+    return WaypointPath(name="random", waypoints=np.array(pts))
+
+
+def path_from_waypoints(waypoints: Sequence[Sequence[float]] | np.ndarray, name: str = "custom",
+                        reach_radius_m: float | None = None) -> WaypointPath:
+    """A path from a list of ``[x, y, z]`` waypoints (m, start frame), validated."""
+    return WaypointPath(name=name, waypoints=waypoints, reach_radius_m=reach_radius_m)
+
+
+def path_from_dict(data: Any, source: str = "path", default_name: str = "path") -> WaypointPath:
+    """A path from the JSON form ``{"name", "waypoints", "reach_radius_m"}``; errors name ``source``."""
+    if not isinstance(data, dict):
+        raise ValueError(f"{source}: expected a JSON object with keys {list(_FILE_KEYS)}, got {type(data).__name__}")
+    unknown = sorted(set(data) - set(_FILE_KEYS))
+    if unknown:
+        raise ValueError(f"{source}: unknown key(s) {unknown}; allowed keys: {list(_FILE_KEYS)}")
+    if "waypoints" not in data:
+        raise ValueError(f"{source}: missing 'waypoints' (a list of [x, y, z] in metres)")
+    name = data.get("name", default_name)
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"{source}: 'name' must be a non-empty string, got {name!r}")
+    pts = _validated_waypoints(data["waypoints"], source=source)
+    radius = data.get("reach_radius_m")
+    if radius is not None:
+        radius = _finite_float(radius, f"{source}: reach_radius_m")
+        if radius <= 0.0:
+            raise ValueError(f"{source}: reach_radius_m={radius!r} must be > 0 (metres)")
+    return WaypointPath(name=name, waypoints=pts, reach_radius_m=radius)
+
+
+def load_path(file: str | os.PathLike) -> WaypointPath:
+    """Read and validate a path file (JSON, see the module docstring)."""
+    file = Path(file)
+    try:
+        text = file.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise FileNotFoundError(f"path file {str(file)!r} does not exist") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{file}: not valid JSON ({exc.msg} at line {exc.lineno}, column {exc.colno})") from None
+    return path_from_dict(data, source=str(file), default_name=file.stem)
+
+
+def save_path(path: WaypointPath, file: str | os.PathLike) -> None:
+    """Write ``path`` as a path file (JSON)."""
+    Path(file).write_text(json.dumps(path.to_dict(), indent=2) + "\n", encoding="utf-8")
+
+
+# --- helpers ------------------------------------------------------------------------------
+def _validated_waypoints(raw: Any, source: str) -> np.ndarray:
+    """(k, 3) float64 copy of ``raw``; ValueError naming the bad waypoint."""
+    if isinstance(raw, np.ndarray):
+        items = list(raw) if raw.ndim >= 1 else [raw]
+    elif isinstance(raw, (list, tuple)):
+        items = list(raw)
+    else:
+        raise ValueError(f"{source}: waypoints must be a list of [x, y, z] (metres), got {type(raw).__name__}")
+    if not items:
+        raise ValueError(f"{source}: waypoints is empty; give at least one [x, y, z] (metres)")
+    pts = np.empty((len(items), 3))
+    for i, w in enumerate(items):
+        if isinstance(w, (str, bytes)) or not hasattr(w, "__len__") or len(w) != 3:
+            raise ValueError(f"{source}: waypoint {i} = {_short(w)} must be [x, y, z] (three numbers, metres)")
+        for k, c in enumerate(w):
+            if isinstance(c, (bool, np.bool_)) or not isinstance(c, (int, float, np.integer, np.floating)):
+                raise ValueError(f"{source}: waypoint {i} = {_short(w)} has a non-numeric coordinate {c!r}")
+            if not math.isfinite(float(c)):
+                raise ValueError(f"{source}: waypoint {i} = {_short(w)} has a non-finite coordinate {c!r}")
+            pts[i, k] = float(c)
+    vertices = np.vstack([np.zeros((1, 3)), pts])
+    lengths = np.linalg.norm(np.diff(vertices, axis=0), axis=1)
+    short = np.flatnonzero(lengths < MIN_SEGMENT_M)
+    if short.size:
+        i = int(short[0])
+        start = "the start (origin)" if i == 0 else f"waypoint {i - 1}"
+        raise ValueError(f"{source}: zero-length segment from {start} to waypoint {i} "
+                         f"({pts[i].tolist()}); consecutive points must differ by at least {MIN_SEGMENT_M} m")
+    return pts
+
+
+def _finite_float(value: Any, name: str) -> float:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name}={value!r} must be a finite number")
+    v = float(value)
+    if not math.isfinite(v):
+        raise ValueError(f"{name}={value!r} must be a finite number")
+    return v
+
+
+def _pair(value: Any, name: str) -> tuple[float, float]:
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2:
+        raise ValueError(f"{name}={value!r} must be a pair (lo, hi)")
+    return _finite_float(value[0], name), _finite_float(value[1], name)
+
+
+def _short(w: Any) -> str:
+    s = repr(w.tolist() if isinstance(w, np.ndarray) else w)
+    return s if len(s) <= 60 else s[:57] + "..."
+
+
+def _rotate(u: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
+    """Rodrigues rotation of u about the unit vector axis by angle (rad)."""
+    c, s = math.cos(angle), math.sin(angle)
+    return u * c + np.cross(axis, u) * s + axis * float(axis @ u) * (1.0 - c)
+
+
+def _random_perpendicular(rng: np.random.Generator, heading: np.ndarray) -> np.ndarray:
+    """A unit vector perpendicular to ``heading``, uniform in angle."""
+    helper = np.array([0.0, 0.0, 1.0]) if abs(heading[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(heading, helper)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(heading, e1)
+    phi = float(rng.uniform(0.0, 2.0 * math.pi))
+    return math.cos(phi) * e1 + math.sin(phi) * e2
+
+
+__all__ = ["PAPER_SQUARE_SIDE_M", "RandomPathConfig", "WaypointPath", "load_path", "path_from_dict",
+           "path_from_waypoints", "random_path", "save_path", "square_path"]

@@ -1,0 +1,103 @@
+"""Waypoint bookkeeping: which waypoint is next, progress along the path, cross-track error.
+
+Segment i runs from vertex i to vertex i + 1 of ``WaypointPath.vertices`` (vertex 0 is the
+origin, vertex i + 1 is waypoint i). While waypoint i is the target, the head is on segment i.
+All positions are in the start frame, metres.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from flagellum_env.paths import WaypointPath
+
+
+class PathTracker:
+    """Follows the head along a ``WaypointPath``; a waypoint counts once the head is within
+    ``reach_radius_m`` of it, and only the current target can be reached (in order)."""
+
+    def __init__(self, path: WaypointPath, reach_radius_m: float) -> None:
+        if not reach_radius_m > 0.0:
+            raise ValueError(f"reach_radius_m={reach_radius_m!r} must be > 0 (metres)")
+        self.path = path
+        self.reach_radius_m = float(reach_radius_m)
+        self._vertices = path.vertices
+        self._lengths = path.segment_lengths
+        self._cumulative = np.concatenate([[0.0], np.cumsum(self._lengths)])
+        self.index = 0  # current target waypoint; == n_waypoints when the path is complete
+
+    @property
+    def done(self) -> bool:
+        """True once the last waypoint has been reached."""
+        return self.index >= self.path.n_waypoints
+
+    @property
+    def n_reached(self) -> int:
+        return self.index
+
+    def update(self, position: np.ndarray) -> int:
+        """Advance past every waypoint now within the reach radius; returns how many, (3,) m input."""
+        reached = 0
+        while not self.done and np.linalg.norm(position - self.path.waypoints[self.index]) <= self.reach_radius_m:
+            self.index += 1
+            reached += 1
+        return reached
+
+    def _segment(self) -> int:
+        return min(self.index, self.path.n_waypoints - 1)
+
+    def _projection(self, position: np.ndarray) -> tuple[float, np.ndarray]:
+        """(clipped arc length along the current segment, m; closest point on it, (3,) m)."""
+        i = self._segment()
+        a, b = self._vertices[i], self._vertices[i + 1]
+        u = (b - a) / self._lengths[i]
+        s = float(np.clip((position - a) @ u, 0.0, self._lengths[i]))
+        return s, a + s * u
+
+    def progress(self, position: np.ndarray) -> float:
+        """Arc length of the path covered, m: the finished segments plus the head's clipped
+        projection onto the current one (the full length once the path is complete)."""
+        if self.done:
+            return float(self._cumulative[-1])
+        s, _ = self._projection(position)
+        return float(self._cumulative[self.index] + s)
+
+    def cross_track_error(self, position: np.ndarray) -> float:
+        """Distance from the head to the current segment, m (to the last one once complete)."""
+        _, closest = self._projection(position)
+        return float(np.linalg.norm(position - closest))
+
+    def distance_to_target(self, position: np.ndarray) -> float:
+        """Distance from the head to the current target waypoint (the last one once complete), m."""
+        return float(np.linalg.norm(position - self.path.waypoints[self._segment()]))
+
+    def targets(self, count: int) -> np.ndarray:
+        """The next ``count`` waypoints from the current target on, the last repeated, (count, 3) m."""
+        idx = np.minimum(np.arange(self.index, self.index + count), self.path.n_waypoints - 1)
+        return self.path.waypoints[idx]
+
+
+class BucklingMonitor:
+    """Counts buckling events from the end-to-end ratio L'/L with hysteresis.
+
+    An event starts when L'/L drops below ``threshold``; the next one can start only after
+    L'/L has risen above ``release`` (the flagellum relaxed).
+    """
+
+    def __init__(self, threshold: float = 0.9, release: float = 0.95) -> None:
+        if not 0.0 < threshold < release:
+            raise ValueError(f"buckling threshold={threshold!r} and release={release!r} need 0 < threshold < release")
+        self.threshold = float(threshold)
+        self.release = float(release)
+        self.buckled = False
+        self.events = 0
+
+    def update(self, end_to_end_ratio: float) -> bool:
+        """Feed one L'/L value; True if a new buckling event started."""
+        if not self.buckled and end_to_end_ratio < self.threshold:
+            self.buckled = True
+            self.events += 1
+            return True
+        if self.buckled and end_to_end_ratio > self.release:
+            self.buckled = False
+        return False
