@@ -132,4 +132,4 @@ def test_demo_schedule_example_loads():
     from pathlib import Path
 
     demo = Path(__file__).resolve().parents[1] / "examples" / "demo_schedule.csv"
-    assert MotorSchedule.load(demo).steps == ((0.0, 10.0), (10.0, 60.0))
+    assert MotorSchedule.load(demo).steps == ((0.0, 10.0), (10.0, 90.0))
