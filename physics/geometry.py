@@ -6,8 +6,10 @@ length b points along -X_b, e1 = -R x_b + R y_b, and the remaining nodes lie on 
 left-handed helix (like a bacterial flagellum in its normal form) of radius R and pitch
 lambda whose axis is the -x half-line through x1, with chords of length 2 delta.
 
-With b = 0 (no head) node x0 and edge e0 are dropped: the rod starts at x1 = origin and
-its first edge is the arm e1 (see ``Layout``).
+With b = 0 (no head) the first edge e0 is a short motor shaft of length 2 delta along the
+axis, an ordinary part of the flagellum (LSBT drag, no head terms): the base node x0 translates
+freely and the shaft turns at omega about the helix axis (the "flagellum base turns at omega in
+the lab frame" convention). N nodes either way.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from physics.params import SwimmerParams
 class Layout:
     """Where things live in the DOF vector q (length 4 n - 1 for n rod nodes)."""
 
-    n: int  # rod nodes (N with a head, N - 1 without)
+    n: int  # rod nodes (N, with or without a head)
     has_head: bool
 
     @property
@@ -66,21 +68,19 @@ def initial_nodes(params: SwimmerParams) -> np.ndarray:
     ``n_nodes`` only changes the discretisation: the same helix is split into n_nodes - 3 equal
     chords (longer or shorter than 2 delta).
     """
-    b, R = params.head_radius, params.helix_radius
+    R = params.helix_radius
+    b = params.head_radius if params.has_head else 2.0 * params.cutoff_length  # head edge or motor shaft
     c = params.pitch / (2.0 * math.pi)
     n_helix = params.n_nodes - 2  # nodes x2 ... x_{N-1}
     dphi = helix_phase_step(params) * (PAPER_N_NODES - 3) / (params.n_nodes - 3)
     phi = dphi * np.arange(n_helix)
     helix = np.stack([-b - R - c * phi, R * np.cos(phi), R * np.sin(phi)], axis=1)
     x1 = np.array([[-b, 0.0, 0.0]])
-    if params.has_head:
-        return np.vstack([np.zeros((1, 3)), x1, helix])
-    return np.vstack([x1 - x1, helix - x1])  # base node at the origin
+    return np.vstack([np.zeros((1, 3)), x1, helix])
 
 
 def layout_for(params: SwimmerParams) -> Layout:
-    n = params.n_nodes if params.has_head else params.n_nodes - 1
-    return Layout(n=n, has_head=params.has_head)
+    return Layout(n=params.n_nodes, has_head=params.has_head)
 
 
 def pack_q(nodes: np.ndarray, theta: np.ndarray) -> np.ndarray:

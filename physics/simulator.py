@@ -19,8 +19,8 @@ Motor (Sec. 2.5): the twist angle theta^0 of the first edge is the motor shaft.
   theta^0 is the torque the motor passes from flagellum to head, so the head spins until
   the axial torques balance, as in eqn (13).
 * ``head_rotation="fixed"``: the head does not spin; theta^0 = omega t (Dirichlet).
-* no head (b = 0): the rod starts at x1, whose arm edge e1 carries the Dirichlet twist
-  theta = omega t in the (time-parallel) reference frame; the base node translates freely.
+* no head (b = 0): the first edge is a 2-delta motor shaft along the axis (``geometry``) with
+  the Dirichlet twist theta = omega t; the base node translates freely.
 """
 
 from __future__ import annotations
@@ -327,10 +327,7 @@ class Simulator:
     def _update_body_frame(self, old_axis: np.ndarray, dpsi: float) -> None:
         """Transport the body frame to the new axis, then spin it by the head's rotation dpsi."""
         x = self.nodes
-        if self.params.has_head:
-            new_axis = x[0] - x[1]
-        else:
-            new_axis = x[0] - x.mean(axis=0)
+        new_axis = x[0] - x[1]  # -t^0: head (or motor shaft) axis
         new_axis /= np.linalg.norm(new_axis)
         y = _transport(self.body_frame[:, 1], old_axis, new_axis)
         if self.head_spins:  # spin by dpsi about t0 = -X_b

@@ -76,7 +76,7 @@ def test_swim_speed_converges_with_time_step():
 
 def test_no_head_swims_with_base_turning_at_omega():
     sim = _swim(10.0, 3.0, head_radius=0.0)
-    assert sim.layout.n == 121
+    assert sim.layout.n == 122
     assert sim.head_position[0] > 0
     assert sim.motor_angle == pytest.approx(3.0 * W10)
     assert sim.q[3] == pytest.approx(3.0 * W10)
