@@ -80,7 +80,9 @@ def test_preset_then_fixed_then_point_values_are_applied_in_that_order():
     config = SweepConfig(sweep={"dt": [0.01]}, duration_s=0.1, preset="fast", fixed={"omega_rpm": 10, "n_nodes": 26})
     (point,) = config.points()
     assert point.params.n_nodes == 26 and point.numerics.dt == 0.01
-    assert point.numerics.hydro_refresh_tol == 0.3  # from the preset
+    from physics.presets import PRESETS
+
+    assert point.numerics.hydro_refresh_tol == PRESETS["fast"]["numerics"]["hydro_refresh_tol"]  # from the preset
     assert point.omega_rpm == 10.0
 
 
