@@ -172,7 +172,8 @@ def run_fidelity(path: Path, configs=LADDER, metrics=FULL_METRICS, workers: int 
 
     path.parent.mkdir(parents=True, exist_ok=True)
     done = load_done(path)
-    todo = [(c, m) for c in configs for m in metrics if (c.name, m) not in done]
+    # cheap metrics of every configuration first, so a partial run still compares all of them
+    todo = [(c, m) for m in metrics for c in configs if (c.name, m) not in done]
     workers = workers or os.cpu_count() or 1
     with ProcessPoolExecutor(max_workers=workers, initializer=_worker_init) as pool, open(path, "a") as fh:
         futs = [pool.submit(_task, c, m) for c, m in todo]
