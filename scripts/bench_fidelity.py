@@ -2,7 +2,7 @@
 
     python scripts/bench_fidelity.py [--metrics quick|full] [--workers N]
 
-Resumable: finished tasks are kept in out/bench/fidelity_full.results.jsonl; re-running skips them.
+Resumable: finished tasks are kept in data/bench/fidelity_full.results.jsonl (committed); re-running skips them.
 Outputs docs/fidelity.json, docs/fidelity.md and docs/figures/fidelity_pareto.png.
 """
 
@@ -20,7 +20,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--metrics", choices=("quick", "full"), default="full")
     ap.add_argument("--workers", type=int, default=None)
-    ap.add_argument("--results", default="out/bench/fidelity_full.results.jsonl")
+    ap.add_argument("--results", default="data/bench/fidelity_full.results.jsonl")
     args = ap.parse_args(argv)
     metrics = FULL_METRICS if args.metrics == "full" else QUICK_METRICS
     t0 = time.perf_counter()

@@ -278,7 +278,7 @@ def markdown(rows: list[dict], meta: dict) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sweep", default="out/fig4")
+    ap.add_argument("--sweep", default="data/fig4")
     ap.add_argument("--docs", default="docs")
     args = ap.parse_args(argv)
     data = load(Path(args.sweep))

@@ -1,7 +1,7 @@
 """Reproduce Fig. 4 of Huang & Jawed 2020: a sweep of motor speed for four head sizes, each run
 100 s (t_bar = 1.02) from rest, then the figures and the buckling-threshold brackets.
 
-    python scripts/reproduce_fig4.py [--out out/fig4] [--workers N] [--resume] [--figures-only]
+    python scripts/reproduce_fig4.py [--out data/fig4] [--workers N] [--resume]
 
 A thin wrapper over the sweep runner (``flagellum.sweep``). Discretisation: the paper's N = 122
 with edges 2 delta; time step 5 ms (the swim speed differs from 1 ms by < 0.05 %, see the
@@ -49,7 +49,7 @@ def run(out: Path, workers: int | None, resume: bool) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="out/fig4")
+    ap.add_argument("--out", default="data/fig4")
     ap.add_argument("--workers", type=int, default=None)
     ap.add_argument("--resume", action="store_true")
     args = ap.parse_args(argv)
