@@ -17,7 +17,7 @@ import math
 import os
 from pathlib import Path
 
-OMEGAS_RPM = [10.0, 30.0, 50.0, 70.0, 90.0]
+OMEGAS_RPM = [10.0, 30.0, 50.0, 60.0, 70.0, 90.0]
 HEADS_M = [0.0, 0.004, 0.008, 0.012]
 FIXED = {"n_nodes": 122, "dt": 0.005, "hydro_refresh_tol": 0.03}
 BUCKLED_RATIO = 0.98  # L'/L below this at t_bar = 1.02 counts as buckled
