@@ -121,10 +121,11 @@ class DenseChordSolver:
         elif self.since_hydro >= nm.hydro_refresh_max_steps:
             self._refresh_hydro(q_pred)
         else:
-            _, dev = best_fit_rotation(self.x_hyd, x_pred)
+            Qh, dev = best_fit_rotation(self.x_hyd, x_pred)
             if dev > nm.hydro_refresh_tol * p.rod_radius:
                 self._refresh_hydro(q_pred)
-        self.Qh = _EYE if self.since_hydro == 0 else best_fit_rotation(self.x_hyd, x_pred)[0]
+        # a resistance rebuilt this step sits at x_pred already; otherwise reuse the fit above
+        self.Qh = _EYE if self.since_hydro == 0 else Qh
         self.Qj = _EYE if self.jac_fresh else best_fit_rotation(self.x_jac, x_pred)[0]
 
     def hydro_force(self, q: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
