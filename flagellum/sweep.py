@@ -13,14 +13,14 @@ The sweep file format is in ``flagellum.sweep_config``, the output files in
 
 from __future__ import annotations
 
-import asyncio
 import json
 import os
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from flagellum.sweep_backends import BackendError, default_workers, make_backend
+from flagellum.sweep_backends import BackendError, default_workers
+from flagellum.task_pool import TasksInterrupted, run_tasks
 from flagellum.sweep_config import (CONFIG_KEYS, MODES, SweepConfig, SweepConfigError, SweepPoint,
                                     load_sweep_config, parameter_names, point_id)
 from flagellum.sweep_store import RESULTS_FILE, ResultsStore, SweepError, read_results
@@ -118,35 +118,13 @@ def _write_config(out_dir: Path, config: SweepConfig, points: Sequence[SweepPoin
 def _run_points(todo: Sequence[SweepPoint], points: Sequence[SweepPoint], config: SweepConfig,
                 store: ResultsStore, workers: int, scheduler: Any | None, progress: bool) -> None:
     """Submit ``todo``, save each outcome as it arrives; Ctrl-C aborts, dead workers are reported."""
-    from tqdm import tqdm
-
-    backend = make_backend(workers, scheduler)
-    bar = tqdm(total=len(points), initial=len(points) - len(todo), unit="point", desc="sweep",
-               disable=not progress, dynamic_ncols=True, smoothing=0.0)
-    futures: dict[Any, SweepPoint] = {}
-    failed: list[tuple[SweepPoint, str]] = []
+    by_id = {p.point_id: p for p in todo}
     try:
-        for point in todo:
-            futures[backend.submit(_task(point, config))] = point
-        for fut in backend.as_completed(futures):
-            point = futures[fut]
-            try:
-                outcome = fut.result()
-            except (Exception, asyncio.CancelledError) as exc:  # worker died or task lost: the point did not run
-                failed.append((point, f"{type(exc).__name__}: {exc}"))
-                continue
-            if outcome.interrupted:  # partial run: not a result
-                failed.append((point, "interrupted"))
-                continue
-            store.append(outcome.record, outcome.trajectory)
-            bar.set_postfix_str(point.label(), refresh=False)
-            bar.update(1)
-    except KeyboardInterrupt:
-        backend.abort(futures)
+        failed_tasks = run_tasks([_task(p, config) for p in todo], store, workers=workers, scheduler=scheduler,
+                                 progress=progress, total=len(points), desc="sweep")
+    except TasksInterrupted:
         raise SweepInterrupted(_collect(points, store.reload()), len(points)) from None
-    finally:
-        bar.close()
-        backend.close()
+    failed = [(by_id[t.point_id], why) for t, why in failed_tasks]
     if failed:
         point, why = min(failed, key=lambda f: f[0].index)
         raise SweepIncomplete(f"{len(failed)} of {len(points)} points did not finish (point {point.index}, "

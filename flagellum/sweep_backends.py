@@ -17,7 +17,7 @@ from concurrent.futures import ProcessPoolExecutor
 from typing import Any, Protocol
 
 from flagellum.sweep_store import SweepError
-from flagellum.sweep_worker import PointTask, init_worker, run_point
+from flagellum.sweep_worker import execute_task, init_worker
 
 
 class BackendError(SweepError):
@@ -27,7 +27,7 @@ class BackendError(SweepError):
 class Backend(Protocol):
     description: str
 
-    def submit(self, task: PointTask) -> Any: ...
+    def submit(self, task: Any) -> Any: ...
     def as_completed(self, futures: Iterable[Any]) -> Iterator[Any]: ...
     def abort(self, futures: Iterable[Any]) -> None: ...
     def close(self) -> None: ...
@@ -50,8 +50,8 @@ class LocalBackend:
                                          initializer=init_worker)
         self.description = f"{workers} local worker process{'es' if workers != 1 else ''}"
 
-    def submit(self, task: PointTask) -> concurrent.futures.Future:
-        return self._pool.submit(run_point, task)
+    def submit(self, task: Any) -> concurrent.futures.Future:
+        return self._pool.submit(execute_task, task)
 
     def as_completed(self, futures: Iterable[Any]) -> Iterator[Any]:
         return concurrent.futures.as_completed(list(futures))
@@ -103,8 +103,8 @@ class DaskBackend:
         self._token = uuid.uuid4().hex[:8]  # keys unique to this run
         self.description = f"Dask cluster {self.client.scheduler.address}"
 
-    def submit(self, task: PointTask) -> Any:
-        return self.client.submit(run_point, task, key=f"flagellum-sweep-{task.point_id}-{self._token}",
+    def submit(self, task: Any) -> Any:
+        return self.client.submit(execute_task, task, key=f"flagellum-sweep-{task.point_id}-{self._token}",
                                   pure=False)
 
     def as_completed(self, futures: Iterable[Any]) -> Iterator[Any]:

@@ -45,6 +45,12 @@ class PointTask:
     node_record_interval_s: float
     keep_trajectory: bool
 
+    def execute(self) -> PointOutcome:
+        return run_point(self)
+
+    def label(self) -> str:
+        return ", ".join(f"{k}={v}" for k, v in self.values.items())
+
 
 @dataclass
 class PointOutcome:
@@ -53,6 +59,12 @@ class PointOutcome:
     record: dict[str, Any]
     trajectory: Any | None
     interrupted: bool = False
+
+
+def execute_task(task: Any) -> PointOutcome:
+    """What a worker process runs for any task with an ``execute() -> PointOutcome`` method
+    (sweep points, turn calibrations, path-following episodes)."""
+    return task.execute()
 
 
 def run_point(task: PointTask) -> PointOutcome:

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import flagellum.sweep as sweep_module
+import flagellum.task_pool as task_pool
 from flagellum.cli import main
 from flagellum.sweep import (SweepConfig, SweepConfigError, SweepError, SweepIncomplete, SweepInterrupted,
                              load_results, load_sweep_config, run_sweep)
@@ -235,12 +235,12 @@ class FakeBackend:
 
 def test_points_lost_to_a_dead_worker_are_reported_and_rerun_on_resume(tmp_path, monkeypatch):
     config = small_config()
-    monkeypatch.setattr(sweep_module, "make_backend", lambda workers, scheduler: FakeBackend(lost=1))
+    monkeypatch.setattr(task_pool, "make_backend", lambda workers, scheduler: FakeBackend(lost=1))
     with pytest.raises(SweepIncomplete, match=r"1 of 4 points did not finish \(point 1.*--resume") as info:
         run_sweep(config, tmp_path, progress=False)
     assert [r["index"] for r in info.value.results] == [0, 2, 3] and len(lines(tmp_path)) == 3
     again = FakeBackend()
-    monkeypatch.setattr(sweep_module, "make_backend", lambda workers, scheduler: again)
+    monkeypatch.setattr(task_pool, "make_backend", lambda workers, scheduler: again)
     assert [r["index"] for r in run_sweep(config, tmp_path, resume=True, progress=False)] == [0, 1, 2, 3]
     assert again.submitted == [1]
 
@@ -248,14 +248,14 @@ def test_points_lost_to_a_dead_worker_are_reported_and_rerun_on_resume(tmp_path,
 def test_failed_points_count_as_done_unless_retried(tmp_path, monkeypatch):
     config = small_config()
     first = FakeBackend()
-    monkeypatch.setattr(sweep_module, "make_backend", lambda workers, scheduler: first)
+    monkeypatch.setattr(task_pool, "make_backend", lambda workers, scheduler: first)
     run_sweep(config, tmp_path, progress=False)
     failed = {**lines(tmp_path)[2], "status": "error", "error": "SimulationError: diverged"}
     with open(tmp_path / "results.jsonl", "a") as f:
         f.write(json.dumps(failed) + "\n")
     for retry, expected in ((False, []), (True, [failed["index"]])):
         backend = FakeBackend()
-        monkeypatch.setattr(sweep_module, "make_backend", lambda workers, scheduler: backend)
+        monkeypatch.setattr(task_pool, "make_backend", lambda workers, scheduler: backend)
         records = run_sweep(config, tmp_path, resume=True, progress=False, retry_failed=retry)
         assert backend.submitted == expected
         assert records[failed["index"]]["status"] == ("ok" if retry else "error")  # the last line counts
@@ -283,7 +283,7 @@ def test_sweep_writes_one_line_per_point_with_values_id_summary_and_trajectory(b
 def test_resume_runs_nothing_new_and_returns_the_same_records(base_run, monkeypatch):
     config, out, records = base_run
     before = (out / "results.jsonl").read_bytes()
-    monkeypatch.setattr(sweep_module, "make_backend", lambda *a: pytest.fail("resume started workers"))
+    monkeypatch.setattr(task_pool, "make_backend", lambda *a: pytest.fail("resume started workers"))
     assert run_sweep(config, out, resume=True, progress=False) == records
     assert (out / "results.jsonl").read_bytes() == before
 
