@@ -1,85 +1,269 @@
-"""Turn map of Sec. 3 / Fig. 5d of Huang & Jawed 2020: turning angle theta and out-of-plane
-angle phi produced by a burst of t_c seconds at the high motor speed omega_h, starting from
-steady straight swimming at omega_l.
+"""Turn map of Sec. 3 / Fig. 5d of Huang & Jawed 2020: what a burst of t_c seconds at the high
+motor speed omega_h does to a swimmer that was swimming straight at omega_l.
 
-Definitions (Fig. 5a): the world frame is the body frame at the start of the turn; d0 is the
-swimming direction before the burst, t1 the direction after the swimmer has relaxed back to
-straight swimming at omega_l. theta = angle(d0, t1); phi = angle between t1 and the x-y plane
-of that frame (signed, positive towards +Z_b). The paper's world axes are (-X_b, -Y_b, Z_b);
-theta and phi do not depend on that choice of sign of x and y.
+One measurement (``measure_turn``): from steady swimming at omega_l, measure the heading d0
+(head displacement over one wobble period, see ``agents.turn_geometry``), hover at omega_l for
+a chosen fraction of a flagellum rotation (this selects the rotation phase at which the burst
+starts), run omega_h for t_c, then omega_l again until the heading stops changing (two
+consecutive one-period headings within ``straight_tol_deg``): that heading is t1. Recorded:
+theta, phi (paper's definitions, in the head's body frame at the burst), psi (azimuth of t1
+about d0 relative to the phase node, ``agents.turn_geometry``), the relaxation time and the
+head's displacement over the turn.
 
-Directions are measured from the head's displacement over whole motor turns (which cancels
-the wobble of the head at the motor frequency).
+A ``TurnMap`` holds many measurements (t_c x phase) with the physical and numerical
+parameters they were made for, and answers the planner's questions: the largest reachable
+theta, the t_c for a wanted theta (on the rising branch of theta(t_c)) and the psi of that
+t_c. It is saved as a versioned JSON file; using it for other physical parameters or other
+speeds raises ``TurnMapMismatch`` naming what differs.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
-from dataclasses import dataclass
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from physics.params import RPM_TO_RAD_S
-from physics.simulator import Simulator
+from agents.turn_geometry import angle_between, azimuth, turn_angles, unit, wrap_angle
+from physics.params import RPM_TO_RAD_S, NumericsConfig, SwimmerParams
+
+TURN_MAP_FORMAT = "flagellum-turn-map"
+TURN_MAP_VERSION = 1
+#: Observation shape nodes of the default environment; the phase node is the second of them.
+DEFAULT_SHAPE_NODES = 8
+#: Motor speeds of the paper's protocol (Sec. 3), rpm.
+PAPER_OMEGA_L_RPM = 10.0
+PAPER_OMEGA_H_RPM = 60.0
+#: Burst speed used for planning: under eqn (13) (torque-free head) this model's buckling speed
+#: for b = 1.2 cm is 70-90 rpm (docs/validation.md), so the paper's 60 rpm does not buckle; 150
+#: rpm buckles within ~10 s with every preset. ``--omega-h 60`` measures the paper's protocol.
+PLANNER_OMEGA_H_RPM = 150.0
+DEFAULT_T_C_S = (1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 10.0, 12.0, 15.0, 20.0, 25.0, 30.0, 40.0)
+DEFAULT_PHASES_DEG = (0.0, 90.0, 180.0, 270.0)
+
+
+class TurnMapMismatch(ValueError):
+    """A turn map used for physical parameters or motor speeds other than its own."""
+
+
+def phase_node_index(n_nodes: int, n_shape_nodes: int = DEFAULT_SHAPE_NODES) -> int:
+    """The node whose azimuth defines the flagellum's rotation phase: the environment's second
+    observed shape node (``flagellum_env.observations``), a node near the base of the helix."""
+    return int(np.round(np.linspace(1, n_nodes - 1, n_shape_nodes))[1])
 
 
 @dataclass(frozen=True)
 class TurnResult:
-    """One calibration point. Angles in degrees; times in seconds."""
+    """One calibration point. Angles in degrees, times in s, lengths in m."""
 
     t_c: float
-    phase_deg: float  # motor phase (relative to the start of hovering) at which the burst began
+    phase_deg: float     # hover, as a fraction of one flagellum rotation (deg), before the burst
     theta_deg: float
     phi_deg: float
-    relax_s: float  # time at omega_l until the path was straight again
-    straight: bool  # False if it did not straighten within the allowed time
+    psi_deg: float       # azimuth of t1 about d0 relative to the phase node at the burst's start
+    relax_s: float       # time at omega_l after the burst until the heading was steady
+    straight: bool       # False if the heading did not settle within relax_max_s
+    period_s: float      # wobble period (one flagellum rotation in the lab) at omega_l
+    offset_m: tuple[float, float, float]  # head displacement burst start -> end of relaxation,
+    #                                     # along (d0, phase-node direction, d0 x that)
 
 
-def turn_angles(d0: np.ndarray, t1: np.ndarray, frame: np.ndarray) -> tuple[float, float]:
-    """(theta, phi) in degrees for unit directions d0, t1 (lab) in the body frame ``frame`` (3,3)."""
-    t = frame.T @ (t1 / np.linalg.norm(t1))
-    d = frame.T @ (d0 / np.linalg.norm(d0))
-    theta = math.degrees(math.acos(float(np.clip(d @ t, -1.0, 1.0))))
-    phi = math.degrees(math.asin(float(np.clip(t[2], -1.0, 1.0))))
-    return theta, phi
+def rotation_rate(sim: Any, phase_node: int, duration_s: float = 1.0) -> float:
+    """Lab-frame rotation rate of the flagellum (rad/s, signed about the head's X_b); advances ``sim``."""
+    axis = sim.head_orientation[:, 0]
+    a0 = azimuth(sim.nodes[phase_node] - sim.head_position, axis)
+    sim.advance(duration_s)
+    a1 = azimuth(sim.nodes[phase_node] - sim.head_position, axis)
+    return wrap_angle(a1 - a0) / duration_s
 
 
-def heading_over_turns(sim: Simulator, omega_rad_s: float, turns: float = 1.0) -> np.ndarray:
-    """Advance ``turns`` motor turns at omega and return the unit head displacement (3,)."""
-    sim.set_motor_speed(omega_rad_s)
+def heading(sim: Any, period_s: float) -> np.ndarray:
+    """Advance one wobble period at the current motor speed; the unit head displacement (3,)."""
     x0 = sim.head_position
-    sim.advance(turns * 2.0 * math.pi / abs(omega_rad_s))
-    d = sim.head_position - x0
-    return d / np.linalg.norm(d)
+    sim.advance(period_s)
+    return unit(sim.head_position - x0)
 
 
-def measure_turn(sim: Simulator, omega_l_rpm: float, omega_h_rpm: float, t_c: float, hover_s: float = 0.0,
-                 relax_max_s: float = 120.0, straight_tol_deg: float = 1.0) -> TurnResult:
-    """Run one turn from the simulator's current (steady, omega_l) state; mutates ``sim``.
-
-    hover_s: time at omega_l before the burst (selects the motor phase). Relaxation ends when two
-    consecutive one-turn headings differ by less than ``straight_tol_deg``.
-    """
-    wl, wh = omega_l_rpm * RPM_TO_RAD_S, omega_h_rpm * RPM_TO_RAD_S
-    d0 = heading_over_turns(sim, wl, 1.0)
-    if hover_s > 0:
-        sim.set_motor_speed(wl)
-        sim.advance(hover_s)
+def measure_turn(sim: Any, omega_l_rpm: float, omega_h_rpm: float, t_c: float, phase_deg: float = 0.0,
+                 phase_node: int | None = None, relax_max_s: float = 150.0,
+                 straight_tol_deg: float = 1.0) -> TurnResult:
+    """One turn from the simulator's current steady state at omega_l; mutates ``sim``."""
+    if phase_node is None:
+        phase_node = phase_node_index(sim.nodes.shape[0])
+    sim.set_motor_speed(omega_l_rpm * RPM_TO_RAD_S)
+    rate = rotation_rate(sim, phase_node)
+    if abs(rate) < 1e-3:
+        raise ValueError(f"the flagellum hardly rotates at omega_l={omega_l_rpm} rpm ({rate:.2e} rad/s)")
+    period = 2.0 * math.pi / abs(rate)
+    d0 = heading(sim, period)
+    if phase_deg % 360.0:
+        sim.advance(period * (phase_deg % 360.0) / 360.0)
     frame = sim.head_orientation
-    phase = math.degrees((hover_s * wl) % (2 * math.pi))
-    if t_c > 0:
-        sim.set_motor_speed(wh)
+    start = sim.head_position
+    ref = sim.nodes[phase_node] - start
+    ref_az = azimuth(ref, d0)
+    if t_c > 0.0:
+        sim.set_motor_speed(omega_h_rpm * RPM_TO_RAD_S)
         sim.advance(t_c)
+        sim.set_motor_speed(omega_l_rpm * RPM_TO_RAD_S)
     t_relax0 = sim.time
-    prev = heading_over_turns(sim, wl, 1.0)
+    prev = heading(sim, period)
     straight = False
     while sim.time - t_relax0 < relax_max_s:
-        cur = heading_over_turns(sim, wl, 1.0)
-        if math.degrees(math.acos(float(np.clip(prev @ cur, -1, 1)))) < straight_tol_deg:
-            straight = True
-            prev = cur
-            break
+        cur = heading(sim, period)
+        settled = math.degrees(angle_between(prev, cur)) < straight_tol_deg
         prev = cur
+        if settled:
+            straight = True
+            break
     theta, phi = turn_angles(d0, prev, frame)
-    return TurnResult(t_c=t_c, phase_deg=phase, theta_deg=theta, phi_deg=phi,
-                      relax_s=sim.time - t_relax0, straight=straight)
+    psi = math.degrees(wrap_angle(azimuth(prev, d0) - ref_az))
+    e_ref = unit(ref - (ref @ d0) * d0)
+    disp = sim.head_position - start
+    offset = (float(disp @ d0), float(disp @ e_ref), float(disp @ np.cross(d0, e_ref)))
+    return TurnResult(t_c=float(t_c), phase_deg=float(phase_deg), theta_deg=theta, phi_deg=phi, psi_deg=psi,
+                      relax_s=sim.time - t_relax0, straight=straight, period_s=period, offset_m=offset)
+
+
+# --- the map --------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class TurnMap:
+    """Calibrated turns for one swimmer (``params``) and one pair of motor speeds (rpm)."""
+
+    params: SwimmerParams
+    numerics: NumericsConfig
+    preset: str | None
+    omega_l_rpm: float
+    omega_h_rpm: float
+    phase_node: int
+    points: tuple[TurnResult, ...]
+    meta: dict[str, Any] = field(default_factory=dict, compare=False)
+
+    def __post_init__(self) -> None:
+        if not self.points:
+            raise ValueError("a turn map needs at least one measured turn")
+
+    # --- summary per burst length ---------------------------------------------------------
+    def t_c_values(self) -> np.ndarray:
+        """Distinct burst lengths, increasing, s."""
+        return np.array(sorted({p.t_c for p in self.points}))
+
+    def theta_curve(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(t_c, mean theta, theta spread max - min over phases), degrees."""
+        tcs = self.t_c_values()
+        mean, spread = [], []
+        for tc in tcs:
+            th = [p.theta_deg for p in self.points if p.t_c == tc]
+            mean.append(float(np.mean(th)))
+            spread.append(float(np.max(th) - np.min(th)))
+        return tcs, np.array(mean), np.array(spread)
+
+    def psi_curve(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(t_c, circular mean of psi, circular spread (deg) over phases)."""
+        tcs = self.t_c_values()
+        mean, spread = [], []
+        for tc in tcs:
+            ang = np.radians([p.psi_deg for p in self.points if p.t_c == tc])
+            m = math.atan2(float(np.mean(np.sin(ang))), float(np.mean(np.cos(ang))))
+            mean.append(math.degrees(m))
+            spread.append(float(np.max(np.abs(np.degrees([wrap_angle(a - m) for a in ang])))))
+        return tcs, np.array(mean), np.array(spread)
+
+    @property
+    def period_s(self) -> float:
+        """Median wobble period at omega_l, s."""
+        return float(np.median([p.period_s for p in self.points]))
+
+    @property
+    def relax_s(self) -> float:
+        """Median relaxation time after a burst, s."""
+        return float(np.median([p.relax_s for p in self.points]))
+
+    def rising_branch(self) -> tuple[np.ndarray, np.ndarray]:
+        """(t_c, theta) from t_c = 0 (theta = 0) up to the largest mean theta, made non-decreasing."""
+        tcs, th, _ = self.theta_curve()
+        k = int(np.argmax(th))
+        t = np.concatenate([[0.0], tcs[:k + 1]])
+        y = np.maximum.accumulate(np.concatenate([[0.0], th[:k + 1]]))
+        return t, y
+
+    @property
+    def max_theta_deg(self) -> float:
+        """The largest turn one burst makes (mean over phases), degrees."""
+        return float(self.rising_branch()[1][-1])
+
+    def t_c_for(self, theta_deg: float) -> float:
+        """Burst length (s) for a turn of ``theta_deg`` (clipped to [0, max_theta_deg])."""
+        t, y = self.rising_branch()
+        theta = min(max(float(theta_deg), 0.0), float(y[-1]))
+        # first crossing of the (non-decreasing) curve; flat stretches give their start
+        k = int(np.searchsorted(y, theta, side="left"))
+        if k == 0:
+            return 0.0
+        y0, y1 = y[k - 1], y[k]
+        frac = 1.0 if y1 == y0 else (theta - y0) / (y1 - y0)
+        return float(t[k - 1] + frac * (t[k] - t[k - 1]))
+
+    def psi_for(self, t_c: float) -> float:
+        """psi (deg) of a burst of ``t_c`` s, interpolated in t_c (angles unwrapped)."""
+        tcs, psi, _ = self.psi_curve()
+        un = np.degrees(np.unwrap(np.radians(psi)))
+        return math.degrees(wrap_angle(math.radians(float(np.interp(t_c, tcs, un)))))
+
+    # --- compatibility --------------------------------------------------------------------
+    def check_compatible(self, params: SwimmerParams, omega_l_rpm: float | None = None,
+                         omega_h_rpm: float | None = None) -> None:
+        """TurnMapMismatch naming every physical parameter or speed that differs from the map's."""
+        diffs = [f"{f.name}: map {getattr(self.params, f.name)!r}, here {getattr(params, f.name)!r}"
+                 for f in dataclasses.fields(SwimmerParams)
+                 if getattr(self.params, f.name) != getattr(params, f.name)]
+        if omega_l_rpm is not None and omega_l_rpm != self.omega_l_rpm:
+            diffs.append(f"omega_l_rpm: map {self.omega_l_rpm!r}, here {omega_l_rpm!r}")
+        if omega_h_rpm is not None and omega_h_rpm != self.omega_h_rpm:
+            diffs.append(f"omega_h_rpm: map {self.omega_h_rpm!r}, here {omega_h_rpm!r}")
+        if diffs:
+            raise TurnMapMismatch("this turn map was calibrated for other parameters (" + "; ".join(diffs)
+                                  + "); calibrate one for these with 'flagellum calibrate-turns'")
+
+    # --- file -----------------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        return {"format": TURN_MAP_FORMAT, "version": TURN_MAP_VERSION, "preset": self.preset,
+                "omega_l_rpm": self.omega_l_rpm, "omega_h_rpm": self.omega_h_rpm, "phase_node": self.phase_node,
+                "params": dataclasses.asdict(self.params), "numerics": dataclasses.asdict(self.numerics),
+                "meta": self.meta, "points": [dataclasses.asdict(p) for p in self.points]}
+
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        """Write the JSON file atomically; returns its path."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(path.name + ".tmp")
+        tmp.write_text(json.dumps(self.to_dict(), indent=1) + "\n", encoding="utf-8")
+        os.replace(tmp, path)
+        return path
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> TurnMap:
+        """Read a file written by ``save``; ValueError naming the file if it is not one."""
+        path = Path(path)
+        try:
+            doc = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ValueError(f"cannot read the turn map {str(path)!r}: {exc}") from None
+        if not isinstance(doc, dict) or doc.get("format") != TURN_MAP_FORMAT:
+            raise ValueError(f"{str(path)!r} is not a turn map (no \"format\": \"{TURN_MAP_FORMAT}\")")
+        if doc.get("version") != TURN_MAP_VERSION:
+            raise ValueError(f"turn map {str(path)!r} has version {doc.get('version')!r}; this code reads version "
+                             f"{TURN_MAP_VERSION}: calibrate again with 'flagellum calibrate-turns'")
+        try:
+            points = tuple(TurnResult(**{**p, "offset_m": tuple(p["offset_m"])}) for p in doc["points"])
+            return cls(params=SwimmerParams(**doc["params"]), numerics=NumericsConfig(**doc["numerics"]),
+                       preset=doc["preset"], omega_l_rpm=float(doc["omega_l_rpm"]),
+                       omega_h_rpm=float(doc["omega_h_rpm"]), phase_node=int(doc["phase_node"]),
+                       points=points, meta=dict(doc.get("meta", {})))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"turn map {str(path)!r} is damaged: {exc}") from None

@@ -1,0 +1,141 @@
+"""``flagellum calibrate-turns``: measure the turn map (t_c x burst phase) in parallel, resumably.
+
+Every (t_c, phase) pair is one task of the shared task pool (``flagellum.task_pool``): it
+starts from the environment's steady start (``flagellum_env.steady_start``: 5 motor turns at
+omega_l from rest, cached), runs ``agents.turn_map.measure_turn`` and returns one JSON record.
+Records go to ``<out>.runs/results.jsonl`` as they finish; running again with ``resume=True``
+measures only what is missing. When all are done, the map is written to ``<out>`` (JSON).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import subprocess
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+from agents.turn_map import (DEFAULT_PHASES_DEG, DEFAULT_T_C_S, PAPER_OMEGA_L_RPM, PLANNER_OMEGA_H_RPM, TurnMap,
+                             TurnResult, phase_node_index)
+from flagellum.sweep_store import ResultsStore
+from flagellum.sweep_worker import PointOutcome
+from flagellum.task_pool import pending, run_tasks
+from physics.geometry import layout_for
+from physics.params import RPM_TO_RAD_S, NumericsConfig, SwimmerParams
+
+#: Steady start: motor turns at omega_l from rest (the environment's SETTLE_TURNS).
+SETTLE_TURNS = 5
+
+
+@dataclass(frozen=True)
+class TurnTask:
+    """One calibration turn (picklable; ``execute`` runs in a worker process)."""
+
+    params: SwimmerParams
+    numerics: NumericsConfig
+    omega_l_rpm: float
+    omega_h_rpm: float
+    t_c: float
+    phase_deg: float
+    relax_max_s: float = 150.0
+
+    @property
+    def point_id(self) -> str:
+        payload = json.dumps({"p": dataclasses.asdict(self.params), "n": dataclasses.asdict(self.numerics),
+                              "wl": self.omega_l_rpm, "wh": self.omega_h_rpm, "tc": self.t_c,
+                              "ph": self.phase_deg, "rm": self.relax_max_s}, sort_keys=True)
+        return hashlib.sha256(payload.encode()).hexdigest()[:16]
+
+    def label(self) -> str:
+        return f"t_c={self.t_c:g} s, phase={self.phase_deg:g} deg"
+
+    def execute(self) -> PointOutcome:
+        from agents.turn_map import measure_turn
+        from flagellum_env.steady_start import get_steady_start
+
+        t0 = time.perf_counter()
+        record: dict[str, Any] = {"point_id": self.point_id, "values": {"t_c": self.t_c, "phase_deg": self.phase_deg},
+                                  "status": "ok", "error": None, "result": None}
+        try:
+            start = get_steady_start(self.params, self.numerics, self.omega_l_rpm * RPM_TO_RAD_S,
+                                     SETTLE_TURNS * 60.0 / self.omega_l_rpm)
+            sim = start.new_simulator()
+            res = measure_turn(sim, self.omega_l_rpm, self.omega_h_rpm, self.t_c, self.phase_deg,
+                               relax_max_s=self.relax_max_s)
+            record["result"] = dataclasses.asdict(res)
+            record["sim_time_s"] = sim.time - start.state.get("time", 0.0)
+        except Exception as exc:  # a failed turn is recorded, not raised
+            record["status"], record["error"] = "error", f"{type(exc).__name__}: {exc}"
+        record["wall_time_s"] = time.perf_counter() - t0
+        record["finished_at"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
+        return PointOutcome(record, None)
+
+
+def calibration_tasks(params: SwimmerParams, numerics: NumericsConfig, omega_l_rpm: float = PAPER_OMEGA_L_RPM,
+                      omega_h_rpm: float = PLANNER_OMEGA_H_RPM, t_c_values: Sequence[float] = DEFAULT_T_C_S,
+                      phases_deg: Sequence[float] = DEFAULT_PHASES_DEG) -> list[TurnTask]:
+    """The (t_c, phase) grid; ValueError naming a bad value."""
+    if not 0.0 < omega_l_rpm < omega_h_rpm:
+        raise ValueError(f"omega_l_rpm={omega_l_rpm!r} and omega_h_rpm={omega_h_rpm!r} must satisfy "
+                         "0 < omega_l < omega_h (rpm)")
+    if not t_c_values or any(not (0.0 < t <= 600.0) for t in t_c_values):
+        raise ValueError(f"t_c values {list(t_c_values)!r} must be burst lengths in (0, 600] s")
+    if not phases_deg or any(not (0.0 <= p < 360.0) for p in phases_deg):
+        raise ValueError(f"phases {list(phases_deg)!r} must be in [0, 360) degrees")
+    return [TurnTask(params, numerics, float(omega_l_rpm), float(omega_h_rpm), float(tc), float(ph))
+            for tc in sorted(set(t_c_values)) for ph in sorted(set(phases_deg))]
+
+
+def runs_dir(out_file: str | os.PathLike[str]) -> Path:
+    """Where the per-turn records of ``out_file`` live: ``<out_file>.runs/``."""
+    out = Path(out_file)
+    return out.with_name(out.name + ".runs")
+
+
+def calibrate_turns(params: SwimmerParams, numerics: NumericsConfig, out_file: str | os.PathLike[str],
+                    preset: str | None = None, omega_l_rpm: float = PAPER_OMEGA_L_RPM,
+                    omega_h_rpm: float = PLANNER_OMEGA_H_RPM, t_c_values: Sequence[float] = DEFAULT_T_C_S,
+                    phases_deg: Sequence[float] = DEFAULT_PHASES_DEG, workers: int | None = None,
+                    resume: bool = False, progress: bool = True) -> TurnMap:
+    """Measure every turn of the grid (parallel, resumable) and write the map to ``out_file``.
+
+    Raises RuntimeError naming the failed turns (their errors are in the runs folder) when a
+    turn could not be measured; the others stay saved for ``resume=True``.
+    """
+    tasks = calibration_tasks(params, numerics, omega_l_rpm, omega_h_rpm, t_c_values, phases_deg)
+    t0 = time.perf_counter()
+    with ResultsStore(runs_dir(out_file), resume) as store:
+        todo = pending(tasks, store, retry_failed=True)
+        lost = run_tasks(todo, store, workers=workers, progress=progress, total=len(tasks), desc="calibrate-turns")
+        records = [store.records.get(t.point_id) for t in tasks]
+    bad = [(t, r) for t, r in zip(tasks, records, strict=True) if r is None or r["status"] != "ok"]
+    if lost or bad:
+        first = bad[0] if bad else (lost[0][0], {"error": lost[0][1]})
+        raise RuntimeError(f"{len(bad)} of {len(tasks)} turns were not measured (first: {first[0].label()}: "
+                           f"{(first[1] or {}).get('error')}); the others are saved in {runs_dir(out_file)}; "
+                           "run again with --resume")
+    points = tuple(TurnResult(**{**r["result"], "offset_m": tuple(r["result"]["offset_m"])}) for r in records)
+    meta = {"created": datetime.now(timezone.utc).isoformat(timespec="seconds"), "commit": _git_commit(),
+            "wall_time_s_this_run": round(time.perf_counter() - t0, 1),
+            "wall_time_s_all_turns": round(sum(r["wall_time_s"] for r in records), 1),
+            "sim_time_s_all_turns": round(sum(r.get("sim_time_s", 0.0) for r in records), 1)}
+    tmap = TurnMap(params=params, numerics=numerics, preset=preset, omega_l_rpm=float(omega_l_rpm),
+                   omega_h_rpm=float(omega_h_rpm), phase_node=phase_node_index(layout_for(params).n),
+                   points=points, meta=meta)
+    tmap.save(out_file)
+    return tmap
+
+
+def _git_commit() -> str | None:
+    try:
+        out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, timeout=5,
+                             cwd=Path(__file__).resolve().parent)
+        return out.stdout.strip() or None
+    except (OSError, subprocess.SubprocessError):
+        return None
