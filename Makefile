@@ -20,9 +20,10 @@ $(STAMP): pyproject.toml
 test: install
 	OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -q -n 2 --durations=10
 
-# A short swim at 10 rpm, then 90 rpm until the flagellum buckles (examples/demo_schedule.csv).
+# The rule-based planner steers the swimmer around the paper's 0.25 m square (fast preset):
+# out/demo/summary.json, path.png (target vs achieved) and omega.png (the control signal).
 demo: install
-	$(BIN)/flagellum simulate --schedule examples/demo_schedule.csv --duration 45 --set dt=0.005 --out out/demo
+	OPENBLAS_NUM_THREADS=1 $(BIN)/flagellum follow --path square --controller rule --preset fast --out out/demo
 
 clean:
 	rm -rf $(VENV) out build *.egg-info .pytest_cache

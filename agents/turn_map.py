@@ -43,7 +43,7 @@ PAPER_OMEGA_H_RPM = 60.0
 #: for b = 1.2 cm is 70-90 rpm (docs/validation.md), so the paper's 60 rpm does not buckle; 150
 #: rpm buckles within ~10 s with every preset. ``--omega-h 60`` measures the paper's protocol.
 PLANNER_OMEGA_H_RPM = 150.0
-DEFAULT_T_C_S = (1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 10.0, 12.0, 15.0, 20.0, 25.0, 30.0, 40.0)
+DEFAULT_T_C_S = (1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0, 13.0, 15.0, 20.0, 25.0, 30.0, 40.0)
 DEFAULT_PHASES_DEG = (0.0, 90.0, 180.0, 270.0)
 
 
@@ -185,16 +185,20 @@ class TurnMap:
         return float(np.median([p.relax_s for p in self.points]))
 
     def rising_branch(self) -> tuple[np.ndarray, np.ndarray]:
-        """(t_c, theta) from t_c = 0 (theta = 0) up to the largest mean theta, made non-decreasing."""
+        """(t_c, theta) from t_c = 0 (theta = 0) up to the first local maximum of the mean theta.
+
+        Beyond it the buckled swimmer tumbles on (theta oscillates with t_c and the turn's
+        direction flips), so longer bursts are not used: larger turns are made in several bursts.
+        """
         tcs, th, _ = self.theta_curve()
-        k = int(np.argmax(th))
-        t = np.concatenate([[0.0], tcs[:k + 1]])
-        y = np.maximum.accumulate(np.concatenate([[0.0], th[:k + 1]]))
-        return t, y
+        k = 0
+        while k + 1 < len(th) and th[k + 1] >= th[k]:
+            k += 1
+        return np.concatenate([[0.0], tcs[:k + 1]]), np.concatenate([[0.0], th[:k + 1]])
 
     @property
     def max_theta_deg(self) -> float:
-        """The largest turn one burst makes (mean over phases), degrees."""
+        """The largest turn one burst makes on the rising branch (mean over phases), degrees."""
         return float(self.rising_branch()[1][-1])
 
     def t_c_for(self, theta_deg: float) -> float:
@@ -214,6 +218,13 @@ class TurnMap:
         tcs, psi, _ = self.psi_curve()
         un = np.degrees(np.unwrap(np.radians(psi)))
         return math.degrees(wrap_angle(math.radians(float(np.interp(t_c, tcs, un)))))
+
+    def offset_for(self, t_c: float) -> np.ndarray:
+        """Mean head displacement over a turn of ``t_c`` s (burst + relaxation), (3,) m, along
+        (d0, phase-node direction at the burst, d0 x that); interpolated in t_c."""
+        tcs = self.t_c_values()
+        mean = np.array([np.mean([p.offset_m for p in self.points if p.t_c == tc], axis=0) for tc in tcs])
+        return np.array([np.interp(t_c, tcs, mean[:, k]) for k in range(3)])
 
     # --- compatibility --------------------------------------------------------------------
     def check_compatible(self, params: SwimmerParams, omega_l_rpm: float | None = None,

@@ -96,7 +96,8 @@ class RandomPathConfig:
 
     Each segment has a length drawn uniformly from ``segment_length_m`` (m) and turns from the
     previous heading (+x for the first segment) by an angle drawn uniformly from
-    [-max_turn_deg, max_turn_deg]: about +z when ``planar`` (the path stays in the x-y plane),
+    [-max_turn_deg, max_turn_deg] (with ``min_turn_deg`` > 0: its size from [min_turn_deg,
+    max_turn_deg] and its sign at random): about +z when ``planar`` (the path stays in the x-y plane),
     otherwise about a uniformly drawn axis perpendicular to the heading.
     """
 
@@ -104,6 +105,7 @@ class RandomPathConfig:
     segment_length_m: tuple[float, float] = (0.03, 0.08)
     max_turn_deg: float = 90.0
     planar: bool = True
+    min_turn_deg: float = 0.0
 
     def __post_init__(self) -> None:
         n = self.n_waypoints
@@ -118,6 +120,10 @@ class RandomPathConfig:
         turn = _finite_float(self.max_turn_deg, "random_path.max_turn_deg")
         if not 0.0 <= turn <= 180.0:
             raise ValueError(f"random_path.max_turn_deg={turn!r} must be between 0 and 180 degrees")
+        low = _finite_float(self.min_turn_deg, "random_path.min_turn_deg")
+        if not 0.0 <= low <= turn:
+            raise ValueError(f"random_path.min_turn_deg={low!r} must be between 0 and max_turn_deg={turn!r} degrees")
+        object.__setattr__(self, "min_turn_deg", low)
         object.__setattr__(self, "max_turn_deg", turn)
         if not isinstance(self.planar, (bool, np.bool_)):
             raise ValueError(f"random_path.planar={self.planar!r} must be True or False")
@@ -143,7 +149,10 @@ def random_path(rng: np.random.Generator, config: RandomPathConfig | None = None
     pts = []
     for _ in range(cfg.n_waypoints):
         length = float(rng.uniform(lo, hi))
-        angle = float(rng.uniform(-max_turn, max_turn))
+        if cfg.min_turn_deg > 0.0:  # |angle| in [min, max], either sign
+            angle = float(rng.uniform(math.radians(cfg.min_turn_deg), max_turn)) * (1.0 if rng.random() < 0.5 else -1.0)
+        else:
+            angle = float(rng.uniform(-max_turn, max_turn))
         if cfg.planar:
             axis = np.array([0.0, 0.0, 1.0])
         else:

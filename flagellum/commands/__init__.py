@@ -8,4 +8,4 @@ write the module and list it in ``COMMANDS``.
 
 from __future__ import annotations
 
-COMMANDS: tuple[str, ...] = ("simulate", "params", "sweep", "bench")
+COMMANDS: tuple[str, ...] = ("simulate", "params", "sweep", "bench", "calibrate_turns", "follow", "evaluate")

@@ -1,0 +1,127 @@
+"""``flagellum evaluate``: every controller on every path, in parallel and resumable; a table.
+
+Writes ``DIR/results.jsonl`` (one line per finished episode, the resume file), ``DIR/points/``
+(per-episode traces), ``DIR/results.json``::
+
+    {"per_path": [{"path": name, "controller": spec, <METRICS>}, ...],
+     "aggregate": {spec: {"success_rate": ..., "mean_cross_track_m": ..., <means of the others>}}}
+
+and ``DIR/results.md`` (controllers side by side).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from agents.path_following import METRICS, EpisodeTask, controller_kind
+from flagellum.sweep_store import ResultsStore
+from flagellum.task_pool import pending, run_tasks
+from flagellum_env.paths import WaypointPath, load_path, square_path
+
+AGGREGATED = ("waypoints_reached", "mean_cross_track_m", "max_cross_track_m", "max_out_of_plane_ratio", "time_s",
+              "energy_J", "buckling_events", "wall_time_s")
+
+
+def resolve_paths(specs: Sequence[str]) -> list[WaypointPath]:
+    """Paths from ``square``, JSON path files and folders of them (sorted); ValueError naming a bad one."""
+    out: list[WaypointPath] = []
+    for spec in specs:
+        if spec == "square":
+            out.append(square_path())
+            continue
+        p = Path(spec)
+        if p.is_dir():
+            files = sorted(p.glob("*.json"))
+            if not files:
+                raise ValueError(f"--paths {spec!r}: the folder holds no path files (*.json)")
+            out.extend(load_path(f) for f in files)
+        elif p.is_file():
+            out.append(load_path(p))
+        else:
+            raise ValueError(f"--paths {spec!r} is neither 'square', a path file (JSON) nor a folder of them")
+    names = [w.name for w in out]
+    dupes = sorted({n for n in names if names.count(n) > 1})
+    if dupes:
+        raise ValueError(f"path names must be unique, repeated: {dupes} (set \"name\" in the path files)")
+    return out
+
+
+def evaluate(paths: Sequence[WaypointPath], controllers: Sequence[str], preset: str, out_dir: str | os.PathLike,
+             workers: int | None = None, resume: bool = False, env_overrides: dict[str, Any] | None = None,
+             progress: bool = True) -> dict[str, Any]:
+    """Run every (controller, path) episode (parallel, resumable) and write the results files."""
+    for c in controllers:
+        controller_kind(c)
+    env_kw = tuple(sorted((env_overrides or {}).items()))
+    tasks = [EpisodeTask(c, p, preset, env_kw) for c in controllers for p in paths]
+    out = Path(out_dir)
+    with ResultsStore(out, resume) as store:
+        todo = pending(tasks, store, retry_failed=False)
+        run_tasks(todo, store, workers=workers, progress=progress, total=len(tasks), desc="evaluate")
+        records = [store.records.get(t.point_id) for t in tasks]
+    results = summarise([r for r in records if r is not None], controllers)
+    results["preset"] = preset
+    results["missing"] = [t.label() for t, r in zip(tasks, records, strict=True) if r is None]
+    (out / "results.json").write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")
+    (out / "results.md").write_text(results_markdown(results), encoding="utf-8")
+    return results
+
+
+def summarise(records: Sequence[dict[str, Any]], controllers: Sequence[str]) -> dict[str, Any]:
+    """``{"per_path": [...], "aggregate": {...}}`` from episode records."""
+    per_path = [{"path": r["path"], "controller": r["controller"], "status": r["status"], "error": r.get("error"),
+                 **{m: r.get(m) for m in METRICS}, "trace": r.get("trajectory")} for r in records]
+    aggregate = {}
+    for c in controllers:
+        rows = [r for r in per_path if r["controller"] == c]
+        agg: dict[str, Any] = {"episodes": len(rows),
+                               "success_rate": _mean([float(bool(r["success"])) for r in rows])}
+        for m in AGGREGATED:
+            agg[m] = _mean([r[m] for r in rows if r.get(m) is not None])
+        agg["failed_runs"] = sum(r["status"] != "ok" for r in rows)
+        aggregate[c] = agg
+    return {"per_path": per_path, "aggregate": aggregate}
+
+
+def _mean(values: Sequence[float]) -> float | None:
+    vals = [float(v) for v in values if v is not None and math.isfinite(float(v))]
+    return sum(vals) / len(vals) if vals else None
+
+
+def _fmt(v: Any, scale: float = 1.0, digits: int = 2) -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    return f"{float(v) * scale:.{digits}f}"
+
+
+def results_markdown(results: dict[str, Any]) -> str:
+    """The aggregate table (controllers side by side) and the per-path table."""
+    ctrl = list(results["aggregate"])
+    lines = [f"# Path following ({results.get('preset')} preset)", "",
+             "| metric | " + " | ".join(ctrl) + " |", "|---|" + "---|" * len(ctrl)]
+    rows = [("episodes", "episodes", 1, 0), ("success rate", "success_rate", 100, 0),
+            ("waypoints reached (mean)", "waypoints_reached", 1, 2),
+            ("mean cross-track (cm)", "mean_cross_track_m", 100, 2), ("max cross-track (cm)", "max_cross_track_m", 100, 2),
+            ("max out-of-plane Δz/ΔL (%)", "max_out_of_plane_ratio", 100, 2), ("time (s)", "time_s", 1, 0),
+            ("energy (mJ)", "energy_J", 1e3, 2), ("buckling events", "buckling_events", 1, 1),
+            ("wall time (s)", "wall_time_s", 1, 0), ("failed runs", "failed_runs", 1, 0)]
+    for label, key, scale, digits in rows:
+        lines.append(f"| {label} | " + " | ".join(_fmt(results["aggregate"][c].get(key), scale, digits)
+                                                for c in ctrl) + " |")
+    lines += ["", "| path | controller | success | waypoints | mean XTE (cm) | max XTE (cm) | Δz/ΔL (%) | time (s) | "
+              "energy (mJ) | buckling | wall (s) |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in results["per_path"]:
+        lines.append(f"| {r['path']} | {r['controller']} | {_fmt(r['success'])} | {r.get('waypoints_reached')} | "
+                     f"{_fmt(r['mean_cross_track_m'], 100)} | {_fmt(r['max_cross_track_m'], 100)} | "
+                     f"{_fmt(r['max_out_of_plane_ratio'], 100)} | {_fmt(r['time_s'], 1, 0)} | "
+                     f"{_fmt(r['energy_J'], 1e3)} | {r.get('buckling_events')} | {_fmt(r['wall_time_s'], 1, 0)} |")
+    if results.get("missing"):
+        lines += ["", f"Not finished: {', '.join(results['missing'])}."]
+    return "\n".join(lines) + "\n"

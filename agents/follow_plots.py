@@ -1,0 +1,108 @@
+"""Figures of path following (Fig. 6b, 6c) and of the turn map (Fig. 5d); matplotlib object API."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from agents.path_following import EpisodeTrace
+from agents.turn_map import TurnMap
+
+CM = 100.0
+
+
+def path_figure(traces: Mapping[str, EpisodeTrace], title: str = "") -> Figure:
+    """Target path (dashed) and each controller's head path: x-y view and 3-D view, cm."""
+    fig = Figure(figsize=(12.0, 5.5))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 2, 1)
+    ax3 = fig.add_subplot(1, 2, 2, projection="3d")
+    first = next(iter(traces.values()))
+    target = np.vstack([np.zeros((1, 3)), first.waypoints]) * CM
+    ax.plot(target[:, 0], target[:, 1], "k--", lw=1.2, label="target")
+    ax.scatter(target[1:, 0], target[1:, 1], c="k", s=14)
+    ax3.plot(target[:, 0], target[:, 1], target[:, 2], "k--", lw=1.0)
+    for name, tr in traces.items():
+        h = tr.head * CM
+        ax.plot(h[:, 0], h[:, 1], lw=1.6, label=name)
+        ax3.plot(h[:, 0], h[:, 1], h[:, 2], lw=1.4)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (cm)")
+    ax.set_ylabel("y (cm)")
+    ax.legend(fontsize="small")
+    ax.set_title("x-y plane")
+    pts = np.vstack([target] + [t.head * CM for t in traces.values()])
+    lo, hi = pts.min(0), pts.max(0)
+    c, half = (lo + hi) / 2, max(float((hi - lo).max()) / 2, 1.0)
+    ax3.set_xlim(c[0] - half, c[0] + half)
+    ax3.set_ylim(c[1] - half, c[1] + half)
+    ax3.set_zlim(c[2] - half, c[2] + half)
+    ax3.set_box_aspect((1, 1, 1))
+    ax3.set_xlabel("x (cm)")
+    ax3.set_ylabel("y (cm)")
+    ax3.set_zlabel("z (cm)")
+    ax3.set_title("3-D")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+def omega_figure(traces: Mapping[str, EpisodeTrace], title: str = "") -> Figure:
+    """Motor speed against time (the control signal, Fig. 6c) and L'/L below it."""
+    fig = Figure(figsize=(10.0, 5.0))
+    FigureCanvasAgg(fig)
+    ax, ax2 = fig.subplots(2, 1, sharex=True)
+    for name, tr in traces.items():
+        ax.step(tr.t, tr.omega_rpm, where="pre", lw=1.0, label=name)
+        ax2.plot(tr.t, tr.end_to_end_ratio, lw=1.0, label=name)
+    ax.set_ylabel("motor speed ω (rpm)")
+    ax2.set_ylabel("L'/L")
+    ax2.set_xlabel("time (s)")
+    ax.legend(fontsize="small")
+    if title:
+        ax.set_title(title)
+    fig.tight_layout()
+    return fig
+
+
+def turn_map_figure(tmap: TurnMap, title: str = "") -> Figure:
+    """theta and phi against t_c (every phase as dots, the mean theta as a line) and psi; Fig. 5d."""
+    fig = Figure(figsize=(11.0, 4.5))
+    FigureCanvasAgg(fig)
+    ax, axp = fig.subplots(1, 2)
+    t_scale = tmap.params.viscous_time
+    tc, th, _ = tmap.theta_curve()
+    phases = sorted({p.phase_deg for p in tmap.points})
+    for ph in phases:
+        pts = sorted((p for p in tmap.points if p.phase_deg == ph), key=lambda p: p.t_c)
+        t = [p.t_c for p in pts]
+        ax.plot(t, [p.theta_deg for p in pts], "o", ms=3, color="tab:blue", alpha=0.6)
+        ax.plot(t, [p.phi_deg for p in pts], "s", ms=3, alpha=0.7, label=f"φ, burst at phase {ph:g}°")
+    ax.plot(tc, th, "-", color="tab:blue", lw=1.6, label="θ (mean over phases)")
+    ax.axhline(154.0, color="gray", ls=":", lw=1.0, label="paper: max θ = 154°")
+    ax.set_xlabel("burst length t_c (s)")
+    ax.set_ylabel("angle (deg)")
+    ax.legend(fontsize="x-small", loc="lower right")
+    top = ax.secondary_xaxis("top", functions=(lambda t: t / t_scale, lambda tb: tb * t_scale))
+    top.set_xlabel("t̄_c = t_c EI / (μ L⁴)")
+    tc2, psi, spread = tmap.psi_curve()
+    axp.errorbar(tc2, psi, yerr=spread, fmt="o-", ms=3, capsize=2)
+    axp.set_xlabel("burst length t_c (s)")
+    axp.set_ylabel("ψ: turn azimuth rel. to flagellum phase (deg)")
+    axp.set_title("turn direction relative to the phase node (± spread over phases)", fontsize="small")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+def save(fig: Figure, path: str | Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=130)
+    return path

@@ -1,0 +1,204 @@
+"""One evaluation loop for every controller: drive ``FlagellumSteer-v0`` along a path, measure it.
+
+Controllers are named by a spec string (``make_controller``): ``rule`` (the turn planner with
+the preset's committed turn map, ``data/turn_maps/<preset>.json``), ``rule:MAP.json`` (another
+map), and, once trained, ``ppo`` / ``ppo:MODEL.zip``. Each has the stable-baselines3
+``predict(obs, state, episode_start, deterministic)`` call, so the loop does not care which.
+
+Metrics (the same names everywhere; ``METRICS``):
+
+- ``success``: every waypoint reached in order within the env's time limit;
+- ``waypoints_reached``;
+- ``mean_cross_track_m`` / ``max_cross_track_m``: distance from the head to the segment being
+  followed, averaged over / maximal over the env steps;
+- ``max_out_of_plane_ratio``: for planar paths (all waypoints at z = 0) the largest |z| of the
+  head divided by the length of the segment being followed (the paper's Delta z / Delta L);
+  None for 3-D paths;
+- ``time_s``: simulated time; ``energy_J``: integral of |motor torque x motor speed| dt;
+- ``buckling_events``: L'/L dropping below 0.9 (the env's counter);
+- ``wall_time_s``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from flagellum.sweep_worker import PointOutcome
+from flagellum_env.paths import WaypointPath
+
+METRICS = ("success", "waypoints_reached", "mean_cross_track_m", "max_cross_track_m", "max_out_of_plane_ratio",
+           "time_s", "energy_J", "buckling_events", "wall_time_s")
+#: Environment settings each controller kind needs (merged under the caller's settings).
+#: The rule planner times its bursts to the flagellum's phase, which turns ~40 deg/s at 10 rpm.
+CONTROLLER_ENV_DEFAULTS: dict[str, dict[str, Any]] = {"rule": {"control_dt": 0.2}, "ppo": {}}
+TURN_MAP_DIR = Path(__file__).resolve().parent.parent / "data" / "turn_maps"
+
+
+def default_turn_map(preset: str) -> Path:
+    """The committed turn map of a preset (made by ``flagellum calibrate-turns``)."""
+    return TURN_MAP_DIR / f"{preset}.json"
+
+
+def controller_kind(spec: str) -> str:
+    """``"rule"`` or ``"ppo"`` from ``rule``, ``rule:FILE``, ``ppo``, ``ppo:FILE``; ValueError otherwise."""
+    kind = spec.split(":", 1)[0]
+    if kind not in CONTROLLER_ENV_DEFAULTS:
+        raise ValueError(f"controller {spec!r} is not allowed; allowed: 'rule', 'rule:TURN_MAP.json', 'ppo', "
+                         "'ppo:MODEL.zip'")
+    return kind
+
+
+def make_controller(spec: str, env, preset: str):
+    """The controller named by ``spec`` for this env (see the module docstring)."""
+    kind = controller_kind(spec)
+    arg = spec.split(":", 1)[1] if ":" in spec else None
+    if kind == "rule":
+        from agents.turn_map import TurnMap
+        from agents.turn_planner import RulePlanner
+
+        path = Path(arg) if arg else default_turn_map(preset)
+        if not path.is_file():
+            raise ValueError(f"no turn map at {str(path)!r}; make one with 'flagellum calibrate-turns --preset "
+                             f"{preset} --out {path}'")
+        return RulePlanner.for_env(env, TurnMap.load(path))
+    try:
+        from agents.ppo_policy import load_ppo_controller
+    except ImportError:
+        raise ValueError("controller 'ppo' is not available: there is no trained PPO agent in this version "
+                         "(agents/ppo_policy.py, issue #7); use 'rule'") from None
+    return load_ppo_controller(arg, env)
+
+
+def env_settings(spec: str, preset: str, overrides: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Keyword arguments of the env for this controller: its defaults, the preset, then ``overrides``."""
+    return {**CONTROLLER_ENV_DEFAULTS[controller_kind(spec)], "preset": preset, **(overrides or {})}
+
+
+@dataclass
+class EpisodeTrace:
+    """Per env step (and the reset): time (s), head (m, start frame), motor speed (rpm), L'/L,
+    cross-track error (m), current waypoint index."""
+
+    t: np.ndarray
+    head: np.ndarray
+    omega_rpm: np.ndarray
+    end_to_end_ratio: np.ndarray
+    cross_track_m: np.ndarray
+    waypoint_index: np.ndarray
+    waypoints: np.ndarray
+
+    def save_npz(self, path: str | Path) -> None:
+        with open(path, "wb") as f:
+            np.savez_compressed(f, **dataclasses.asdict(self))
+
+    @classmethod
+    def load(cls, path: str | Path) -> EpisodeTrace:
+        with np.load(path) as data:
+            return cls(**{f.name: np.array(data[f.name]) for f in dataclasses.fields(cls)})
+
+
+def is_planar(path: WaypointPath) -> bool:
+    return bool(np.all(np.abs(path.waypoints[:, 2]) < 1e-12))
+
+
+def run_episode(env, controller, path: WaypointPath, seed: int = 0, progress: bool = False
+                ) -> tuple[dict[str, Any], EpisodeTrace]:
+    """Run one episode of ``controller`` on ``path``; (metrics, trace). ``env``: a FlagellumSteer-v0."""
+    from tqdm import tqdm
+
+    t0 = time.perf_counter()
+    obs, info = env.reset(seed=seed, options={"path": path})
+    if hasattr(controller, "reset"):
+        controller.reset()
+    rows = [_row(info)]
+    start = True
+    bar = tqdm(total=round(info["max_sim_time_s"]), unit="sim s", desc=f"{path.name}", disable=not progress,
+               dynamic_ncols=True)
+    done = False
+    while not done:
+        action, _ = controller.predict(obs, episode_start=np.array([start]), deterministic=True)
+        start = False
+        obs, _, terminated, truncated, info = env.step(action)
+        rows.append(_row(info))
+        bar.update(round(info["sim_time_s"]) - bar.n)
+        bar.set_postfix_str(f"waypoint {info['waypoint_index']}/{info['n_waypoints']}, "
+                            f"{info['motor_speed_rpm']:.0f} rpm", refresh=False)
+        done = terminated or truncated
+    bar.close()
+    trace = EpisodeTrace(*(np.array(c) for c in zip(*rows, strict=True)), waypoints=np.array(path.waypoints))
+    metrics = episode_metrics(trace, path, info)
+    metrics["wall_time_s"] = time.perf_counter() - t0
+    if info.get("error"):
+        metrics["error"] = info["error"]
+    return metrics, trace
+
+
+def _row(info: dict[str, Any]) -> tuple:
+    return (info["sim_time_s"], np.asarray(info["head_position_m"], float), info["motor_speed_rpm"],
+            info["end_to_end_ratio"], info["cross_track_error_m"], info["waypoint_index"])
+
+
+def episode_metrics(trace: EpisodeTrace, path: WaypointPath, last_info: dict[str, Any]) -> dict[str, Any]:
+    """The ``METRICS`` of one episode (without wall time) from its trace and final info."""
+    seg = np.minimum(trace.waypoint_index, path.n_waypoints - 1)
+    out_of_plane = None
+    if is_planar(path):
+        out_of_plane = float(np.max(np.abs(trace.head[:, 2]) / path.segment_lengths[seg]))
+    return {"success": bool(last_info["is_success"]), "waypoints_reached": int(last_info["waypoint_index"]),
+            "n_waypoints": path.n_waypoints,
+            "mean_cross_track_m": float(np.mean(trace.cross_track_m[1:])) if len(trace.t) > 1 else 0.0,
+            "max_cross_track_m": float(np.max(trace.cross_track_m)),
+            "max_out_of_plane_ratio": out_of_plane, "time_s": float(trace.t[-1]),
+            "energy_J": float(last_info["energy_used_j"]), "buckling_events": int(last_info["buckling_events"])}
+
+
+# --- many episodes in parallel (the shared task pool) -------------------------------------------
+@dataclass(frozen=True)
+class EpisodeTask:
+    """One (controller, path) episode; picklable, ``execute`` runs in a worker process."""
+
+    controller: str
+    path: WaypointPath
+    preset: str
+    env_kwargs: tuple[tuple[str, Any], ...] = ()
+    seed: int = 0
+
+    @property
+    def point_id(self) -> str:
+        payload = json.dumps({"c": self.controller, "p": self.path.to_dict(), "preset": self.preset,
+                              "env": [list(kv) for kv in self.env_kwargs], "seed": self.seed}, sort_keys=True,
+                             default=str)
+        return hashlib.sha256(payload.encode()).hexdigest()[:16]
+
+    def label(self) -> str:
+        return f"{self.controller} on {self.path.name}"
+
+    def execute(self) -> PointOutcome:
+        from flagellum_env.steer_env import FlagellumSteerEnv
+
+        record: dict[str, Any] = {"point_id": self.point_id, "values": {"path": self.path.name,
+                                                                         "controller": self.controller},
+                                  "path": self.path.name, "controller": self.controller, "preset": self.preset,
+                                  "status": "ok", "error": None}
+        trace = None
+        t0 = time.perf_counter()
+        try:
+            env = FlagellumSteerEnv(path=self.path, **env_settings(self.controller, self.preset,
+                                                                    dict(self.env_kwargs)))
+            controller = make_controller(self.controller, env, self.preset)
+            metrics, trace = run_episode(env, controller, self.path, seed=self.seed)
+            record.update(metrics)
+            if metrics.get("error"):
+                record["status"] = "error"
+        except Exception as exc:  # recorded, not raised: one bad episode must not stop the others
+            record["status"], record["error"] = "error", f"{type(exc).__name__}: {exc}"
+            record["wall_time_s"] = time.perf_counter() - t0
+        return PointOutcome(record, trace)

@@ -1,0 +1,282 @@
+"""The paper's rule-based turn planner (Sec. 3 of Huang & Jawed 2020), closed-loop.
+
+Per corner: compute the turn theta* from the current heading to the wanted direction and the
+burst length t_c* for it from the turn map (turns beyond the map's largest theta are made in
+several bursts); hover at omega_l until the flagellum's rotation phase puts the turn's
+direction (the map's psi, fixed relative to that phase) where the wanted direction is, which
+sets the out-of-plane angle; burst at omega_h for t_c*; return to omega_l and swim straight.
+
+Beyond the paper, the loop is closed: after every turn the planner waits until the heading is
+steady, measures it and re-plans from the measured heading and position; the wanted direction
+aims at the next waypoint from where the turn will leave the head (the map's displacement over
+a turn), and on straight stretches a predicted miss of the waypoint triggers a correction turn.
+
+The planner sees only the environment's observation (the same ``predict`` call as a
+stable-baselines3 policy): the head position is dead-reckoned from the relative waypoint
+vectors (exact: the next waypoints relative to the head, rotated into the start frame with the
+orientation part), the heading is the head displacement over one wobble period, and the phase
+is the azimuth of the map's phase node (an observed shape node) about the heading.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from agents.turn_geometry import angle_between, azimuth, perpendicular_basis, unit, wrap_angle
+from agents.turn_map import TurnMap
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    """Tuning of the closed loop (angles in degrees, lengths in m)."""
+
+    min_turn_deg: float = 10.0       # heading errors below this never trigger a turn
+    hit_fraction: float = 0.6        # no correction while the predicted miss is below this x reach radius
+    settle_tol_deg: float = 1.5      # heading steady when two one-period headings differ by less
+    max_relax_factor: float = 3.0    # give up waiting for a steady heading after this x the map's relax time
+    offset_iterations: int = 3       # fixed-point passes for the turn's displacement
+
+    def __post_init__(self) -> None:
+        for name in ("min_turn_deg", "hit_fraction", "settle_tol_deg", "max_relax_factor"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"PlannerConfig.{name}={v!r} must be a finite number > 0")
+        if not (isinstance(self.offset_iterations, int) and 0 <= self.offset_iterations <= 20):
+            raise ValueError(f"PlannerConfig.offset_iterations={self.offset_iterations!r} must be an integer 0..20")
+
+
+@dataclass(frozen=True)
+class ObservationLayout:
+    """Where the planner finds what it needs in a flat observation of ``FlagellumSteer-v0``."""
+
+    waypoints: slice
+    orientation: slice
+    shape: slice
+    length_scale_m: float
+    phase_slot: int  # which observed shape node is the turn map's phase node
+
+    @classmethod
+    def from_env(cls, env, turn_map: TurnMap) -> ObservationLayout:
+        """From a ``FlagellumSteerEnv`` (or a wrapper of one); ValueError if it cannot serve the map."""
+        base = env.unwrapped
+        model = base.obs_model
+        if model.observation_type != "flat":
+            raise ValueError("the rule planner reads flat observations; make the env with observation_type='flat'")
+        slots = np.flatnonzero(model.shape_nodes == turn_map.phase_node)
+        if slots.size == 0:
+            raise ValueError(f"the turn map's phase node {turn_map.phase_node} is not among the observed shape "
+                             f"nodes {model.shape_nodes.tolist()}; use n_shape_nodes=8 (the default) or "
+                             "calibrate for this observation")
+        s = model.slices()
+        return cls(s["waypoints"], s["orientation"], s["shape"], model.length_scale_m, int(slots[0]))
+
+
+@dataclass
+class _Episode:
+    """What the planner remembers within one episode."""
+
+    step: int = 0
+    head: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    prev_rel: np.ndarray | None = None          # (2, 3) targets relative to the head, start frame
+    heads: list[np.ndarray] = field(default_factory=list)
+    mode: str = "cruise"                        # cruise | hover | burst | relax
+    steady_since: int = 0                       # step from which the motor has been at omega_l
+    burst_left: int = 0
+    relax_start: int = 0
+    target_phase: float = 0.0                   # rad, azimuth of the phase node at which to burst
+    axis: np.ndarray | None = None              # heading the hover phase is measured about
+    prev_phase: float | None = None
+    hover_steps: int = 0
+    plan: dict = field(default_factory=dict)
+    turns: list[dict] = field(default_factory=list)
+
+
+class RulePlanner:
+    """Rule-based controller with a stable-baselines3-like ``predict``.
+
+    turn_map: the calibration for this swimmer (``TurnMap.load``). layout: from
+    ``ObservationLayout.from_env(env, turn_map)``. control_dt: the env's step (s).
+    ``action_of(rpm)`` maps a motor speed to the env's action (``for_env`` sets it up).
+    """
+
+    def __init__(self, turn_map: TurnMap, layout: ObservationLayout, control_dt: float, reach_radius_m: float,
+                 action_of, config: PlannerConfig | None = None) -> None:
+        self.turn_map = turn_map
+        self.layout = layout
+        self.control_dt = float(control_dt)
+        self.reach_radius_m = float(reach_radius_m)
+        self.action_of = action_of
+        self.config = config or PlannerConfig()
+        self.period_steps = max(2, round(turn_map.period_s / self.control_dt))
+        self.min_turn_rad = math.radians(max(self.config.min_turn_deg, 0.0))
+        self._episodes: list[_Episode] = []
+
+    @classmethod
+    def for_env(cls, env, turn_map: TurnMap, config: PlannerConfig | None = None) -> RulePlanner:
+        """A planner for this environment: checks the map against the env's swimmer and speeds."""
+        base = env.unwrapped
+        cfg = base.config
+        turn_map.check_compatible(base.params)
+        lo = base.low_speed_rpm
+        if lo != turn_map.omega_l_rpm:
+            raise ValueError(f"the env's low motor speed is {lo} rpm but the turn map was made at omega_l = "
+                             f"{turn_map.omega_l_rpm} rpm; make the env with that low speed")
+        if cfg.action_type == "continuous":
+            a_lo, a_hi = cfg.omega_range_rpm
+            if not a_lo <= turn_map.omega_h_rpm <= a_hi:
+                raise ValueError(f"the turn map's omega_h = {turn_map.omega_h_rpm} rpm is outside the env's "
+                                 f"omega_range_rpm {cfg.omega_range_rpm}")
+
+            def action_of(rpm: float) -> np.ndarray:
+                return np.array([2.0 * (rpm - a_lo) / (a_hi - a_lo) - 1.0], dtype=np.float32)
+        else:
+            speeds = list(cfg.discrete_speeds_rpm)
+            if turn_map.omega_h_rpm not in speeds:
+                raise ValueError(f"the turn map's omega_h = {turn_map.omega_h_rpm} rpm is not one of the env's "
+                                 f"discrete_speeds_rpm {speeds}")
+
+            def action_of(rpm: float) -> np.ndarray:
+                return np.int64(speeds.index(rpm))
+        reach = base.tracker.reach_radius_m if base.tracker is not None else (cfg.reach_radius_m or 0.015)
+        return cls(turn_map, ObservationLayout.from_env(env, turn_map), cfg.control_dt, reach, action_of, config)
+
+    # --- stable-baselines3-like interface --------------------------------------------------
+    def reset(self) -> None:
+        """Forget every episode (the next ``predict`` starts afresh)."""
+        self._episodes = []
+
+    def predict(self, observation: np.ndarray, state=None, episode_start=None, deterministic: bool = True):
+        """(actions, None) for one observation (D,) or a batch (n_envs, D), like ``BasePolicy.predict``.
+
+        ``episode_start``: bools per env (True on the first observation of an episode); without
+        it, the first call starts an episode. The planner is deterministic either way.
+        """
+        obs = np.asarray(observation, dtype=np.float64)
+        single = obs.ndim == 1
+        batch = obs[None, :] if single else obs
+        n = batch.shape[0]
+        starts = np.ones(n, bool) if episode_start is None and not self._episodes else (
+            np.zeros(n, bool) if episode_start is None else np.asarray(episode_start, bool).reshape(n))
+        while len(self._episodes) < n:
+            self._episodes.append(_Episode())
+            starts[len(self._episodes) - 1] = True
+        actions = []
+        for i in range(n):
+            if starts[i]:
+                self._episodes[i] = _Episode()
+            actions.append(self.action_of(self._decide(self._episodes[i], batch[i])))
+        out = np.stack(actions)
+        return (out[0] if single else out), None
+
+    @property
+    def turns(self) -> list[dict]:
+        """The turns planned so far in the first env's episode (for reports and plots)."""
+        return self._episodes[0].turns if self._episodes else []
+
+    # --- the rules -------------------------------------------------------------------------
+    def _decide(self, ep: _Episode, obs: np.ndarray) -> float:
+        """Motor speed (rpm) for the next control step."""
+        lay, tm = self.layout, self.turn_map
+        rot = obs[lay.orientation].reshape(3, 3).T  # columns X_b, Y_b, Z_b in the start frame
+        rel = (obs[lay.waypoints].reshape(-1, 3) * lay.length_scale_m) @ rot.T  # targets - head, start frame
+        if ep.prev_rel is not None:
+            # the head moved by prev - now for the same target; if the target switched, the old
+            # second target is the new first one. The smaller implied move is the right one.
+            moves = [ep.prev_rel[0] - rel[0]]
+            if ep.prev_rel.shape[0] > 1:
+                moves.append(ep.prev_rel[1] - rel[0])
+            ep.head = ep.head + min(moves, key=lambda m: float(np.linalg.norm(m)))
+        ep.prev_rel = rel
+        ep.heads.append(ep.head.copy())
+        ep.step += 1
+        node = obs[lay.shape].reshape(-1, 3)[lay.phase_slot] * lay.length_scale_m @ rot.T
+        target = ep.head + rel[0]
+        wl, wh = tm.omega_l_rpm, tm.omega_h_rpm
+
+        if ep.mode == "burst":
+            if ep.burst_left > 0:
+                ep.burst_left -= 1
+                return wh
+            ep.mode, ep.relax_start = "relax", ep.step
+            ep.steady_since = ep.step
+            return wl
+        if ep.mode == "relax":
+            waited = ep.step - ep.relax_start
+            limit = self.config.max_relax_factor * tm.relax_s / self.control_dt
+            if waited >= 2 * self.period_steps and (self._heading_steady(ep) or waited >= limit):
+                ep.mode = "cruise"
+            return wl
+        if ep.mode == "hover":
+            phase = azimuth(node, ep.axis)
+            if ep.prev_phase is not None:
+                rate = wrap_angle(phase - ep.prev_phase) / self.control_dt
+                ep.hover_steps += 1
+                togo = (ep.target_phase - phase) % (2 * math.pi) if rate > 0 else (phase - ep.target_phase) % (
+                    2 * math.pi)
+                wait = togo / max(abs(rate), 1e-9)
+                if wait <= 0.5 * self.control_dt or ep.hover_steps > 1.5 * self.period_steps:
+                    # this step is the first of max(1, t_c / control_dt) steps at omega_h
+                    ep.mode, ep.burst_left = "burst", max(1, round(ep.plan["t_c"] / self.control_dt)) - 1
+                    ep.plan["burst_step"] = ep.step
+                    ep.plan["phase_error_deg"] = math.degrees(wrap_angle(phase - ep.target_phase))
+                    ep.turns.append(dict(ep.plan))
+                    return wh
+            ep.prev_phase = phase
+            return wl
+        # cruise: decide once a heading can be measured at omega_l
+        if ep.step - ep.steady_since < self.period_steps + 1:
+            return wl
+        d = self._heading(ep)
+        plan = self._plan_turn(ep.head, d, target, node)
+        if plan is None:
+            return wl
+        ep.mode, ep.plan, ep.axis = "hover", plan, d
+        ep.target_phase, ep.prev_phase, ep.hover_steps = plan["burst_phase"], None, 0
+        return self._decide_hover_now(ep, node)
+
+    def _decide_hover_now(self, ep: _Episode, node: np.ndarray) -> float:
+        ep.prev_phase = azimuth(node, ep.axis)
+        return self.turn_map.omega_l_rpm
+
+    def _heading(self, ep: _Episode) -> np.ndarray:
+        return unit(ep.heads[-1] - ep.heads[-1 - self.period_steps])
+
+    def _heading_steady(self, ep: _Episode) -> bool:
+        k = self.period_steps
+        if len(ep.heads) < 2 * k + 1:
+            return False
+        a = ep.heads[-1] - ep.heads[-1 - k]
+        b = ep.heads[-1 - k] - ep.heads[-1 - 2 * k]
+        return math.degrees(angle_between(a, b)) < self.config.settle_tol_deg
+
+    def _plan_turn(self, head: np.ndarray, d: np.ndarray, target: np.ndarray, node: np.ndarray) -> dict | None:
+        """The next turn (burst length, phase to burst at), or None to keep swimming straight."""
+        tm, cfg = self.turn_map, self.config
+        to_target = target - head
+        along = float(to_target @ d)
+        miss = float(np.linalg.norm(to_target - along * d))
+        if along > 0.0 and miss < cfg.hit_fraction * self.reach_radius_m:
+            return None  # on course
+        want = unit(to_target)
+        theta = angle_between(d, want)
+        if theta < self.min_turn_rad:
+            return None  # too small to turn for now; re-checked every step
+        t_c, alpha = 0.0, 0.0
+        for _ in range(cfg.offset_iterations + 1):
+            theta = min(angle_between(d, want), math.radians(tm.max_theta_deg))
+            alpha = azimuth(want, d)
+            t_c = tm.t_c_for(math.degrees(theta))
+            psi = math.radians(tm.psi_for(t_c))
+            ref_dir = alpha - psi  # azimuth the phase node must have at the burst
+            e1, e2 = perpendicular_basis(d)
+            e_ref = math.cos(ref_dir) * e1 + math.sin(ref_dir) * e2
+            o = tm.offset_for(t_c)
+            after = head + o[0] * d + o[1] * e_ref + o[2] * np.cross(d, e_ref)
+            if np.linalg.norm(target - after) < self.reach_radius_m:
+                break
+            want = unit(target - after)
+        return {"t_c": t_c, "theta_deg": math.degrees(theta), "burst_phase": wrap_angle(alpha - psi),
+                "heading": d.tolist(), "wanted": want.tolist(), "head": head.tolist()}

@@ -1,0 +1,50 @@
+"""``flagellum evaluate``: controllers x paths, in parallel and resumable; results.json and a table."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from flagellum.commands.common import UsageError, parse_number
+
+NAME = "evaluate"
+HELP = "run each controller on each path (parallel, resumable); write results.json and results.md"
+DESCRIPTION = ("Every --controller on every path of --paths ('square', path files or folders of them), one "
+               "episode each, saved as it finishes (DIR/results.jsonl; --resume runs only the missing ones). "
+               "Writes DIR/results.json (per_path and aggregate) and DIR/results.md.")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--paths", nargs="+", required=True, help="'square', path files (JSON) or folders of them")
+    parser.add_argument("--controller", action="append", required=True,
+                        help="rule | rule:MAP.json | ppo | ppo:MODEL.zip (repeatable)")
+    parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/evaluate"), help="default out/evaluate")
+    parser.add_argument("--workers", metavar="N", help="worker processes (default: one per core)")
+    parser.add_argument("--resume", action="store_true", help="keep the episodes already in DIR")
+    parser.add_argument("--no-progress", action="store_true", help="do not show the progress bar")
+
+
+def run(args: argparse.Namespace) -> int:
+    from agents.evaluation import evaluate, resolve_paths
+    from agents.path_following import controller_kind
+    from flagellum.sweep_store import SweepError
+
+    if args.set:
+        raise UsageError("--set is not used by evaluate (the turn map fixes the swimmer); choose --preset")
+    try:
+        paths = resolve_paths(args.paths)
+        for c in args.controller:
+            controller_kind(c)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    workers = None if args.workers is None else int(parse_number("--workers", args.workers, "an integer >= 1",
+                                                                 positive=True))
+    try:
+        results = evaluate(paths, args.controller, args.preset or "fast", args.out, workers=workers,
+                           resume=args.resume, progress=not args.no_progress)
+    except SweepError as exc:
+        raise UsageError(str(exc)) from None
+    print((args.out / "results.md").read_text(encoding="utf-8"))
+    for c, agg in results["aggregate"].items():
+        print(f"{c}: success rate {agg['success_rate']:.0%} over {agg['episodes']} paths")
+    return 0

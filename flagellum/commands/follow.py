@@ -1,0 +1,74 @@
+"""``flagellum follow``: one controller follows one path; summary, path plot and ω(t) plot."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from flagellum.commands.common import UsageError, parse_number
+
+NAME = "follow"
+HELP = "drive FlagellumSteer-v0 along a path with a controller; write summary.json and plots (Fig. 6)"
+DESCRIPTION = ("Follow --path (square = the paper's 0.25 m square, or a path file) with --controller (rule = the "
+               "turn planner with the preset's turn map; rule:MAP.json; ppo / ppo:MODEL.zip) and write "
+               "DIR/summary.json, DIR/path.png (target vs achieved, x-y and 3-D), DIR/omega.png (ω(t), L'/L) "
+               "and DIR/trace.npz.")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--path", default="square", help="'square' or a path file (JSON); default square")
+    parser.add_argument("--controller", action="append", default=None,
+                        help="rule | rule:MAP.json | ppo | ppo:MODEL.zip (repeat to compare on one plot; default rule)")
+    parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/follow"), help="default out/follow")
+    parser.add_argument("--reach-radius", metavar="M", help="waypoint reach radius, m (default: the path's or 0.015)")
+    parser.add_argument("--seed", default="0", help="env seed (default 0)")
+    parser.add_argument("--no-progress", action="store_true", help="do not show the progress bar")
+
+
+def run(args: argparse.Namespace) -> int:
+    from agents.evaluation import resolve_paths
+    from agents.follow_plots import omega_figure, path_figure, save
+    from agents.path_following import env_settings, make_controller, run_episode
+    from flagellum_env.steer_env import FlagellumSteerEnv
+
+    if args.set:
+        raise UsageError("--set is not used by follow (the turn map fixes the swimmer); choose --preset")
+    preset = args.preset or "fast"
+    try:
+        path = resolve_paths([args.path])[0]
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    overrides = {}
+    if args.reach_radius is not None:
+        overrides["reach_radius_m"] = parse_number("--reach-radius", args.reach_radius, "a radius > 0 m",
+                                                   positive=True)
+    seed = int(parse_number("--seed", args.seed, "an integer"))
+    args.out.mkdir(parents=True, exist_ok=True)
+    traces, summary = {}, {"path": path.to_dict(), "preset": preset, "controllers": {}}
+    for spec in args.controller or ["rule"]:
+        try:
+            env = FlagellumSteerEnv(path=path, **env_settings(spec, preset, overrides))
+            controller = make_controller(spec, env, preset)
+        except ValueError as exc:
+            raise UsageError(str(exc)) from None
+        metrics, trace = run_episode(env, controller, path, seed=seed, progress=not args.no_progress)
+        if hasattr(controller, "turns"):
+            metrics["turns"] = controller.turns
+        traces[spec] = trace
+        summary["controllers"][spec] = metrics
+        trace.save_npz(args.out / (f"trace_{spec.split(':')[0]}.npz" if len(args.controller or []) > 1
+                                   else "trace.npz"))
+        print(f"{spec}: success {metrics['success']}, waypoints {metrics['waypoints_reached']}/"
+              f"{metrics['n_waypoints']}, mean cross-track {metrics['mean_cross_track_m'] * 100:.2f} cm, "
+              f"max {metrics['max_cross_track_m'] * 100:.2f} cm, "
+              + (f"max dz/dL {metrics['max_out_of_plane_ratio'] * 100:.2f} %, "
+                 if metrics['max_out_of_plane_ratio'] is not None else "")
+              + f"{metrics['time_s']:.0f} s simulated in {metrics['wall_time_s']:.0f} s, "
+                f"{metrics['buckling_events']} buckling events, {metrics['energy_J'] * 1e3:.2f} mJ")
+    title = f"{path.name} path, {preset} preset"
+    save(path_figure(traces, title), args.out / "path.png")
+    save(omega_figure(traces, title), args.out / "omega.png")
+    (args.out / "summary.json").write_text(json.dumps(summary, indent=1, default=float) + "\n", encoding="utf-8")
+    print(f"wrote {args.out}/summary.json, path.png, omega.png")
+    return 0
