@@ -184,17 +184,20 @@ class TurnMap:
         """Median relaxation time after a burst, s."""
         return float(np.median([p.relax_s for p in self.points]))
 
-    def rising_branch(self) -> tuple[np.ndarray, np.ndarray]:
-        """(t_c, theta) from t_c = 0 (theta = 0) up to the first local maximum of the mean theta.
+    def rising_branch(self, drop_deg: float = 5.0) -> tuple[np.ndarray, np.ndarray]:
+        """(t_c, theta) from t_c = 0 (theta = 0) up to the first maximum of the mean theta,
+        made non-decreasing (wiggles smaller than ``drop_deg`` at tiny turns are noise).
 
-        Beyond it the buckled swimmer tumbles on (theta oscillates with t_c and the turn's
-        direction flips), so longer bursts are not used: larger turns are made in several bursts.
+        Beyond the first maximum (the first drop by more than ``drop_deg``) the buckled swimmer
+        tumbles on: theta oscillates with t_c and the turn's direction flips, so longer bursts are
+        not used and larger turns are made in several bursts.
         """
         tcs, th, _ = self.theta_curve()
         k = 0
-        while k + 1 < len(th) and th[k + 1] >= th[k]:
+        while k + 1 < len(th) and th[k + 1] > np.max(th[:k + 1]) - drop_deg:
             k += 1
-        return np.concatenate([[0.0], tcs[:k + 1]]), np.concatenate([[0.0], th[:k + 1]])
+        y = np.maximum.accumulate(np.concatenate([[0.0], th[:k + 1]]))
+        return np.concatenate([[0.0], tcs[:k + 1]]), y
 
     @property
     def max_theta_deg(self) -> float:

@@ -214,9 +214,10 @@ class RulePlanner:
             if ep.prev_phase is not None:
                 rate = wrap_angle(phase - ep.prev_phase) / self.control_dt
                 ep.hover_steps += 1
-                togo = (ep.target_phase - phase) % (2 * math.pi) if rate > 0 else (phase - ep.target_phase) % (
-                    2 * math.pi)
-                wait = togo / max(abs(rate), 1e-9)
+                # angle still to turn (signed, along the rotation); one step turns |rate| dt, so the
+                # window of half a step either side of zero is met exactly once per rotation
+                togo = wrap_angle(ep.target_phase - phase) * (1.0 if rate > 0 else -1.0)
+                wait = abs(togo) / max(abs(rate), 1e-9)
                 if wait <= 0.5 * self.control_dt or ep.hover_steps > 1.5 * self.period_steps:
                     # this step is the first of max(1, t_c / control_dt) steps at omega_h
                     ep.mode, ep.burst_left = "burst", max(1, round(ep.plan["t_c"] / self.control_dt)) - 1
