@@ -27,6 +27,7 @@ import numpy as np
 
 from agents.turn_geometry import angle_between, azimuth, perpendicular_basis, unit, wrap_angle
 from agents.turn_map import TurnMap
+from flagellum_env.config import DEFAULT_REACH_RADIUS_M
 
 
 @dataclass(frozen=True)
@@ -140,7 +141,11 @@ class RulePlanner:
 
             def action_of(rpm: float) -> np.ndarray:
                 return np.int64(speeds.index(rpm))
-        reach = base.tracker.reach_radius_m if base.tracker is not None else (cfg.reach_radius_m or 0.015)
+        if base.tracker is not None:
+            reach = base.tracker.reach_radius_m
+        else:
+            fixed = cfg.fixed_path.reach_radius_m if cfg.fixed_path is not None else None
+            reach = cfg.reach_radius_m or fixed or DEFAULT_REACH_RADIUS_M
         return cls(turn_map, ObservationLayout.from_env(env, turn_map), cfg.control_dt, reach, action_of, config)
 
     # --- stable-baselines3-like interface --------------------------------------------------

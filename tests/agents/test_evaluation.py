@@ -1,0 +1,107 @@
+"""Path-following harness: evaluate() results files, resume, metrics, CLI errors, eval paths."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import flagellum.task_pool as task_pool
+from agents.evaluation import evaluate, resolve_paths, results_markdown, summarise
+from agents.path_following import METRICS, EpisodeTrace, episode_metrics
+from flagellum.cli import main
+from flagellum_env.paths import RandomPathConfig, path_from_waypoints, random_path, save_path
+
+SHORT = path_from_waypoints([[0.004, 0.0, 0.0]], name="short", reach_radius_m=0.002)
+
+
+def test_evaluate_writes_results_and_resumes(tmp_path, monkeypatch):
+    out = tmp_path / "eval"
+    res = evaluate([SHORT], ["rule"], "fast", out, workers=1, progress=False)
+    doc = json.loads((out / "results.json").read_text())
+    assert doc == json.loads(json.dumps(res))
+    row = doc["per_path"][0]
+    assert row["path"] == "short" and row["controller"] == "rule" and row["status"] == "ok"
+    assert set(METRICS) <= set(row)
+    assert row["success"] and row["waypoints_reached"] == 1 and row["buckling_events"] == 0
+    assert 3.0 < row["time_s"] < 10.0  # (4 - 2) mm at ~0.45 mm/s
+    agg = doc["aggregate"]["rule"]
+    assert agg["success_rate"] == 1.0 and agg["episodes"] == 1
+    assert agg["mean_cross_track_m"] == pytest.approx(row["mean_cross_track_m"])
+    assert "| success rate | 100 |" in (out / "results.md").read_text()
+    # a resumed run starts no worker and gives the same numbers
+    monkeypatch.setattr(task_pool, "make_backend", lambda *a: pytest.fail("resume started workers"))
+    again = evaluate([SHORT], ["rule"], "fast", out, resume=True, progress=False)
+    assert again["per_path"][0]["time_s"] == row["time_s"]
+
+
+def test_episode_metrics_from_a_trace():
+    path = path_from_waypoints([[0.1, 0.0, 0.0], [0.1, 0.1, 0.0]])
+    trace = EpisodeTrace(t=np.array([0.0, 1.0, 2.0]), head=np.array([[0, 0, 0], [0.05, 0.01, 0.002], [0.1, 0.05, -0.004]]),
+                         omega_rpm=np.array([10.0, 150, 10]), end_to_end_ratio=np.ones(3),
+                         cross_track_m=np.array([0.0, 0.01, 0.0]), waypoint_index=np.array([0, 0, 1]),
+                         waypoints=path.waypoints)
+    m = episode_metrics(trace, path, {"is_success": False, "waypoint_index": 1, "energy_used_j": 0.5,
+                                      "buckling_events": 1})
+    assert m["mean_cross_track_m"] == pytest.approx(0.005) and m["max_cross_track_m"] == pytest.approx(0.01)
+    assert m["max_out_of_plane_ratio"] == pytest.approx(0.04)  # 4 mm over the 0.1 m second segment
+    assert m["time_s"] == 2.0 and not m["success"] and m["energy_J"] == 0.5
+    path3d = path_from_waypoints([[0.1, 0.0, 0.01]])
+    trace.waypoints = path3d.waypoints
+    trace.waypoint_index[:] = 0
+    assert episode_metrics(trace, path3d, {"is_success": True, "waypoint_index": 1, "energy_used_j": 0.0,
+                                           "buckling_events": 0})["max_out_of_plane_ratio"] is None
+
+
+def test_summary_and_table_with_two_controllers():
+    recs = [{"path": p, "controller": c, "status": "ok", "success": s, "waypoints_reached": 1,
+             "mean_cross_track_m": x, "max_cross_track_m": x, "max_out_of_plane_ratio": None, "time_s": 10.0,
+             "energy_J": 1e-3, "buckling_events": 1, "wall_time_s": 2.0}
+            for p, c, s, x in [("a", "rule", True, 0.01), ("b", "rule", False, 0.03), ("a", "ppo", True, 0.02)]]
+    res = summarise(recs, ["rule", "ppo"])
+    assert res["aggregate"]["rule"]["success_rate"] == 0.5
+    assert math.isclose(res["aggregate"]["rule"]["mean_cross_track_m"], 0.02)
+    assert res["aggregate"]["ppo"]["max_out_of_plane_ratio"] is None
+    md = results_markdown(res)
+    assert "| metric | rule | ppo |" in md and "| success rate | 50 | 100 |" in md
+
+
+def test_resolve_paths_errors_and_folders(tmp_path):
+    with pytest.raises(ValueError, match="neither 'square'"):
+        resolve_paths([str(tmp_path / "missing.json")])
+    with pytest.raises(ValueError, match="no path files"):
+        resolve_paths([str(tmp_path)])
+    save_path(SHORT, tmp_path / "a.json")
+    save_path(path_from_waypoints([[0.01, 0, 0]], name="other"), tmp_path / "b.json")
+    assert [p.name for p in resolve_paths([str(tmp_path), "square"])] == ["short", "other", "square"]
+    with pytest.raises(ValueError, match="unique"):
+        resolve_paths([str(tmp_path / "a.json"), str(tmp_path / "a.json")])
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["evaluate", "--paths", "nowhere.json", "--controller", "rule"], "neither 'square'"),
+    (["evaluate", "--paths", "square", "--controller", "magic"], "controller 'magic' is not allowed"),
+    (["follow", "--path", "square", "--controller", "ppo"], "no trained PPO agent"),
+    (["follow", "--path", "square", "--controller", "rule:nomap.json"], "no turn map at 'nomap.json'"),
+    (["calibrate-turns", "--preset", "fast", "--t-c", "-1"], "--t-c '-1' is not allowed"),
+])
+def test_cli_rejects_bad_input(argv, message, capsys, tmp_path):
+    with pytest.raises(SystemExit) as info:
+        main([*argv, "--out", str(tmp_path / "o")] if argv[0] != "calibrate-turns"
+             else [*argv, "--out", str(tmp_path / "m.json")])
+    assert info.value.code == 2
+    assert message in capsys.readouterr().err
+
+
+def test_random_paths_respect_the_turn_range():
+    cfg = RandomPathConfig(n_waypoints=6, segment_length_m=(0.1, 0.2), min_turn_deg=30.0, max_turn_deg=150.0)
+    for seed in range(5):
+        v = random_path(np.random.default_rng(seed), cfg).vertices
+        seg = np.diff(np.vstack([[-1.0, 0, 0], v]), axis=0)  # the heading before the first segment is +x
+        for a, b in zip(seg[:-1], seg[1:], strict=True):
+            ang = math.degrees(math.acos(np.clip(a @ b / np.linalg.norm(a) / np.linalg.norm(b), -1, 1)))
+            assert 30.0 - 1e-9 <= ang <= 150.0 + 1e-9
+    with pytest.raises(ValueError, match="min_turn_deg"):
+        RandomPathConfig(min_turn_deg=100.0, max_turn_deg=90.0)
