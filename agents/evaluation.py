@@ -108,7 +108,8 @@ def results_markdown(results: dict[str, Any]) -> str:
              "| metric | " + " | ".join(ctrl) + " |", "|---|" + "---|" * len(ctrl)]
     rows = [("episodes", "episodes", 1, 0), ("success rate", "success_rate", 100, 0),
             ("waypoints reached (mean)", "waypoints_reached", 1, 2),
-            ("mean cross-track (cm)", "mean_cross_track_m", 100, 2), ("max cross-track (cm)", "max_cross_track_m", 100, 2),
+            ("mean cross-track (cm)", "mean_cross_track_m", 100, 2),
+            ("max cross-track (cm)", "max_cross_track_m", 100, 2),
             ("max out-of-plane Δz/ΔL (%)", "max_out_of_plane_ratio", 100, 2), ("time (s)", "time_s", 1, 0),
             ("energy (mJ)", "energy_J", 1e3, 2), ("buckling events", "buckling_events", 1, 1),
             ("wall time (s)", "wall_time_s", 1, 0), ("failed runs", "failed_runs", 1, 0)]

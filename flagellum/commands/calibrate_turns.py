@@ -23,7 +23,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--omega-h", metavar="RPM", default=None,
                         help="burst motor speed, rpm (default 150: the paper's 60 rpm does not buckle this "
                              "model's torque-free swimmer, see agents/turn_map.py)")
-    parser.add_argument("--t-c", metavar="S", nargs="+", help="burst lengths, s (default 1-13 in steps of 1, 15, 20, 25, 30, 40)")
+    parser.add_argument("--t-c", metavar="S", nargs="+",
+                        help="burst lengths, s (default 1-13 in steps of 1, 15, 20, 25, 30, 40)")
     parser.add_argument("--phases", metavar="DEG", nargs="+",
                         help="hover before the burst, degrees of one flagellum rotation (default 0 90 180 270)")
     parser.add_argument("--workers", metavar="N", help="worker processes (default: one per core)")

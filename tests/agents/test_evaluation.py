@@ -39,7 +39,8 @@ def test_evaluate_writes_results_and_resumes(tmp_path, monkeypatch):
 
 def test_episode_metrics_from_a_trace():
     path = path_from_waypoints([[0.1, 0.0, 0.0], [0.1, 0.1, 0.0]])
-    trace = EpisodeTrace(t=np.array([0.0, 1.0, 2.0]), head=np.array([[0, 0, 0], [0.05, 0.01, 0.002], [0.1, 0.05, -0.004]]),
+    heads = np.array([[0, 0, 0], [0.05, 0.01, 0.002], [0.1, 0.05, -0.004]])
+    trace = EpisodeTrace(t=np.array([0.0, 1.0, 2.0]), head=heads,
                          omega_rpm=np.array([10.0, 150, 10]), end_to_end_ratio=np.ones(3),
                          cross_track_m=np.array([0.0, 0.01, 0.0]), waypoint_index=np.array([0, 0, 1]),
                          waypoints=path.waypoints)
