@@ -1,0 +1,121 @@
+"""docs/planner.md and its figures from the committed turn maps, square runs and evaluations.
+
+    python scripts/planner_report.py
+
+Inputs (each made by a committed command, listed in the report):
+- data/turn_maps/<preset>.json       flagellum calibrate-turns --preset <preset> [...]
+- data/turn_maps/r9_*.json           the paper's protocol (omega_h = 60 rpm), R9
+- docs/square/<preset>/summary.json  flagellum follow --path square --preset <preset> --out docs/square/<preset>
+- data/eval/<preset>/results.json    flagellum evaluate --paths data/paths/eval --controller rule --preset <preset>
+Missing inputs are reported as not measured.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+from agents.follow_plots import save, turn_map_figure
+from agents.turn_map import TurnMap
+
+DOCS = Path("docs")
+PRESETS = ("paper", "balanced", "fast")
+
+
+def turn_map_section(lines: list[str]) -> None:
+    lines += ["## Turn maps (Fig. 5d)", ""]
+    for preset in PRESETS:
+        f = Path("data/turn_maps") / f"{preset}.json"
+        if not f.is_file():
+            lines += [f"- `{preset}`: not calibrated.", ""]
+            continue
+        m = TurnMap.load(f)
+        fig = save(turn_map_figure(m, f"turn map, {preset} preset, ω_l = {m.omega_l_rpm:g} rpm, "
+                                      f"ω_h = {m.omega_h_rpm:g} rpm"), DOCS / "figures" / f"turn_map_{preset}.png")
+        tc, th, spread = m.theta_curve()
+        _, psi, psi_spread = m.psi_curve()
+        phases = sorted({p.phase_deg for p in m.points})
+        lines += [f"### `{preset}` preset: ω_l = {m.omega_l_rpm:g} rpm, ω_h = {m.omega_h_rpm:g} rpm",
+                  "", f"{len(m.points)} turns ({len(tc)} burst lengths × phases {phases}), "
+                  f"{m.meta.get('wall_time_s_all_turns', 0) / 60:.0f} CPU-min, commit `{m.meta.get('commit')}`. "
+                  f"Largest turn on the rising branch: **{m.max_theta_deg:.1f}°** "
+                  f"(t_c = {m.rising_branch()[0][-1]:g} s); wobble period {m.period_s:.2f} s; median relaxation "
+                  f"{m.relax_s:.1f} s.", "",
+                  f"![turn map {preset}](figures/{fig.name})", "",
+                  "| t_c (s) | t̄_c | θ mean (°) | θ spread over phases (°) | ψ (°) | ψ spread (°) |",
+                  "|---|---|---|---|---|---|"]
+        for row in zip(tc, th, spread, psi, psi_spread, strict=True):
+            lines.append(f"| {row[0]:g} | {row[0] / m.params.viscous_time:.3f} | {row[1]:.1f} | {row[2]:.1f} | "
+                         f"{row[3]:.1f} | {row[4]:.1f} |")
+        lines.append("")
+    ref = next((Path("data/turn_maps") / f"{p}.json" for p in PRESETS
+                if (Path("data/turn_maps") / f"{p}.json").is_file()), None)
+    if ref is not None:
+        shutil.copyfile(DOCS / "figures" / f"turn_map_{ref.stem}.png", DOCS / "figures" / "fig5d_turn_map.png")
+        lines += [f"`docs/figures/fig5d_turn_map.png` is the `{ref.stem}` map.", ""]
+
+
+def r9_section(lines: list[str]) -> None:
+    lines += ["## The paper's protocol: ω_h = 60 rpm (R9)", ""]
+    files = sorted(Path("data/turn_maps").glob("r9_*.json"))
+    if not files:
+        lines += ["Not measured.", ""]
+        return
+    lines += ["| map | preset | head | ω_h (rpm) | t_c (s) | θ (°) | max θ (°) |", "|---|---|---|---|---|---|---|"]
+    for f in files:
+        m = TurnMap.load(f)
+        tc, th, _ = m.theta_curve()
+        lines.append(f"| `{f.name}` | {m.preset} | {m.params.head_rotation} | {m.omega_h_rpm:g} | "
+                     f"{', '.join(f'{t:g}' for t in tc)} | {', '.join(f'{x:.1f}' for x in th)} | {th.max():.1f} |")
+    lines.append("")
+
+
+def square_section(lines: list[str]) -> None:
+    lines += ["## The square path (Fig. 6, R10)", ""]
+    for preset in PRESETS:
+        f = DOCS / "square" / preset / "summary.json"
+        if not f.is_file():
+            lines += [f"- `{preset}`: not run.", ""]
+            continue
+        s = json.loads(f.read_text())
+        for ctrl, m in s["controllers"].items():
+            ratio = m["max_out_of_plane_ratio"]
+            lines += [f"### `{preset}` preset, controller `{ctrl}`", "",
+                      f"success **{m['success']}** ({m['waypoints_reached']}/{m['n_waypoints']} corners), "
+                      f"Δz/ΔL = **{100 * ratio:.2f} %** (paper: < 5 %), mean cross-track "
+                      f"{100 * m['mean_cross_track_m']:.2f} cm, max {100 * m['max_cross_track_m']:.2f} cm, "
+                      f"{m['time_s']:.0f} s simulated in {m['wall_time_s']:.0f} s wall, "
+                      f"{m['buckling_events']} buckling events, {len(m.get('turns', []))} bursts, "
+                      f"energy {1e3 * m['energy_J']:.1f} mJ.", "",
+                      f"![square {preset}](square/{preset}/path.png)", "",
+                      f"![omega {preset}](square/{preset}/omega.png)", ""]
+
+
+def evaluation_section(lines: list[str]) -> None:
+    lines += ["## Random paths (20 seeded: 10 planar, 10 3-D; turns 30°-150°)", ""]
+    for preset in PRESETS:
+        f = Path("data/eval") / preset / "results.json"
+        if not f.is_file():
+            lines += [f"- `{preset}`: not run.", ""]
+            continue
+        lines += [f"### `{preset}` preset", ""]
+        lines += (Path("data/eval") / preset / "results.md").read_text().splitlines()[2:]
+        lines.append("")
+
+
+def main() -> None:
+    lines = ["# The rule-based turn planner: turn maps, the square path, random paths", "",
+             "Produced by `python scripts/planner_report.py` from the files listed in its docstring. "
+             "Background and the rules: `agents/turn_planner.py`; commands: `flagellum calibrate-turns`, "
+             "`flagellum follow`, `flagellum evaluate`.", ""]
+    turn_map_section(lines)
+    r9_section(lines)
+    square_section(lines)
+    evaluation_section(lines)
+    (DOCS / "planner.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    print(f"wrote {DOCS / 'planner.md'}")
+
+
+if __name__ == "__main__":
+    main()
