@@ -37,8 +37,9 @@ from flagellum_env.paths import WaypointPath
 METRICS = ("success", "waypoints_reached", "mean_cross_track_m", "max_cross_track_m", "max_out_of_plane_ratio",
            "time_s", "energy_J", "buckling_events", "wall_time_s")
 #: Environment settings each controller kind needs (merged under the caller's settings).
-#: The rule planner times its bursts to the flagellum's phase, which turns ~40 deg/s at 10 rpm.
-CONTROLLER_ENV_DEFAULTS: dict[str, dict[str, Any]] = {"rule": {"control_dt": 0.2}, "ppo": {}}
+#: The rule planner times its bursts to the flagellum's phase (~40 deg/s at 10 rpm) and its turns
+#: grow by up to ~100 deg per second of burst (paper preset), so it steps every 0.1 s.
+CONTROLLER_ENV_DEFAULTS: dict[str, dict[str, Any]] = {"rule": {"control_dt": 0.1}, "ppo": {}}
 TURN_MAP_DIR = Path(__file__).resolve().parent.parent / "data" / "turn_maps"
 
 
