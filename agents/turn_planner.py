@@ -7,9 +7,11 @@ direction (the map's psi, fixed relative to that phase) where the wanted directi
 sets the out-of-plane angle; burst at omega_h for t_c*; return to omega_l and swim straight.
 
 Beyond the paper, the loop is closed: after every turn the planner waits until the heading is
-steady, measures it and re-plans from the measured heading and position; the wanted direction
-aims at the next waypoint from where the turn will leave the head (the map's displacement over
-a turn), and on straight stretches a predicted miss of the waypoint triggers a correction turn.
+steady, measures it and re-plans from the measured heading and position. A turn is chosen by
+predicting every candidate (burst length x flagellum phase at the burst) with the map, including
+the head's displacement during the turn (several cm), and taking the one whose new straight line
+passes closest to the next waypoint; on straight stretches a predicted miss of the waypoint
+triggers a correction turn the same way.
 
 The planner sees only the environment's observation (the same ``predict`` call as a
 stable-baselines3 policy): the head position is dead-reckoned from the relative waypoint
@@ -20,6 +22,7 @@ is the azimuth of the map's phase node (an observed shape node) about the headin
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -34,19 +37,19 @@ from flagellum_env.config import DEFAULT_REACH_RADIUS_M
 class PlannerConfig:
     """Tuning of the closed loop (angles in degrees, lengths in m)."""
 
-    min_turn_deg: float = 10.0       # heading errors below this never trigger a turn
+    min_turn_deg: float = 5.0        # heading errors below this never trigger a turn
     hit_fraction: float = 0.6        # no correction while the predicted miss is below this x reach radius
     settle_tol_deg: float = 1.5      # heading steady when two one-period headings differ by less
     max_relax_factor: float = 3.0    # give up waiting for a steady heading after this x the map's relax time
-    offset_iterations: int = 3       # fixed-point passes for the turn's displacement
+    improvement_m: float = 0.005     # a turn must bring the predicted miss down by at least this
+    phase_step_deg: float = 5.0      # resolution of the burst phases searched
 
     def __post_init__(self) -> None:
-        for name in ("min_turn_deg", "hit_fraction", "settle_tol_deg", "max_relax_factor"):
+        for name in ("min_turn_deg", "hit_fraction", "settle_tol_deg", "max_relax_factor", "improvement_m",
+                     "phase_step_deg"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ValueError(f"PlannerConfig.{name}={v!r} must be a finite number > 0")
-        if not (isinstance(self.offset_iterations, int) and 0 <= self.offset_iterations <= 20):
-            raise ValueError(f"PlannerConfig.offset_iterations={self.offset_iterations!r} must be an integer 0..20")
 
 
 @dataclass(frozen=True)
@@ -259,30 +262,56 @@ class RulePlanner:
         return math.degrees(angle_between(a, b)) < self.config.settle_tol_deg
 
     def _plan_turn(self, head: np.ndarray, d: np.ndarray, target: np.ndarray, node: np.ndarray) -> dict | None:
-        """The next turn (burst length, phase to burst at), or None to keep swimming straight."""
-        tm, cfg = self.turn_map, self.config
-        to_target = target - head
-        along = float(to_target @ d)
-        miss = float(np.linalg.norm(to_target - along * d))
-        if along > 0.0 and miss < cfg.hit_fraction * self.reach_radius_m:
+        """The next turn (burst length, phase to burst at), or None to keep swimming straight.
+
+        Every candidate turn (burst length on the map's rising branch x phase of the flagellum at
+        the burst) is predicted from the map: the head moves by the map's displacement and then
+        swims along the new heading. The candidate whose straight line passes closest to the
+        target is chosen if it beats swimming on by ``improvement_m``; the miss of a line is the
+        target's distance from it, or the distance to the target plus a penalty when the target
+        is behind.
+        """
+        cfg = self.config
+        miss0 = _line_miss(head[None, :], d[None, :], target)[0]
+        if miss0 < cfg.hit_fraction * self.reach_radius_m:
             return None  # on course
-        want = unit(to_target)
-        theta = angle_between(d, want)
-        if theta < self.min_turn_rad:
+        if math.degrees(angle_between(d, target - head)) < cfg.min_turn_deg:
             return None  # too small to turn for now; re-checked every step
-        t_c, alpha = 0.0, 0.0
-        for _ in range(cfg.offset_iterations + 1):
-            theta = min(angle_between(d, want), math.radians(tm.max_theta_deg))
-            alpha = azimuth(want, d)
-            t_c = tm.t_c_for(math.degrees(theta))
-            psi = math.radians(tm.psi_for(t_c))
-            ref_dir = alpha - psi  # azimuth the phase node must have at the burst
-            e1, e2 = perpendicular_basis(d)
-            e_ref = math.cos(ref_dir) * e1 + math.sin(ref_dir) * e2
-            o = tm.offset_for(t_c)
-            after = head + o[0] * d + o[1] * e_ref + o[2] * np.cross(d, e_ref)
-            if np.linalg.norm(target - after) < self.reach_radius_m:
-                break
-            want = unit(target - after)
-        return {"t_c": t_c, "theta_deg": math.degrees(theta), "burst_phase": wrap_angle(alpha - psi),
-                "heading": d.tolist(), "wanted": want.tolist(), "head": head.tolist()}
+        t_c, theta, psi, off = self._candidates
+        beta = np.radians(np.arange(0.0, 360.0, cfg.phase_step_deg))
+        e1, e2 = perpendicular_basis(d)
+        e_ref = np.cos(beta)[:, None] * e1 + np.sin(beta)[:, None] * e2          # (B, 3)
+        e_perp = np.cross(d, e_ref)                                              # (B, 3)
+        az = beta[None, :] + psi[:, None]                                        # (T, B)
+        across = (np.cos(az)[..., None] * e1 + np.sin(az)[..., None] * e2)       # (T, B, 3)
+        heading = np.cos(theta)[:, None, None] * d + np.sin(theta)[:, None, None] * across
+        after = (head + off[:, 0, None, None] * d + off[:, 1, None, None] * e_ref[None]
+                 + off[:, 2, None, None] * e_perp[None])
+        miss = _line_miss(after.reshape(-1, 3), heading.reshape(-1, 3), target).reshape(after.shape[:2])
+        i, j = np.unravel_index(int(np.argmin(miss)), miss.shape)
+        if miss[i, j] > miss0 - cfg.improvement_m:
+            return None
+        return {"t_c": float(t_c[i]), "theta_deg": math.degrees(theta[i]), "burst_phase": wrap_angle(beta[j]),
+                "predicted_miss_m": float(miss[i, j]), "miss_straight_m": float(miss0),
+                "heading": d.tolist(), "head": head.tolist()}
+
+    @functools.cached_property
+    def _candidates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Burst lengths on the rising branch every control step, with theta (rad), psi (rad), offset (m)."""
+        tm = self.turn_map
+        t_branch, _ = tm.rising_branch()
+        t_c = np.arange(self.control_dt, t_branch[-1] + 1e-9, self.control_dt)
+        theta = np.radians([np.interp(t, *tm.rising_branch()) for t in t_c])
+        psi = np.radians([tm.psi_for(t) for t in t_c])
+        off = np.array([tm.offset_for(t) for t in t_c])
+        return t_c, theta, psi, off
+
+
+def _line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray, behind_penalty: float = 0.05
+               ) -> np.ndarray:
+    """How far the straight lines start + s direction (s >= 0) pass from ``target``, (k,) m; a target
+    behind a start counts its distance plus ``behind_penalty`` (m)."""
+    rel = target - starts
+    along = np.einsum("ij,ij->i", rel, directions)
+    lateral = np.linalg.norm(rel - along[:, None] * directions, axis=1)
+    return np.where(along > 0.0, lateral, np.linalg.norm(rel, axis=1) + behind_penalty)
