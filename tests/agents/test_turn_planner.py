@@ -75,3 +75,23 @@ def test_env_that_cannot_serve_the_map_is_refused():
         RulePlanner.for_env(_env(omega_range_rpm=(10.0, 100.0)), tmap)
     with pytest.raises(ValueError, match="low motor speed"):
         RulePlanner.for_env(_env(omega_range_rpm=(5.0, 150.0)), tmap)
+
+
+def test_line_miss_ahead_aside_and_behind():
+    from agents.turn_planner import _line_miss
+
+    starts = np.zeros((3, 3))
+    dirs = np.array([[1.0, 0, 0]] * 3)
+    assert _line_miss(starts, dirs, np.array([0.1, 0.0, 0.0]))[0] == pytest.approx(0.0)
+    assert _line_miss(starts, dirs, np.array([0.1, 0.02, 0.0]))[0] == pytest.approx(0.02)
+    assert _line_miss(starts, dirs, np.array([-0.03, 0.04, 0.0]), behind_penalty=0.05)[0] == pytest.approx(0.1)
+
+
+def test_turn_choice_keeps_course_or_predicts_a_better_line():
+    env = _env()
+    planner = RulePlanner.for_env(env, TurnMap.load(default_turn_map("fast")))
+    head, d, node = np.zeros(3), np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.006, 0.0])
+    assert planner._plan_turn(head, d, np.array([0.2, 0.001, 0.0]), node) is None  # on course
+    plan = planner._plan_turn(head, d, np.array([0.0, 0.2, 0.0]), node)
+    assert plan is not None and plan["predicted_miss_m"] < 0.01 < plan["miss_straight_m"]
+    assert 45.0 < plan["theta_deg"] < 122.5  # about a right angle, less what the displacement does
