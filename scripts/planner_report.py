@@ -104,11 +104,39 @@ def evaluation_section(lines: list[str]) -> None:
         lines.append("")
 
 
+FINDINGS = """## What we found
+
+- **The turn's size does not depend on when the burst starts; its direction does, rigidly.**
+  At the fast preset, four burst phases (quarter turns of the flagellum) give the same theta
+  within about 1 deg and the same psi (direction of the turn relative to the flagellum's phase
+  node) within 3 deg for every t_c >= 6 s (where the turn exceeds 5 deg), while phi changes
+  with the phase (e.g. t_c =
+  10 s: theta 69.7-70.8 deg, phi from -34 to +68 deg). This is the paper's premise (Fig. 5e) and
+  what lets the planner choose phi by hovering less than one rotation. The paper-preset map was
+  measured at one phase only (CPU time).
+- **theta(t_c) rises steeply, then oscillates.** Once the flagellum buckles the swimmer keeps
+  tumbling: theta peaks (fast: 122 deg at t_c = 11 s; paper: 163 deg at t_c = 8 s) and then
+  oscillates with t_c while the turn's direction flips. The planner uses only the first rise
+  and makes larger turns in several bursts. The rise is steep (paper preset: 58 deg at 7 s,
+  90 deg at 7.5 s, 163 deg at 8 s), so the planner steps every 0.1 s and closes the loop.
+- **A turn displaces the head by several cm** (up to ~8 cm, also out of the plane), comparable
+  to the path's segments; the planner predicts every candidate turn with the map's
+  displacement and picks the one whose new straight line passes closest to the next waypoint.
+- **The presets turn differently.** The same burst turns the paper-preset swimmer much more
+  than the fast-preset one (t_c = 7 s: 58 vs 12 deg; 8 s: 163 vs 23 deg): N = 45 buckles later
+  than N = 122. Turn maps are therefore per preset (a map refuses other physical parameters),
+  and the fast preset's turning angles are not within 10 % of the paper preset's (issue #4).
+- **The paper's 60 rpm burst does not turn this model's torque-free swimmer** (R9): 60 rpm is
+  below its buckling threshold (70-90 rpm, docs/validation.md), so the planner bursts at 150 rpm.
+"""
+
+
 def main() -> None:
     lines = ["# The rule-based turn planner: turn maps, the square path, random paths", "",
              "Produced by `python scripts/planner_report.py` from the files listed in its docstring. "
              "Background and the rules: `agents/turn_planner.py`; commands: `flagellum calibrate-turns`, "
              "`flagellum follow`, `flagellum evaluate`.", ""]
+    lines += FINDINGS.splitlines() + [""]
     turn_map_section(lines)
     r9_section(lines)
     square_section(lines)
