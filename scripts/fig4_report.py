@@ -269,10 +269,12 @@ REASONS = {
     "R8": "The torque-free head gives ~0.28 cm per turn, the fixed head ~0.43 cm; the paper's 0.37 cm lies "
           "between the two readings, as the rigid-helix estimate in paper_targets predicts.",
     "R9": "With the head torque-free (eqn 13) 60 rpm is below this model's buckling threshold (R1), so a "
-          "burst at the paper's omega_h = 60 rpm hardly turns the swimmer. With the head not spinning (the "
-          "other reading) 60 rpm buckles and turns it (numbers in 'ours'; fast preset, the paper preset's "
-          "turns differ, docs/planner.md). The planner therefore bursts at 150 rpm, where the paper-preset "
-          "map reaches 163 deg (docs/planner.md).",
+          "burst at the paper's omega_h = 60 rpm hardly turns the swimmer (fast preset: at most 1.1 deg for "
+          "t_c <= 54 s). With the head not spinning (the other reading) 60 rpm buckles the paper-preset "
+          "swimmer: 9.4 deg after t_c = 30 s and 131.8 deg after 54 s (t_bar_c = 0.55, the end of the "
+          "paper's range), 22 deg short of 154 deg with only two burst lengths measured (CPU time); the "
+          "fast preset (N = 45) does not buckle at 60 rpm even then (4.6 deg). The planner bursts at "
+          "150 rpm, where the paper-preset map reaches 163 deg (docs/planner.md).",
     "R11": "At 60 rpm the torque-free swimmer does not buckle (L'/L = 1.028; threshold 70-90 rpm, R1); with "
            "the head not spinning it does (L'/L = 0.20). fig4_ab.png shows the buckled shapes.",
 }
