@@ -146,15 +146,24 @@ def validation_rows(data: dict[str, list[dict]]) -> list[dict]:
         "bracket from the swept speeds (L'/L < 0.98 at t̄ = 1.02)")
     lo_f, hi_f = omega_b_bracket(fx.get(0.012, []))
     rows[-1]["ours"]["fixed_head_bracket_rpm"] = [lo_f, hi_f]
-    # R2
+    # R2 (both readings; b = 0 has no head, so its bracket is the baseline of both)
     base = omega_b_bracket(tf.get(0.0, []))
-    red = {}
-    for b in (0.004, 0.008, 0.012):
-        br = omega_b_bracket(tf.get(b, []))
-        red[f"{100 * b:.1f} cm"] = {"bracket_rpm": list(br)}
-    add("R2", "reduction of omega_b vs b = 0 for b = 0.4, 0.8, 1.2 cm", [19, 32, 40],
-        {"b=0 bracket_rpm": list(base), **red}, "±5 points",
-        False, "needs omega_b brackets for every head size; see note in validation.md")
+    for reading, groups in (("eqn (13) torque-free", tf), ("fixed head", fx)):
+        red: dict[str, dict] = {}
+        for b in (0.004, 0.008, 0.012):
+            br = omega_b_bracket(groups.get(b, []))
+            entry: dict = {"bracket_rpm": list(br)}
+            if None not in br and None not in base:
+                mid0, midb = 0.5 * (base[0] + base[1]), 0.5 * (br[0] + br[1])
+                entry["reduction_pct"] = 100 * (1 - midb / mid0)
+                entry["reduction_range_pct"] = [100 * (1 - br[1] / base[0]), 100 * (1 - br[0] / base[1])]
+            red[f"{100 * b:.1f} cm"] = entry
+        got = [e.get("reduction_pct") for e in red.values()]
+        ok = None not in got and all(abs(g - p) <= 5 for g, p in zip(got, (19, 32, 40), strict=True))
+        add("R2" if reading.startswith("eqn") else "R2 (fixed head)",
+            f"reduction of omega_b vs b = 0 for b = 0.4, 0.8, 1.2 cm, {reading} (%, bracket midpoints)",
+            [19, 32, 40], {"b=0 bracket_rpm": list(base), **red}, "±5 points", ok,
+            "from the brackets of the swept speeds; a head with no bracket has no reduction")
     # R3
     ratios = [r["summary"]["end_to_end_ratio"] for b in tf for r in tf[b]
               if r["summary"]["end_to_end_ratio"] >= BUCKLED_RATIO]
@@ -264,6 +273,11 @@ REASONS = {
                        "(here a 2-delta motor shaft turning at omega with no head), which the paper leaves open.",
     "R8 (fixed head)": "0.429 cm is just outside the +15 % band (0.4255 cm); eqn (13) gives 0.276 cm. The paper's "
                        "0.37 cm lies between the two readings, as the rigid-helix estimate in paper_targets predicts.",
+    "R2 (fixed head)": "With the head not spinning every head size has a bracket; the midpoint reductions "
+                       "(24, 38, 48 %) are 5-8 points above the paper's 19, 32, 40 %, and the brackets "
+                       "(10-30 rpm wide; reduction ranges in 'ours') contain the paper's values. Finer speeds "
+                       "near each threshold (bisection) would narrow them; the b = 0 baseline (90-120 rpm) "
+                       "depends on the b = 0 convention (a motor shaft with no head).",
     "R3": "The smallest L'/L (0.994) is the headless swimmer at 10 rpm (b = 0 convention); the largest L'/L comes from small heads at high speed under eqn (13): the fast-counter-rotating "
           "head leaves a strongly twisted, stretched helix that has not buckled.",
     "R8": "The torque-free head gives ~0.28 cm per turn, the fixed head ~0.43 cm; the paper's 0.37 cm lies "

@@ -18,6 +18,9 @@ import os
 from pathlib import Path
 
 OMEGAS_RPM = [10.0, 30.0, 50.0, 60.0, 70.0, 90.0]
+#: The torque-free reading buckles later (small heads not at all by 90 rpm): two more speeds
+#: bracket omega_b for every head size (b = 0 is the baseline of both readings).
+OMEGAS_TF_RPM = OMEGAS_RPM + [120.0, 150.0]
 HEADS_M = [0.0, 0.004, 0.008, 0.012]
 FIXED = {"n_nodes": 122, "dt": 0.005, "hydro_refresh_tol": 0.03}
 BUCKLED_RATIO = 0.98  # L'/L below this at t_bar = 1.02 counts as buckled
@@ -25,7 +28,7 @@ BUCKLED_RATIO = 0.98  # L'/L below this at t_bar = 1.02 counts as buckled
 
 def configs() -> dict[str, dict]:
     return {
-        "torque_free": {"sweep": {"omega_rpm": OMEGAS_RPM, "head_radius": HEADS_M}, "duration_s": 100.0,
+        "torque_free": {"sweep": {"omega_rpm": OMEGAS_TF_RPM, "head_radius": HEADS_M}, "duration_s": 100.0,
                         "fixed": {**FIXED, "head_rotation": "torque_free"}, "record_interval_s": 0.1,
                         "node_record_interval_s": 10.0},
         "fixed_head": {"sweep": {"omega_rpm": OMEGAS_RPM, "head_radius": HEADS_M[1:]}, "duration_s": 100.0,
