@@ -106,7 +106,7 @@ def results_markdown(results: dict[str, Any]) -> str:
     ctrl = list(results["aggregate"])
     lines = [f"# Path following ({results.get('preset')} preset)", "",
              "| metric | " + " | ".join(ctrl) + " |", "|---|" + "---|" * len(ctrl)]
-    rows = [("episodes", "episodes", 1, 0), ("success rate", "success_rate", 100, 0),
+    rows = [("episodes", "episodes", 1, 0), ("success rate (%)", "success_rate", 100, 0),
             ("waypoints reached (mean)", "waypoints_reached", 1, 2),
             ("mean cross-track (cm)", "mean_cross_track_m", 100, 2),
             ("max cross-track (cm)", "max_cross_track_m", 100, 2),

@@ -30,7 +30,7 @@ def test_evaluate_writes_results_and_resumes(tmp_path, monkeypatch):
     agg = doc["aggregate"]["rule"]
     assert agg["success_rate"] == 1.0 and agg["episodes"] == 1
     assert agg["mean_cross_track_m"] == pytest.approx(row["mean_cross_track_m"])
-    assert "| success rate | 100 |" in (out / "results.md").read_text()
+    assert "| success rate (%) | 100 |" in (out / "results.md").read_text()
     # a resumed run starts no worker and gives the same numbers
     monkeypatch.setattr(task_pool, "make_backend", lambda *a: pytest.fail("resume started workers"))
     again = evaluate([SHORT], ["rule"], "fast", out, resume=True, progress=False)
@@ -66,7 +66,7 @@ def test_summary_and_table_with_two_controllers():
     assert math.isclose(res["aggregate"]["rule"]["mean_cross_track_m"], 0.02)
     assert res["aggregate"]["ppo"]["max_out_of_plane_ratio"] is None
     md = results_markdown(res)
-    assert "| metric | rule | ppo |" in md and "| success rate | 50 | 100 |" in md
+    assert "| metric | rule | ppo |" in md and "| success rate (%) | 50 | 100 |" in md
 
 
 def test_resolve_paths_errors_and_folders(tmp_path):
