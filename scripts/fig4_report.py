@@ -260,9 +260,11 @@ REASONS = {
           "lower (bracket in 'ours'). The paper's eqn (13) is lagged by one step in its scheme; the "
           "counter-rotation depends on the printed head-flow coefficients, which are not self-consistent "
           "(see physics/higdon_head.py).",
-    "R2": "Smaller heads counter-rotate faster under eqn (13) (their rotational drag scales as b^3), so "
-          "the flagellum barely turns in the lab and no buckling occurs in the swept range; the paper's "
-          "trend (larger head buckles sooner) needs the thresholds of every head size.",
+    "R2": "Under eqn (13) small heads counter-rotate almost at the motor speed (their rotational drag "
+          "scales as b^3), so the flagellum barely turns in the lab: b = 0.4 and 0.8 cm did not buckle even "
+          "at 150 rpm (L'/L 1.009 and 1.044 at t_bar = 1.02), while b = 0 buckles between 90 and 120 rpm. "
+          "In this reading a small head raises omega_b instead of lowering it; the paper's trend appears "
+          "in the fixed-head reading (next row).",
     "R4": "Under eqn (13) small heads counter-rotate almost at the motor speed, so the displacement drops "
           "far more than the paper's 16/32/43 % (see the paper_targets note: R4 and R8 are not "
           "reachable under one reading); the fixed-head row shows the other reading.",
