@@ -242,13 +242,10 @@ class RulePlanner:
         plan = self._plan_turn(ep.head, d, target, node)
         if plan is None:
             return wl
+        # hover at omega_l from here until the phase node reaches the planned azimuth
         ep.mode, ep.plan, ep.axis = "hover", plan, d
-        ep.target_phase, ep.prev_phase, ep.hover_steps = plan["burst_phase"], None, 0
-        return self._decide_hover_now(ep, node)
-
-    def _decide_hover_now(self, ep: _Episode, node: np.ndarray) -> float:
-        ep.prev_phase = azimuth(node, ep.axis)
-        return self.turn_map.omega_l_rpm
+        ep.target_phase, ep.prev_phase, ep.hover_steps = plan["burst_phase"], azimuth(node, d), 0
+        return wl
 
     def _heading(self, ep: _Episode) -> np.ndarray:
         return unit(ep.heads[-1] - ep.heads[-1 - self.period_steps])
