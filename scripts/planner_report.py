@@ -56,6 +56,21 @@ def turn_map_section(lines: list[str]) -> None:
         lines += [f"`docs/figures/fig5d_turn_map.png` is the `{ref.stem}` map.", ""]
 
 
+def phase_check_section(lines: list[str]) -> None:
+    """Phase independence at the paper preset (data/turn_maps/paper_phases.json, if measured)."""
+    f = Path("data/turn_maps/paper_phases.json")
+    if not f.is_file():
+        return
+    m = TurnMap.load(f)
+    lines += ["### Phase check at the `paper` preset", "",
+              "`flagellum calibrate-turns --preset paper --t-c 7 7.5 --phases 0 90 180 270 --out "
+              "data/turn_maps/paper_phases.json`:", "",
+              "| t_c (s) | phase (°) | θ (°) | φ (°) | ψ (°) |", "|---|---|---|---|---|"]
+    for p in sorted(m.points, key=lambda p: (p.t_c, p.phase_deg)):
+        lines.append(f"| {p.t_c:g} | {p.phase_deg:g} | {p.theta_deg:.1f} | {p.phi_deg:.1f} | {p.psi_deg:.1f} |")
+    lines.append("")
+
+
 def r9_section(lines: list[str]) -> None:
     lines += ["## The paper's protocol: ω_h = 60 rpm (R9)", ""]
     files = sorted(Path("data/turn_maps").glob("r9_*.json"))
@@ -138,6 +153,7 @@ def main() -> None:
              "`flagellum follow`, `flagellum evaluate`.", ""]
     lines += FINDINGS.splitlines() + [""]
     turn_map_section(lines)
+    phase_check_section(lines)
     r9_section(lines)
     square_section(lines)
     evaluation_section(lines)
