@@ -126,9 +126,10 @@ FINDINGS = """## What we found
   within about 1 deg and the same psi (direction of the turn relative to the flagellum's phase
   node) within 3 deg for every t_c >= 6 s (where the turn exceeds 5 deg), while phi changes
   with the phase (e.g. t_c =
-  10 s: theta 69.7-70.8 deg, phi from -34 to +68 deg). This is the paper's premise (Fig. 5e) and
-  what lets the planner choose phi by hovering less than one rotation. The paper-preset map was
-  measured at one phase only (CPU time).
+  10 s: theta 69.7-70.8 deg, phi from -34 to +68 deg). The paper preset agrees (t_c = 7 and
+  7.5 s at four phases: theta within 0.9 deg, psi within 6 deg; table below). This is the paper's
+  premise (Fig. 5e) and what lets the planner choose phi by hovering less than one rotation. The
+  paper-preset map itself was measured at phase 0 only (CPU time).
 - **theta(t_c) rises steeply, then oscillates.** Once the flagellum buckles the swimmer keeps
   tumbling: theta peaks (fast: 122 deg at t_c = 11 s; paper: 163 deg at t_c = 8 s) and then
   oscillates with t_c while the turn's direction flips. The planner uses only the first rise
