@@ -53,16 +53,21 @@ def resolve_paths(specs: Sequence[str]) -> list[WaypointPath]:
 
 def evaluate(paths: Sequence[WaypointPath], controllers: Sequence[str], preset: str, out_dir: str | os.PathLike,
              workers: int | None = None, resume: bool = False, env_overrides: dict[str, Any] | None = None,
-             progress: bool = True) -> dict[str, Any]:
-    """Run every (controller, path) episode (parallel, resumable) and write the results files."""
+             progress: bool = True, report_only: bool = False) -> dict[str, Any]:
+    """Run every (controller, path) episode (parallel, resumable) and write the results files.
+
+    ``report_only``: run nothing; write the results files from the episodes already in
+    ``out_dir`` (the others are listed under ``missing``).
+    """
     for c in controllers:
         controller_kind(c)
     env_kw = tuple(sorted((env_overrides or {}).items()))
     tasks = [EpisodeTask(c, p, preset, env_kw) for c in controllers for p in paths]
     out = Path(out_dir)
-    with ResultsStore(out, resume) as store:
-        todo = pending(tasks, store, retry_failed=False)
-        run_tasks(todo, store, workers=workers, progress=progress, total=len(tasks), desc="evaluate")
+    with ResultsStore(out, resume or report_only) as store:
+        if not report_only:
+            todo = pending(tasks, store, retry_failed=False)
+            run_tasks(todo, store, workers=workers, progress=progress, total=len(tasks), desc="evaluate")
         records = [store.records.get(t.point_id) for t in tasks]
     results = summarise([r for r in records if r is not None], controllers)
     results["preset"] = preset

@@ -21,6 +21,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/evaluate"), help="default out/evaluate")
     parser.add_argument("--workers", metavar="N", help="worker processes (default: one per core)")
     parser.add_argument("--resume", action="store_true", help="keep the episodes already in DIR")
+    parser.add_argument("--report-only", action="store_true",
+                        help="run nothing: write results.json/.md from the episodes already in DIR")
     parser.add_argument("--no-progress", action="store_true", help="do not show the progress bar")
 
 
@@ -41,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
                                                                  positive=True))
     try:
         results = evaluate(paths, args.controller, args.preset or "fast", args.out, workers=workers,
-                           resume=args.resume, progress=not args.no_progress)
+                           resume=args.resume, progress=not args.no_progress, report_only=args.report_only)
     except SweepError as exc:
         raise UsageError(str(exc)) from None
     print((args.out / "results.md").read_text(encoding="utf-8"))

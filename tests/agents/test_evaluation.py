@@ -35,6 +35,10 @@ def test_evaluate_writes_results_and_resumes(tmp_path, monkeypatch):
     monkeypatch.setattr(task_pool, "make_backend", lambda *a: pytest.fail("resume started workers"))
     again = evaluate([SHORT], ["rule"], "fast", out, resume=True, progress=False)
     assert again["per_path"][0]["time_s"] == row["time_s"]
+    # report-only lists what was never run instead of running it
+    other = path_from_waypoints([[0.0, 0.004, 0.0]], name="other")
+    partial = evaluate([SHORT, other], ["rule"], "fast", out, report_only=True, progress=False)
+    assert partial["missing"] == ["rule on other"] and len(partial["per_path"]) == 1
 
 
 def test_episode_metrics_from_a_trace():
