@@ -11,6 +11,7 @@ from matplotlib.figure import Figure
 
 from agents.path_following import EpisodeTrace
 from agents.turn_map import TurnMap
+from flagellum.plots import set_equal_3d
 
 CM = 100.0
 
@@ -35,13 +36,7 @@ def path_figure(traces: Mapping[str, EpisodeTrace], title: str = "") -> Figure:
     ax.set_ylabel("y (cm)")
     ax.legend(fontsize="small")
     ax.set_title("x-y plane")
-    pts = np.vstack([target] + [t.head * CM for t in traces.values()])
-    lo, hi = pts.min(0), pts.max(0)
-    c, half = (lo + hi) / 2, max(float((hi - lo).max()) / 2, 1.0)
-    ax3.set_xlim(c[0] - half, c[0] + half)
-    ax3.set_ylim(c[1] - half, c[1] + half)
-    ax3.set_zlim(c[2] - half, c[2] + half)
-    ax3.set_box_aspect((1, 1, 1))
+    set_equal_3d(ax3, np.vstack([target] + [t.head * CM for t in traces.values()]))
     ax3.set_xlabel("x (cm)")
     ax3.set_ylabel("y (cm)")
     ax3.set_zlabel("z (cm)")

@@ -87,9 +87,8 @@ class _Episode:
     prev_rel: np.ndarray | None = None          # (2, 3) targets relative to the head, start frame
     heads: list[np.ndarray] = field(default_factory=list)
     mode: str = "cruise"                        # cruise | hover | burst | relax
-    steady_since: int = 0                       # step from which the motor has been at omega_l
+    low_since: int = 0                          # step from which the motor has been at omega_l
     burst_left: int = 0
-    relax_start: int = 0
     target_phase: float = 0.0                   # rad, azimuth of the phase node at which to burst
     axis: np.ndarray | None = None              # heading the hover phase is measured about
     prev_phase: float | None = None
@@ -208,11 +207,10 @@ class RulePlanner:
             if ep.burst_left > 0:
                 ep.burst_left -= 1
                 return wh
-            ep.mode, ep.relax_start = "relax", ep.step
-            ep.steady_since = ep.step
+            ep.mode, ep.low_since = "relax", ep.step
             return wl
         if ep.mode == "relax":
-            waited = ep.step - ep.relax_start
+            waited = ep.step - ep.low_since
             limit = self.config.max_relax_factor * tm.relax_s / self.control_dt
             if waited >= 2 * self.period_steps and (self._heading_steady(ep) or waited >= limit):
                 ep.mode = "cruise"
@@ -236,7 +234,7 @@ class RulePlanner:
             ep.prev_phase = phase
             return wl
         # cruise: decide once a heading can be measured at omega_l
-        if ep.step - ep.steady_since < self.period_steps + 1:
+        if ep.step - ep.low_since < self.period_steps + 1:
             return wl
         d = self._heading(ep)
         plan = self._plan_turn(ep.head, d, target, node)
@@ -296,9 +294,9 @@ class RulePlanner:
     def _candidates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Burst lengths on the rising branch every control step, with theta (rad), psi (rad), offset (m)."""
         tm = self.turn_map
-        t_branch, _ = tm.rising_branch()
+        t_branch, theta_branch = tm.rising_branch()
         t_c = np.arange(self.control_dt, t_branch[-1] + 1e-9, self.control_dt)
-        theta = np.radians([np.interp(t, *tm.rising_branch()) for t in t_c])
+        theta = np.radians(np.interp(t_c, t_branch, theta_branch))
         psi = np.radians([tm.psi_for(t) for t in t_c])
         off = np.array([tm.offset_for(t) for t in t_c])
         return t_c, theta, psi, off

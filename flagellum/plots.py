@@ -13,7 +13,7 @@ from physics.run import Trajectory
 M_TO_CM = 100.0
 
 
-def _set_equal_3d(ax, points_cm: np.ndarray) -> None:
+def set_equal_3d(ax, points_cm: np.ndarray) -> None:
     """Equal scaling on x, y, z: a cube around all points (cm)."""
     lo, hi = points_cm.min(axis=0), points_cm.max(axis=0)
     centre = (lo + hi) / 2.0
@@ -47,7 +47,7 @@ def trajectory_figure(traj: Trajectory, head_radius_m: float = 0.0, title: str |
         ax.plot_surface(c[0] + b * np.cos(u) * np.sin(v), c[1] + b * np.sin(u) * np.sin(v), c[2] + b * np.cos(v),
                         color="tab:gray", alpha=0.2, linewidth=0)
         points.append(np.array([c - b, c + b]))
-    _set_equal_3d(ax, np.vstack(points))
+    set_equal_3d(ax, np.vstack(points))
     ax.set_xlabel("x (cm)")
     ax.set_ylabel("y (cm)")
     ax.set_zlabel("z (cm)")

@@ -49,7 +49,9 @@ class PointTask:
         return run_point(self)
 
     def label(self) -> str:
-        return ", ".join(f"{k}={v}" for k, v in self.values.items())
+        from flagellum.sweep_config import format_values
+
+        return format_values(self.values)
 
 
 @dataclass

@@ -28,15 +28,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from agents.evaluation import evaluate, resolve_paths
-    from agents.path_following import controller_kind
     from flagellum.sweep_store import SweepError
 
     if args.set:
         raise UsageError("--set is not used by evaluate (the turn map fixes the swimmer); choose --preset")
     try:
         paths = resolve_paths(args.paths)
-        for c in args.controller:
-            controller_kind(c)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     workers = None if args.workers is None else int(parse_number("--workers", args.workers, "an integer >= 1",
@@ -44,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         results = evaluate(paths, args.controller, args.preset or "fast", args.out, workers=workers,
                            resume=args.resume, progress=not args.no_progress, report_only=args.report_only)
-    except SweepError as exc:
+    except (ValueError, SweepError) as exc:  # a bad controller name, a locked or used DIR
         raise UsageError(str(exc)) from None
     print((args.out / "results.md").read_text(encoding="utf-8"))
     for c, agg in results["aggregate"].items():

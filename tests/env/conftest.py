@@ -1,4 +1,4 @@
-"""Shared fixtures of the environment tests: a session-wide steady-start cache and small envs.
+"""Shared fixtures of the environment tests: small envs (the steady-start cache is in tests/conftest.py).
 
 The small configuration (fast preset, 0.2 s steps, a 6 mm path, 10-40 rpm so the flagellum
 never buckles, a 6 s settle) keeps every episode to a fraction of a second of wall time.
@@ -6,7 +6,6 @@ never buckles, a 6 s settle) keeps every episode to a fraction of a second of wa
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -25,19 +24,6 @@ SMALL: dict[str, Any] = {
     "max_sim_time_s": 4.0,
     "n_shape_nodes": 4,
 }
-
-
-@pytest.fixture(scope="session", autouse=True)
-def steady_start_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    """One steady-start disk cache for the whole session (also seen by subprocesses)."""
-    folder = str(tmp_path_factory.mktemp("flagellum_cache"))
-    old = os.environ.get("FLAGELLUM_CACHE_DIR")
-    os.environ["FLAGELLUM_CACHE_DIR"] = folder
-    yield folder
-    if old is None:
-        os.environ.pop("FLAGELLUM_CACHE_DIR", None)
-    else:
-        os.environ["FLAGELLUM_CACHE_DIR"] = old
 
 
 @pytest.fixture

@@ -1,4 +1,5 @@
-"""Fixtures of the agent tests: a session-wide steady-start cache (shared with subprocesses)."""
+"""Fixtures of the whole suite: one steady-start disk cache per session (also seen by subprocesses),
+so tests never read or write the user's cache."""
 
 from __future__ import annotations
 
@@ -10,7 +11,8 @@ import pytest
 
 @pytest.fixture(scope="session", autouse=True)
 def steady_start_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    folder = str(tmp_path_factory.mktemp("flagellum_cache_agents"))
+    """One steady-start disk cache for the whole session (also seen by subprocesses)."""
+    folder = str(tmp_path_factory.mktemp("flagellum_cache"))
     old = os.environ.get("FLAGELLUM_CACHE_DIR")
     os.environ["FLAGELLUM_CACHE_DIR"] = folder
     yield folder
