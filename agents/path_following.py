@@ -2,7 +2,8 @@
 
 Controllers are named by a spec string (``make_controller``): ``rule`` (the turn planner with
 the preset's committed turn map, ``data/turn_maps/<preset>.json``), ``rule:MAP.json`` (another
-map), and, once trained, ``ppo`` / ``ppo:MODEL.zip``. Each has the stable-baselines3
+map), ``ppo`` (the pretrained PPO agent, ``agents/pretrained/``) and ``ppo:DIR`` (an agent folder
+written by ``flagellum train``, or its ``model.zip``). Each has the stable-baselines3
 ``predict(obs, state, episode_start, deterministic)`` call, so the loop does not care which.
 
 Metrics (the same names everywhere; ``METRICS``):
@@ -39,7 +40,8 @@ METRICS = ("success", "waypoints_reached", "mean_cross_track_m", "max_cross_trac
 #: Environment settings each controller kind needs (merged under the caller's settings).
 #: The rule planner times its bursts to the flagellum's phase (~40 deg/s at 10 rpm) and its turns
 #: grow by up to ~100 deg per second of burst (paper preset), so it steps every 0.1 s.
-CONTROLLER_ENV_DEFAULTS: dict[str, dict[str, Any]] = {"rule": {"control_dt": 0.1}, "ppo": {}}
+#: The PPO agent corrects the planner's turns (agents.residual_planner), so it steps like the planner.
+CONTROLLER_ENV_DEFAULTS: dict[str, dict[str, Any]] = {"rule": {"control_dt": 0.1}, "ppo": {"control_dt": 0.1}}
 TURN_MAP_DIR = Path(__file__).resolve().parent.parent / "data" / "turn_maps"
 
 
@@ -53,7 +55,7 @@ def controller_kind(spec: str) -> str:
     kind = spec.split(":", 1)[0]
     if kind not in CONTROLLER_ENV_DEFAULTS:
         raise ValueError(f"controller {spec!r} is not allowed; allowed: 'rule', 'rule:TURN_MAP.json', 'ppo', "
-                         "'ppo:MODEL.zip'")
+                         "'ppo:AGENT_DIR'")
     return kind
 
 
@@ -70,12 +72,9 @@ def make_controller(spec: str, env, preset: str):
             raise ValueError(f"no turn map at {str(path)!r}; make one with 'flagellum calibrate-turns --preset "
                              f"{preset} --out {path}'")
         return RulePlanner.for_env(env, TurnMap.load(path))
-    try:
-        from agents.ppo_policy import load_ppo_controller
-    except ImportError:
-        raise ValueError("controller 'ppo' is not available: there is no trained PPO agent in this version "
-                         "(agents/ppo_policy.py, issue #7); use 'rule'") from None
-    return load_ppo_controller(arg, env)
+    from agents.ppo_policy import load_ppo_controller
+
+    return load_ppo_controller(arg, env, preset)
 
 
 def env_settings(spec: str, preset: str, overrides: dict[str, Any] | None = None) -> dict[str, Any]:

@@ -13,7 +13,6 @@ import dataclasses
 import hashlib
 import json
 import os
-import subprocess
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -21,6 +20,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from agents.provenance import git_commit
 from agents.turn_map import (DEFAULT_PHASES_DEG, DEFAULT_T_C_S, PAPER_OMEGA_L_RPM, PLANNER_OMEGA_H_RPM, TurnMap,
                              TurnResult, phase_node_index)
 from flagellum.sweep_store import ResultsStore
@@ -121,7 +121,7 @@ def calibrate_turns(params: SwimmerParams, numerics: NumericsConfig, out_file: s
                            f"{(first[1] or {}).get('error')}); the others are saved in {runs_dir(out_file)}; "
                            "run again with --resume")
     points = tuple(TurnResult(**{**r["result"], "offset_m": tuple(r["result"]["offset_m"])}) for r in records)
-    meta = {"created": datetime.now(timezone.utc).isoformat(timespec="seconds"), "commit": _git_commit(),
+    meta = {"created": datetime.now(timezone.utc).isoformat(timespec="seconds"), "commit": git_commit(),
             "wall_time_s_this_run": round(time.perf_counter() - t0, 1),
             "wall_time_s_all_turns": round(sum(r["wall_time_s"] for r in records), 1),
             "sim_time_s_all_turns": round(sum(r.get("sim_time_s", 0.0) for r in records), 1)}
@@ -130,12 +130,3 @@ def calibrate_turns(params: SwimmerParams, numerics: NumericsConfig, out_file: s
                    points=points, meta=meta)
     tmap.save(out_file)
     return tmap
-
-
-def _git_commit() -> str | None:
-    try:
-        out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, timeout=5,
-                             cwd=Path(__file__).resolve().parent)
-        return out.stdout.strip() or None
-    except (OSError, subprocess.SubprocessError):
-        return None

@@ -238,12 +238,19 @@ class RulePlanner:
             return wl
         d = self._heading(ep)
         plan = self._plan_turn(ep.head, d, target, node)
+        if plan is not None:
+            plan = self._review_plan(ep, plan, obs)
         if plan is None:
             return wl
         # hover at omega_l from here until the phase node reaches the planned azimuth
         ep.mode, ep.plan, ep.axis = "hover", plan, d
         ep.target_phase, ep.prev_phase, ep.hover_steps = plan["burst_phase"], azimuth(node, d), 0
         return wl
+
+    def _review_plan(self, ep: _Episode, plan: dict, obs: np.ndarray) -> dict | None:
+        """Last look at a planned turn before the hover starts: the plan to fly, or None to keep
+        cruising this step. The rule planner flies its plan; ``agents.residual_planner`` adjusts it."""
+        return plan
 
     def _heading(self, ep: _Episode) -> np.ndarray:
         return unit(ep.heads[-1] - ep.heads[-1 - self.period_steps])

@@ -8,4 +8,5 @@ write the module and list it in ``COMMANDS``.
 
 from __future__ import annotations
 
-COMMANDS: tuple[str, ...] = ("simulate", "params", "sweep", "bench", "calibrate_turns", "follow", "evaluate")
+COMMANDS: tuple[str, ...] = ("simulate", "params", "sweep", "bench", "calibrate_turns", "follow", "evaluate",
+                             "train")

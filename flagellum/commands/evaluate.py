@@ -17,7 +17,7 @@ DESCRIPTION = ("Every --controller on every path of --paths ('square', path file
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--paths", nargs="+", required=True, help="'square', path files (JSON) or folders of them")
     parser.add_argument("--controller", action="append", required=True,
-                        help="rule | rule:MAP.json | ppo | ppo:MODEL.zip (repeatable)")
+                        help="rule | rule:MAP.json | ppo | ppo:AGENT_DIR (repeatable)")
     parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/evaluate"), help="default out/evaluate")
     parser.add_argument("--workers", metavar="N", help="worker processes (default: one per core)")
     parser.add_argument("--resume", action="store_true", help="keep the episodes already in DIR")

@@ -11,7 +11,7 @@ from flagellum.commands.common import UsageError, parse_number
 NAME = "follow"
 HELP = "drive FlagellumSteer-v0 along a path with a controller; write summary.json and plots (Fig. 6)"
 DESCRIPTION = ("Follow --path (square = the paper's 0.25 m square, or a path file) with --controller (rule = the "
-               "turn planner with the preset's turn map; rule:MAP.json; ppo / ppo:MODEL.zip) and write "
+               "turn planner with the preset's turn map; rule:MAP.json; ppo / ppo:AGENT_DIR) and write "
                "DIR/summary.json, DIR/path.png (target vs achieved, x-y and 3-D), DIR/omega.png (ω(t), L'/L) "
                "and DIR/trace.npz.")
 
@@ -19,7 +19,7 @@ DESCRIPTION = ("Follow --path (square = the paper's 0.25 m square, or a path fil
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--path", default="square", help="'square' or a path file (JSON); default square")
     parser.add_argument("--controller", action="append", default=None,
-                        help="rule | rule:MAP.json | ppo | ppo:MODEL.zip (repeat to compare on one plot; default rule)")
+                        help="rule | rule:MAP.json | ppo | ppo:AGENT_DIR (repeat to compare on one plot; default rule)")
     parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/follow"), help="default out/follow")
     parser.add_argument("--reach-radius", metavar="M", help="waypoint reach radius, m (default: the path's or 0.015)")
     parser.add_argument("--seed", default="0", help="env seed (default 0)")

@@ -1,0 +1,216 @@
+"""Training configuration of the PPO agents: a YAML file in the style of rl-zoo3, validated.
+
+The file has one top-level key, the agent's name, holding the stable-baselines3 PPO
+hyperparameters (flat, as in rl-zoo3's ``hyperparams/ppo.yml``) and a ``task`` section::
+
+    ppo_residual_fast:
+      policy: MlpPolicy
+      n_envs: 2                 # SubprocVecEnv workers
+      n_timesteps: 480          # turn decisions (steps of TurnDecisionEnv)
+      max_wall_time_s: 5400     # stop (and save) after this much training wall time
+      seed: 0
+      checkpoint_every: 32      # decisions
+      normalize: {norm_obs: true, norm_reward: true, clip_obs: 10.0}
+      n_steps: 16               # per env and rollout
+      batch_size: 32
+      ...                       # any other PPO argument (PPO_KEYS)
+      policy_kwargs: {net_arch: [64, 64], log_std_init: -1.0}
+      task:
+        preset: fast
+        turn_map: null          # null: data/turn_maps/<preset>.json
+        limits: {max_dtheta_deg: 20, max_dphase_deg: 30}
+        env_kwargs: {randomize: true, reward: {cross_track_per_cm_s: 0.05}}
+        curriculum:             # stages by decisions done; random_path = RandomPathConfig fields
+          - {name: single_turns, until: 160, random_path: {n_waypoints: 2, ...}}
+          - {name: eval_like, until: 480, random_path: {...}}
+        validation: {seeds: [900, 901], every: 160, random_path: {...}}
+
+``TrainConfig.from_yaml`` raises ``ValueError`` naming the file, the key and what is allowed.
+Training paths are drawn from the envs' generators (seeded by ``seed``); validation paths from
+``numpy.random.default_rng(s)`` for ``s`` in ``validation.seeds``, which must be below 1000:
+seeds from 1000 on are the held-out evaluation paths (``scripts/make_eval_paths.py``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from agents.residual_planner import ResidualLimits
+from flagellum_env.paths import RandomPathConfig, WaypointPath, random_path
+from physics.presets import preset_names
+
+#: PPO constructor arguments a config may set (stable-baselines3 2.x).
+PPO_KEYS = ("learning_rate", "n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda", "clip_range", "ent_coef",
+            "vf_coef", "max_grad_norm", "target_kl", "policy_kwargs", "normalize_advantage", "use_sde")
+NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma")
+TOP_KEYS = ("policy", "n_envs", "n_timesteps", "max_wall_time_s", "seed", "checkpoint_every", "normalize", "task",
+            *PPO_KEYS)
+TASK_KEYS = ("preset", "turn_map", "limits", "env_kwargs", "curriculum", "validation")
+#: Seeds from here on are the held-out evaluation paths.
+HELD_OUT_SEED0 = 1000
+
+
+@dataclass(frozen=True)
+class CurriculumStage:
+    """Train on ``random_path`` paths until ``until`` decisions have been made in all."""
+
+    name: str
+    until: int
+    random_path: Mapping[str, Any]
+
+
+@dataclass(frozen=True)
+class ValidationConfig:
+    """Fixed validation paths (seeds < 1000) evaluated every ``every`` decisions."""
+
+    seeds: tuple[int, ...]
+    every: int
+    random_path: Mapping[str, Any]
+
+    def paths(self) -> list[WaypointPath]:
+        """One path per seed; ``planar`` may be a list, cycled over the seeds."""
+        rp = dict(self.random_path)
+        planar = rp.pop("planar", True)
+        cycle = planar if isinstance(planar, (list, tuple)) else [planar]
+        out = []
+        for k, s in enumerate(self.seeds):
+            cfg = RandomPathConfig(**{**rp, "planar": bool(cycle[k % len(cycle)])})
+            p = random_path(np.random.default_rng(s), cfg)
+            out.append(WaypointPath(f"{'planar' if cfg.planar else '3d'}_{s}", p.waypoints, p.reach_radius_m))
+        return out
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """A validated training configuration (module docstring)."""
+
+    name: str
+    n_timesteps: int
+    curriculum: tuple[CurriculumStage, ...]
+    validation: ValidationConfig
+    policy: str = "MlpPolicy"
+    n_envs: int = 2
+    max_wall_time_s: float | None = None
+    seed: int = 0
+    checkpoint_every: int = 32
+    normalize: Mapping[str, Any] = field(default_factory=lambda: {"norm_obs": True, "norm_reward": True})
+    ppo: Mapping[str, Any] = field(default_factory=dict)
+    preset: str = "fast"
+    turn_map: str | None = None
+    limits: Mapping[str, Any] = field(default_factory=dict)
+    env_kwargs: Mapping[str, Any] = field(default_factory=dict)
+    source: str = "<dict>"
+
+    def stage_at(self, decisions: int) -> CurriculumStage:
+        """The curriculum stage in force after ``decisions`` decisions."""
+        for st in self.curriculum:
+            if decisions < st.until:
+                return st
+        return self.curriculum[-1]
+
+    @classmethod
+    def from_yaml(cls, path: str | Path) -> TrainConfig:
+        """Read and validate a config file (module docstring)."""
+        path = Path(path)
+        try:
+            doc = yaml.safe_load(path.read_text(encoding="utf-8"))
+        except (OSError, yaml.YAMLError) as exc:
+            raise ValueError(f"cannot read the training config {str(path)!r}: {exc}") from None
+        return cls.from_dict(doc, source=str(path))
+
+    @classmethod
+    def from_dict(cls, doc: Any, source: str = "<dict>") -> TrainConfig:
+        where = f"training config {source!r}"
+        if not isinstance(doc, Mapping) or len(doc) != 1:
+            raise ValueError(f"{where}: must hold exactly one top-level key, the agent's name")
+        (name, body), = doc.items()
+        if not isinstance(body, Mapping):
+            raise ValueError(f"{where}: {name!r} must be a mapping of settings")
+        _only(body, TOP_KEYS, f"{where}: {name}")
+        task = body.get("task")
+        if not isinstance(task, Mapping):
+            raise ValueError(f"{where}: {name}.task is required (a mapping with {list(TASK_KEYS)})")
+        _only(task, TASK_KEYS, f"{where}: {name}.task")
+        n_timesteps = _int(body.get("n_timesteps"), f"{where}: {name}.n_timesteps", 1)
+        stages = task.get("curriculum")
+        if not isinstance(stages, list) or not stages:
+            raise ValueError(f"{where}: {name}.task.curriculum must be a non-empty list of stages")
+        curriculum, last = [], 0
+        for i, st in enumerate(stages):
+            label = f"{where}: {name}.task.curriculum[{i}]"
+            if not isinstance(st, Mapping):
+                raise ValueError(f"{label} must be a mapping with name, until, random_path")
+            _only(st, ("name", "until", "random_path"), label)
+            until = _int(st.get("until"), f"{label}.until", last + 1)
+            rp = _random_path(st.get("random_path"), f"{label}.random_path")
+            curriculum.append(CurriculumStage(str(st.get("name", f"stage{i}")), until, rp))
+            last = until
+        val = task.get("validation")
+        if not isinstance(val, Mapping):
+            raise ValueError(f"{where}: {name}.task.validation is required (seeds, every, random_path)")
+        _only(val, ("seeds", "every", "random_path"), f"{where}: {name}.task.validation")
+        seeds = val.get("seeds")
+        if not isinstance(seeds, list) or not seeds or not all(
+                isinstance(s, int) and not isinstance(s, bool) and 0 <= s < HELD_OUT_SEED0 for s in seeds):
+            raise ValueError(f"{where}: {name}.task.validation.seeds={seeds!r} must be a non-empty list of integers "
+                             f"from 0 to {HELD_OUT_SEED0 - 1} (seeds from {HELD_OUT_SEED0} on are held out)")
+        validation = ValidationConfig(tuple(seeds), _int(val.get("every"), f"{where}: {name}.task.validation.every", 1),
+                                      _random_path(val.get("random_path"), f"{where}: {name}.task.validation.random_path"))
+        preset = task.get("preset", "fast")
+        if preset not in preset_names():
+            raise ValueError(f"{where}: {name}.task.preset={preset!r} is not allowed; choose one of {preset_names()}")
+        limits = dict(task.get("limits") or {})
+        try:
+            ResidualLimits(**limits)
+        except TypeError as exc:
+            raise ValueError(f"{where}: {name}.task.limits: {exc}") from None
+        normalize = dict(body.get("normalize") or {"norm_obs": True, "norm_reward": True})
+        _only(normalize, NORMALIZE_KEYS, f"{where}: {name}.normalize")
+        wall = body.get("max_wall_time_s")
+        if wall is not None and not (isinstance(wall, (int, float)) and not isinstance(wall, bool)
+                                     and math.isfinite(wall) and wall > 0):
+            raise ValueError(f"{where}: {name}.max_wall_time_s={wall!r} must be a number of seconds > 0 or null")
+        policy = body.get("policy", "MlpPolicy")
+        if policy != "MlpPolicy":
+            raise ValueError(f"{where}: {name}.policy={policy!r} is not allowed; the turn features are a flat "
+                             "vector: use MlpPolicy")
+        return cls(name=str(name), n_timesteps=n_timesteps, curriculum=tuple(curriculum), validation=validation,
+                   policy=policy, n_envs=_int(body.get("n_envs", 2), f"{where}: {name}.n_envs", 1),
+                   max_wall_time_s=None if wall is None else float(wall),
+                   seed=_int(body.get("seed", 0), f"{where}: {name}.seed", 0),
+                   checkpoint_every=_int(body.get("checkpoint_every", 32), f"{where}: {name}.checkpoint_every", 1),
+                   normalize=normalize, ppo={k: body[k] for k in PPO_KEYS if k in body}, preset=preset,
+                   turn_map=task.get("turn_map"), limits=limits, env_kwargs=dict(task.get("env_kwargs") or {}),
+                   source=source)
+
+
+def _only(d: Mapping[str, Any], allowed: tuple[str, ...], where: str) -> None:
+    unknown = sorted(set(d) - set(allowed))
+    if unknown:
+        raise ValueError(f"{where}: unknown key(s) {unknown}; allowed: {list(allowed)}")
+
+
+def _int(v: Any, where: str, lo: int) -> int:
+    if isinstance(v, bool) or not isinstance(v, int) or v < lo:
+        raise ValueError(f"{where}={v!r} must be an integer >= {lo}")
+    return v
+
+
+def _random_path(v: Any, where: str) -> dict[str, Any]:
+    if not isinstance(v, Mapping):
+        raise ValueError(f"{where} must be a mapping of RandomPathConfig fields")
+    rp = dict(v)
+    planar = rp.get("planar", True)
+    try:
+        for p in (planar if isinstance(planar, list) else [planar]):
+            RandomPathConfig(**{**rp, "planar": p})
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{where}: {exc}") from None
+    return rp

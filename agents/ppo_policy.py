@@ -1,0 +1,109 @@
+"""Load a trained PPO agent as a controller of ``FlagellumSteer-v0`` (``--controller ppo[:PATH]``).
+
+An agent is a folder written by ``flagellum train`` (``agents.ppo_training``): ``model.zip``,
+``vecnormalize.pkl``, ``meta.json`` and ``config.yml``. ``PATH`` may be that folder or its
+``model.zip``; without it, the committed pretrained agent (``PRETRAINED_DIR``) is used.
+
+The agent is residual (``meta["mode"] == "residual"``): a ``ResidualPlanner`` whose planned turns
+are corrected by the policy, with the turn map of the env's preset. Its corrections are on the
+map's turning angle, so an agent trained on one preset drives another through that preset's map.
+"""
+
+from __future__ import annotations
+
+import json
+import pickle
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.residual_planner import N_FEATURES, ResidualLimits, ResidualPlanner
+
+#: The pretrained agent shipped with the package.
+PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained" / "ppo_residual_fast"
+
+
+@dataclass
+class PPOAgent:
+    """A trained policy with its observation normalisation; ``act(features, deterministic)``."""
+
+    model: Any
+    obs_rms: Any
+    clip_obs: float
+    epsilon: float
+    meta: dict[str, Any]
+    folder: Path
+
+    def act(self, features: np.ndarray, deterministic: bool = True) -> np.ndarray:
+        """Residual action (2,) in [-1, 1] for one feature vector (N_FEATURES,)."""
+        f = np.asarray(features, dtype=np.float64)
+        if self.obs_rms is not None:
+            f = np.clip((f - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon), -self.clip_obs,
+                        self.clip_obs)
+        action, _ = self.model.predict(f.astype(np.float32), deterministic=deterministic)
+        return np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
+
+
+def agent_folder(arg: str | None) -> Path:
+    """The agent's folder for ``ppo`` (None: the pretrained one) or ``ppo:PATH``; ValueError if absent."""
+    folder = PRETRAINED_DIR if arg is None else Path(arg)
+    if folder.suffix == ".zip":
+        folder = folder.parent
+    missing = [n for n in ("model.zip", "meta.json") if not (folder / n).is_file()]
+    if missing:
+        raise ValueError(f"no trained PPO agent at {str(folder)!r} (missing {', '.join(missing)}); train one with "
+                         "'flagellum train --out DIR' and use --controller ppo:DIR")
+    return folder
+
+
+def load_agent(arg: str | None = None) -> PPOAgent:
+    """Load the agent named by ``arg`` (see ``agent_folder``)."""
+    from stable_baselines3 import PPO
+
+    folder = agent_folder(arg)
+    meta = json.loads((folder / "meta.json").read_text(encoding="utf-8"))
+    if meta.get("mode") != "residual":
+        raise ValueError(f"the agent in {str(folder)!r} has mode {meta.get('mode')!r}; this version drives "
+                         "'residual' agents")
+    model = PPO.load(str(folder / "model.zip"), device="cpu")
+    if model.observation_space.shape != (N_FEATURES,):
+        raise ValueError(f"the agent in {str(folder)!r} expects {model.observation_space.shape} observations, "
+                         f"this version's turn features are ({N_FEATURES},): retrain it")
+    obs_rms, clip, eps = None, 10.0, 1e-8
+    stats = folder / "vecnormalize.pkl"
+    if stats.is_file():
+        with open(stats, "rb") as f:
+            vn = pickle.load(f)  # VecNormalize without its venv: the statistics are what is needed
+        if vn.norm_obs:
+            obs_rms, clip, eps = vn.obs_rms, float(vn.clip_obs), float(vn.epsilon)
+    return PPOAgent(model, obs_rms, clip, eps, meta, folder)
+
+
+class PPOController(ResidualPlanner):
+    """The residual planner driven by a trained agent; ``predict`` like a stable-baselines3 policy."""
+
+    agent: PPOAgent
+    _deterministic: bool = True
+
+    def predict(self, observation: np.ndarray, state=None, episode_start=None, deterministic: bool = True):
+        self._deterministic = bool(deterministic)
+        return super().predict(observation, state, episode_start, deterministic)
+
+
+def load_ppo_controller(arg: str | None, env, preset: str) -> PPOController:
+    """``--controller ppo[:PATH]`` for this env: the agent plus the turn map of ``preset``."""
+    from agents.path_following import default_turn_map
+    from agents.turn_map import TurnMap
+
+    agent = load_agent(arg)
+    tmap_file = default_turn_map(preset)
+    if not tmap_file.is_file():
+        raise ValueError(f"the PPO agent corrects the turn planner, which needs a turn map for preset {preset!r}: "
+                         f"none at {str(tmap_file)!r}; make one with 'flagellum calibrate-turns --preset {preset}'")
+    limits = ResidualLimits(**agent.meta.get("limits", {}))
+    ctrl = PPOController.for_env(env, TurnMap.load(tmap_file), limits=limits)
+    ctrl.agent = agent
+    ctrl.policy = lambda f: agent.act(f, ctrl._deterministic)
+    return ctrl

@@ -1,0 +1,221 @@
+"""Train the residual PPO agent (stable-baselines3, PyTorch on the CPU); resumable.
+
+``train(config, out_dir)`` runs PPO on ``TurnDecisionEnv`` (``agents.turn_decision_env``): a
+``SubprocVecEnv`` of ``n_envs`` workers (a ``DummyVecEnv`` for one), ``VecMonitor`` and
+``VecNormalize``; an ``EvalCallback`` on the fixed validation paths (reports ``is_success``);
+the curriculum; checkpoints with their VecNormalize statistics; tensorboard logs; a progress bar;
+a wall-time budget. ``out_dir`` receives::
+
+    config.yml          the configuration trained from
+    meta.json           mode, preset, commit, decisions, wall time, versions (updated at each save)
+    model.zip           the final policy          vecnormalize.pkl  its normalisation statistics
+    episodes.csv        one row per training episode (appended; survives resume)
+    eval/evaluations.npz  EvalCallback's log (kept across resume)
+    checkpoints/        rl_model_<n>_steps.zip + rl_model_vecnormalize_<n>_steps.pkl
+    tb/                 tensorboard logs
+
+``resume=True`` continues from the newest checkpoint with its statistics, the decisions done and
+the wall time already spent.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import re
+import shutil
+import time
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from stable_baselines3.common.callbacks import BaseCallback
+
+from agents.ppo_config import TrainConfig
+from agents.provenance import git_commit
+
+MODE = "residual"
+CHECKPOINT_PREFIX = "rl_model"
+EPISODE_FIELDS = ("decisions", "wall_time_s", "stage", "return", "length", "is_success", "waypoints_reached",
+                  "mean_cross_track_m", "time_s", "energy_J", "buckling_events")
+
+
+@dataclass(frozen=True)
+class TrainResult:
+    out_dir: Path
+    decisions: int
+    wall_time_s: float
+    stopped_by_budget: bool
+
+
+def _make_env(config: TrainConfig, rank: int, paths=None):
+    """A picklable factory of one TurnDecisionEnv (training: the curriculum's first stage)."""
+    def factory():
+        from agents.turn_decision_env import TurnDecisionEnv
+
+        env = TurnDecisionEnv(preset=config.preset, turn_map=config.turn_map, env_kwargs=config.env_kwargs,
+                              paths=paths, random_path=None if paths else config.curriculum[0].random_path,
+                              limits=config.limits)
+        env.reset(seed=config.seed + rank)
+        return env
+    return factory
+
+
+def _vec_env(config: TrainConfig, n: int, paths=None, seed_offset: int = 0):
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
+
+    fns = [_make_env(config, seed_offset + i, paths) for i in range(n)]
+    venv = SubprocVecEnv(fns, start_method="spawn") if n > 1 else DummyVecEnv(fns)
+    return VecMonitor(venv, info_keywords=("is_success",))
+
+
+def latest_checkpoint(out_dir: Path) -> tuple[Path, Path, int] | None:
+    """(model, vecnormalize, decisions) of the newest checkpoint in ``out_dir/checkpoints``."""
+    best = None
+    for f in (out_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"):
+        m = re.fullmatch(rf"{CHECKPOINT_PREFIX}_(\d+)_steps\.zip", f.name)
+        if m and (best is None or int(m.group(1)) > best[2]):
+            stats = f.with_name(f"{CHECKPOINT_PREFIX}_vecnormalize_{m.group(1)}_steps.pkl")
+            if stats.is_file():
+                best = (f, stats, int(m.group(1)))
+    return best
+
+
+def train(config: TrainConfig, out_dir: str | Path, resume: bool = False, progress: bool = True,
+          config_text: str | None = None) -> TrainResult:
+    """Train (or resume) the agent of ``config`` into ``out_dir`` (module docstring)."""
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    torch.set_num_threads(1)  # the env workers use the cores; the small MLP does not need them
+    out = Path(out_dir)
+    ckpt = latest_checkpoint(out) if resume else None
+    if resume and ckpt is None:
+        raise ValueError(f"--resume: no checkpoint in {str(out / 'checkpoints')!r} to resume from")
+    if not resume and (out / "checkpoints").exists() and any((out / "checkpoints").iterdir()):
+        raise ValueError(f"{str(out)!r} already holds a training run; pass --resume to continue it or choose "
+                         "another --out")
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "checkpoints").mkdir(exist_ok=True)
+    if config_text is not None:
+        (out / "config.yml").write_text(config_text, encoding="utf-8")
+    meta_file = out / "meta.json"
+    meta = json.loads(meta_file.read_text(encoding="utf-8")) if resume and meta_file.is_file() else {}
+    spent_before = float(meta.get("wall_time_s", 0.0))
+
+    raw = _vec_env(config, config.n_envs)
+    eval_raw = _vec_env(config, 1, paths=config.validation.paths(), seed_offset=10_000)
+    if ckpt is not None:
+        venv = VecNormalize.load(str(ckpt[1]), raw)
+        venv.training = True
+        model = PPO.load(str(ckpt[0]), env=venv, device="cpu", tensorboard_log=str(out / "tb"))
+    else:
+        norm = dict(config.normalize)
+        venv = VecNormalize(raw, **norm)
+        model = PPO(config.policy, venv, seed=config.seed, device="cpu", tensorboard_log=str(out / "tb"), verbose=0,
+                    **dict(config.ppo))
+    eval_env = VecNormalize(eval_raw, training=False, norm_obs=bool(config.normalize.get("norm_obs", True)),
+                            norm_reward=False, clip_obs=float(config.normalize.get("clip_obs", 10.0)))
+
+    n = config.n_envs
+    eval_cb = EvalCallback(eval_env, n_eval_episodes=len(config.validation.seeds),
+                           eval_freq=max(1, config.validation.every // n), log_path=str(out / "eval"),
+                           best_model_save_path=None, deterministic=True, verbose=0)
+    _restore_eval_log(eval_cb, out / "eval" / "evaluations.npz")
+    ckpt_cb = CheckpointCallback(save_freq=max(1, config.checkpoint_every // n), save_path=str(out / "checkpoints"),
+                                 name_prefix=CHECKPOINT_PREFIX, save_vecnormalize=True)
+    book = _Bookkeeping(config, out, spent_before, meta)
+    t0 = time.perf_counter()
+    remaining = max(0, config.n_timesteps - model.num_timesteps)
+    if remaining:
+        model.learn(remaining, callback=CallbackList([book, ckpt_cb, eval_cb]), progress_bar=progress,
+                    reset_num_timesteps=ckpt is None, tb_log_name="ppo")
+    model.save(str(out / "model.zip"))
+    venv.save(str(out / "vecnormalize.pkl"))
+    book.write_meta(final=True)
+    venv.close()
+    eval_env.close()
+    return TrainResult(out, int(model.num_timesteps), spent_before + time.perf_counter() - t0, book.stopped)
+
+
+def _restore_eval_log(cb, file: Path) -> None:
+    """Keep the evaluations of earlier runs (EvalCallback starts a fresh log otherwise)."""
+    if not file.is_file():
+        return
+    with np.load(file) as d:
+        cb.evaluations_timesteps = [int(t) for t in d["timesteps"]]
+        cb.evaluations_results = [list(r) for r in d["results"]]
+        cb.evaluations_length = [list(r) for r in d["ep_lengths"]]
+        if "successes" in d:
+            cb.evaluations_successes = [list(r) for r in d["successes"]]
+
+
+class _Bookkeeping(BaseCallback):
+    """Curriculum switches, the episode log, the wall-time budget and meta.json."""
+
+    def __init__(self, config: TrainConfig, out: Path, spent_before: float, meta: dict[str, Any]) -> None:
+        super().__init__()
+        self.config, self.out, self.spent_before, self.meta = config, out, spent_before, meta
+        self.t0 = time.perf_counter()
+        self.stage: str | None = None
+        self.stopped = False
+
+    def elapsed(self) -> float:
+        return self.spent_before + time.perf_counter() - self.t0
+
+    def _on_training_start(self) -> None:
+        self._set_stage()
+        self.write_meta(final=False)
+
+    def _set_stage(self) -> None:
+        st = self.config.stage_at(self.num_timesteps)
+        if st.name != self.stage:
+            self.training_env.env_method("set_random_path", dict(st.random_path))
+            self.stage = st.name
+
+    def _on_step(self) -> bool:
+        file = self.out / "episodes.csv"
+        new = not file.exists()
+        rows = []
+        for info in self.locals.get("infos", []):
+            ep = info.get("episode")
+            if ep is None:
+                continue
+            rows.append({"decisions": self.num_timesteps, "wall_time_s": round(self.elapsed(), 1), "stage": self.stage,
+                         "return": ep["r"], "length": ep["l"],
+                         **{k: info.get(k) for k in EPISODE_FIELDS[5:]}})
+        if rows:
+            with open(file, "a", newline="", encoding="utf-8") as f:
+                w = csv.DictWriter(f, fieldnames=EPISODE_FIELDS)
+                if new:
+                    w.writeheader()
+                w.writerows(rows)
+        self._set_stage()
+        if self.config.max_wall_time_s is not None and self.elapsed() > self.config.max_wall_time_s:
+            self.stopped = True
+            return False
+        return True
+
+    def _on_rollout_end(self) -> None:
+        self.write_meta(final=False)
+
+    def write_meta(self, final: bool) -> None:
+        import stable_baselines3
+        import torch
+
+        self.meta.update({
+            "name": self.config.name, "mode": MODE, "preset": self.config.preset, "turn_map": self.config.turn_map,
+            "limits": dict(self.config.limits), "env_kwargs": dict(self.config.env_kwargs),
+            "decisions": int(self.num_timesteps), "wall_time_s": round(self.elapsed(), 1),
+            "stopped_by_wall_time_budget": self.stopped, "finished": final,
+            "commit": self.meta.get("commit") or git_commit(), "last_commit": git_commit(),
+            "updated": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "versions": {"stable_baselines3": stable_baselines3.__version__, "torch": torch.__version__},
+        })
+        tmp = self.out / "meta.json.tmp"
+        tmp.write_text(json.dumps(self.meta, indent=1) + "\n", encoding="utf-8")
+        shutil.move(str(tmp), str(self.out / "meta.json"))

@@ -1,0 +1,161 @@
+"""The turn planner with a learned correction of each turn it plans (residual policy learning).
+
+The rule planner (``agents.turn_planner``) chooses every turn from the turn map: a turning
+angle theta (hence a burst length t_c) and the flagellum phase beta at which to burst. The map
+is a calibration of the nominal swimmer, averaged over phases and measured from a fully relaxed
+straight start; a real turn differs (the flagellum may not have relaxed, the parameters may be
+off). ``ResidualPlanner`` asks a *residual policy* for a correction of each planned turn,
+
+    theta' = clip(theta + a_0 * max_dtheta_deg, min, map maximum),   t_c' = map^-1(theta'),
+    beta'  = beta + a_1 * max_dphase_deg,
+
+with the action a in [-1, 1]^2 (a = 0 is the rule planner's plan; Johannink et al. 2019,
+"Residual reinforcement learning for robot control", and Silver et al. 2018, "Residual policy
+learning", use the same split: a model-based controller plus a learned correction). Everything
+else (hovering to the phase, the burst, waiting for a steady heading, re-planning) is the rule
+planner's. ``turn_features`` is what the policy sees at the moment of a decision (``N_FEATURES``
+numbers, each O(1)).
+
+Two ways to supply the correction:
+
+- ``policy``: a callable ``features (N_FEATURES,) float32 -> action (2,)``, called at once (a
+  trained agent, ``agents.ppo_policy``);
+- no policy (training, ``agents.turn_decision_env``): the planner stops at each planned turn
+  with ``awaiting`` set to the features and keeps cruising until ``decide(action)`` is called;
+  the next control step re-plans and flies the corrected turn.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from agents.turn_geometry import angle_between, wrap_angle
+from agents.turn_map import TurnMap
+from agents.turn_planner import PlannerConfig, RulePlanner, _Episode
+
+#: Length of the feature vector the residual policy sees.
+N_FEATURES = 11
+#: Distances in the features are in units of this, m (about a path segment).
+FEATURE_LENGTH_M = 0.1
+
+
+@dataclass(frozen=True)
+class ResidualLimits:
+    """How far the residual may move a planned turn: theta by up to ``max_dtheta_deg``, the burst
+    phase by up to ``max_dphase_deg`` (both degrees, > 0); theta' is kept >= ``min_theta_deg``."""
+
+    max_dtheta_deg: float = 20.0
+    max_dphase_deg: float = 30.0
+    min_theta_deg: float = 2.0
+
+    def __post_init__(self) -> None:
+        for name in ("max_dtheta_deg", "max_dphase_deg", "min_theta_deg"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+                raise ValueError(f"ResidualLimits.{name}={v!r} must be a finite number > 0 (degrees)")
+            object.__setattr__(self, name, float(v))
+
+
+def turn_features(plan: dict, targets: np.ndarray, reach_radius_m: float, end_to_end_ratio: float,
+                  time_left: float, n_turns: int, max_theta_deg: float) -> np.ndarray:
+    """What the residual policy sees when a turn is planned, (N_FEATURES,) float32.
+
+    plan: the rule planner's plan (``RulePlanner._plan_turn``: t_c, theta_deg, predicted and
+    straight misses, heading and head). targets: (2, 3) the next two waypoints minus the head,
+    start frame, m (the second repeats the first on the last segment; one row with n_lookahead = 1).
+
+    Features: planned theta / map maximum; planned t_c / 10 s; predicted miss and straight miss /
+    reach radius; distance to the target / 0.1 m; angle between heading and target / 90 deg;
+    the turn at the target (angle between the two segments) / 90 deg and the next segment's
+    length / 0.1 m; L'/L; fraction of the time budget left; turns so far / 5.
+    """
+    d = np.asarray(plan["heading"], dtype=np.float64)
+    to_target = targets[0]
+    after = targets[1] - targets[0] if len(targets) > 1 else np.zeros(3)
+    next_len = float(np.linalg.norm(after))
+    corner = angle_between(to_target, after) if next_len > 1e-9 else 0.0
+    f = np.array([
+        plan["theta_deg"] / max_theta_deg,
+        plan["t_c"] / 10.0,
+        plan["predicted_miss_m"] / reach_radius_m,
+        plan["miss_straight_m"] / reach_radius_m,
+        float(np.linalg.norm(to_target)) / FEATURE_LENGTH_M,
+        math.degrees(angle_between(d, to_target)) / 90.0,
+        math.degrees(corner) / 90.0,
+        next_len / FEATURE_LENGTH_M,
+        end_to_end_ratio,
+        time_left,
+        n_turns / 5.0,
+    ])
+    return np.clip(np.nan_to_num(f, nan=0.0, posinf=10.0, neginf=-10.0), -10.0, 10.0).astype(np.float32)
+
+
+def corrected_plan(plan: dict, action: np.ndarray, turn_map: TurnMap, limits: ResidualLimits) -> dict:
+    """The plan with the residual ``action`` (2,) in [-1, 1] applied (module docstring)."""
+    a = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
+    if a.size != 2 or not np.all(np.isfinite(a)):
+        raise ValueError(f"residual action={action!r} must be two finite numbers in [-1, 1]")
+    top = turn_map.max_theta_deg
+    theta = float(np.clip(plan["theta_deg"] + a[0] * limits.max_dtheta_deg, min(limits.min_theta_deg, top), top))
+    out = dict(plan)
+    out.update(theta_deg=theta, t_c=turn_map.t_c_for(theta),
+               burst_phase=wrap_angle(plan["burst_phase"] + math.radians(a[1] * limits.max_dphase_deg)),
+               residual=[float(a[0]), float(a[1])], planned_theta_deg=float(plan["theta_deg"]),
+               planned_t_c=float(plan["t_c"]))
+    return out
+
+
+class ResidualPlanner(RulePlanner):
+    """``RulePlanner`` whose planned turns are corrected by a residual policy (module docstring).
+
+    policy: ``features -> action`` or None (then ``awaiting`` / ``decide``). The other
+    arguments are ``RulePlanner``'s; ``end_slice`` and ``time_slice`` locate L'/L and the time
+    left in the flat observation.
+    """
+
+    def __init__(self, turn_map: TurnMap, layout, control_dt: float, reach_radius_m: float, action_of,
+                 end_slice: slice, time_slice: slice, config: PlannerConfig | None = None,
+                 limits: ResidualLimits | None = None,
+                 policy: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
+        super().__init__(turn_map, layout, control_dt, reach_radius_m, action_of, config)
+        self.limits = limits or ResidualLimits()
+        self.policy = policy
+        self.end_slice, self.time_slice = end_slice, time_slice
+        self.awaiting: np.ndarray | None = None
+        self._decision: np.ndarray | None = None
+
+    @classmethod
+    def for_env(cls, env, turn_map: TurnMap, config: PlannerConfig | None = None,  # type: ignore[override]
+                limits: ResidualLimits | None = None,
+                policy: Callable[[np.ndarray], np.ndarray] | None = None) -> ResidualPlanner:
+        """A residual planner for this env (the rule planner's checks apply)."""
+        base = RulePlanner.for_env(env, turn_map, config)
+        s = env.unwrapped.obs_model.slices()
+        return cls(turn_map, base.layout, base.control_dt, base.reach_radius_m, base.action_of,
+                   s["end_to_end_ratio"], s["time_left"], config, limits, policy)
+
+    def reset(self) -> None:
+        super().reset()
+        self.awaiting, self._decision = None, None
+
+    def decide(self, action: np.ndarray) -> None:
+        """The residual action for the turn in ``awaiting`` (flown from the next control step)."""
+        if self.awaiting is None:
+            raise RuntimeError("no planned turn is waiting for a decision")
+        self._decision = np.asarray(action, dtype=np.float64).reshape(-1)
+        self.awaiting = None
+
+    def _review_plan(self, ep: _Episode, plan: dict, obs: np.ndarray) -> dict | None:
+        if self._decision is not None:
+            action, self._decision = self._decision, None
+            return corrected_plan(plan, action, self.turn_map, self.limits)
+        features = turn_features(plan, ep.prev_rel, self.reach_radius_m, float(obs[self.end_slice][0]),
+                                 float(obs[self.time_slice][0]), len(ep.turns), self.turn_map.max_theta_deg)
+        if self.policy is None:
+            self.awaiting = features
+            return None  # cruise on for this step; the next one flies the decided turn
+        return corrected_plan(plan, self.policy(features), self.turn_map, self.limits)

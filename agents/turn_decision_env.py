@@ -1,0 +1,146 @@
+"""Training environment of the residual PPO agent: one step = one turn the planner plans.
+
+``TurnDecisionEnv`` runs ``FlagellumSteer-v0`` under a ``ResidualPlanner`` (0.1 s control steps,
+the rule planner's). Whenever the planner plans a turn it stops and hands the turn's features
+to the agent (the observation); the agent's action corrects the turn (``ResidualLimits``); the
+env then runs on until the next planned turn or the end of the episode. The reward of a step is
+the sum of ``FlagellumSteer-v0``'s rewards over the control steps it covered (progress, cross-track
+error, energy, waypoints, penalties; weights from ``env_kwargs["reward"]``), so the return of
+an episode is the base env's return.
+
+An episode is one path: from ``paths`` in turn (validation), else drawn from this env's seeded
+generator with ``random_path`` (training paths; ``planar`` may be a list to alternate planar
+and 3-D paths). If a path ends without any planned turn (rare: reached by swimming straight),
+the next ``step`` ends the episode with that path's return, whatever the action.
+
+Final ``info`` (the step that ends the episode): ``is_success``, ``waypoints_reached``,
+``mean_cross_track_m`` (over the control steps), ``time_s``, ``energy_J``, ``buckling_events``
+and ``turns`` (decisions taken).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from agents.path_following import CONTROLLER_ENV_DEFAULTS, default_turn_map
+from agents.residual_planner import N_FEATURES, ResidualLimits, ResidualPlanner
+from agents.turn_map import TurnMap
+from flagellum_env.paths import RandomPathConfig, WaypointPath
+from flagellum_env.paths import random_path as draw_random_path
+from flagellum_env.steer_env import FlagellumSteerEnv
+
+
+class TurnDecisionEnv(gym.Env):
+    """Gymnasium env over the residual planner's turn decisions (module docstring).
+
+    preset: physics preset of the swimmer; turn_map: a map file (default: the preset's committed
+    map); env_kwargs: further ``FlagellumSteer-v0`` arguments (e.g. ``randomize``, ``reward``);
+    paths: fixed paths, used in turn; random_path: ``RandomPathConfig`` fields for drawn paths
+    (``planar`` may be a list, cycled per episode); limits: ``ResidualLimits`` or its fields.
+
+    Observation: ``Box(-10, 10, (N_FEATURES,), float32)`` (``residual_planner.turn_features``).
+    Action: ``Box(-1, 1, (2,), float32)``: correction of the turning angle and of the burst phase.
+    """
+
+    metadata: dict[str, Any] = {"render_modes": []}
+
+    def __init__(self, preset: str = "fast", turn_map: str | None = None, env_kwargs: Mapping[str, Any] | None = None,
+                 paths: Sequence[WaypointPath] | None = None, random_path: Mapping[str, Any] | None = None,
+                 limits: ResidualLimits | Mapping[str, Any] | None = None) -> None:
+        kwargs = {**CONTROLLER_ENV_DEFAULTS["rule"], "preset": preset, **dict(env_kwargs or {})}
+        if "path" in kwargs:
+            raise ValueError("env_kwargs must not hold 'path'; give paths= or random_path=")
+        self.base = FlagellumSteerEnv(path="random", **kwargs)
+        tmap = TurnMap.load(turn_map or default_turn_map(preset))
+        if isinstance(limits, Mapping):
+            limits = ResidualLimits(**limits)
+        self.planner = ResidualPlanner.for_env(self.base, tmap, limits=limits)
+        self.paths = list(paths) if paths else None
+        self.set_random_path(random_path or {})
+        self.observation_space = spaces.Box(-10.0, 10.0, (N_FEATURES,), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        self._episode = 0
+        self._obs: np.ndarray | None = None
+        self._done = True
+
+    def set_random_path(self, random_path: Mapping[str, Any]) -> None:
+        """Draw the next episodes' paths with these ``RandomPathConfig`` fields (curriculum)."""
+        rp = dict(random_path)
+        planar = rp.pop("planar", True)
+        cycle = [bool(p) for p in planar] if isinstance(planar, (list, tuple)) else [bool(planar)]
+        self._path_configs = [RandomPathConfig(**{**rp, "planar": p}) for p in cycle]
+
+    def _next_path(self) -> WaypointPath:
+        k = self._episode
+        self._episode += 1
+        if self.paths:
+            return self.paths[k % len(self.paths)]
+        return draw_random_path(self.np_random, self._path_configs[k % len(self._path_configs)])
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        if seed is not None:
+            self._episode = 0
+        path = (options or {}).get("path") or self._next_path()
+        self._obs, _ = self.base.reset(seed=seed, options={"path": path})
+        self.planner.reset()
+        self._start, self._done = True, False
+        self._cross, self._turns = [], 0
+        self._pending_reward = 0.0
+        reward, terminated, truncated, info = self._advance()
+        if terminated or truncated:
+            # ended before any decision: the next step closes the episode with this return
+            self._pending_reward, self._pending_end = reward, (terminated, truncated, info)
+        else:
+            self._pending_reward, self._pending_end = reward, None
+        return self._features(), {"path": path.name}
+
+    def step(self, action: Any):
+        if self._done:
+            raise RuntimeError("call reset() before step()")
+        reward = self._pending_reward
+        self._pending_reward = 0.0
+        if self._pending_end is not None:
+            terminated, truncated, info = self._pending_end
+        else:
+            self.planner.decide(np.asarray(action, dtype=np.float64))
+            self._turns += 1
+            r, terminated, truncated, info = self._advance()
+            reward += r
+        self._done = terminated or truncated
+        out_info: dict[str, Any] = {}
+        if self._done:
+            out_info = {"is_success": bool(info["is_success"]), "waypoints_reached": int(info["waypoint_index"]),
+                        "mean_cross_track_m": float(np.mean(self._cross)) if self._cross else 0.0,
+                        "time_s": float(info["sim_time_s"]), "energy_J": float(info["energy_used_j"]),
+                        "buckling_events": int(info["buckling_events"]), "turns": self._turns}
+            if info.get("error"):
+                out_info["error"] = info["error"]
+        return self._features(), float(reward), bool(terminated), bool(truncated), out_info
+
+    def _advance(self) -> tuple[float, bool, bool, dict[str, Any]]:
+        """Run control steps until the planner waits for a decision or the episode ends."""
+        total = 0.0
+        while True:
+            act, _ = self.planner.predict(self._obs, episode_start=np.array([self._start]))
+            self._start = False
+            self._obs, r, terminated, truncated, info = self.base.step(act)
+            total += r
+            self._cross.append(info["cross_track_error_m"])
+            if terminated or truncated:
+                return total, terminated, truncated, info
+            if self.planner.awaiting is not None:
+                return total, False, False, info
+
+    def _features(self) -> np.ndarray:
+        if self.planner.awaiting is not None:
+            return self.planner.awaiting.copy()
+        return np.zeros(N_FEATURES, np.float32)
+
+    def close(self) -> None:
+        self.base.close()

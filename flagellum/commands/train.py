@@ -1,0 +1,48 @@
+"""``flagellum train``: train the PPO agent (stable-baselines3) from a YAML config; resumable."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from flagellum.commands.common import UsageError
+
+NAME = "train"
+HELP = "train the PPO agent that corrects the turn planner (stable-baselines3, CPU); resumable"
+DESCRIPTION = ("Train PPO from --config (rl-zoo3-style YAML, default agents/configs/ppo_residual_fast.yml) into "
+               "--out: model.zip, vecnormalize.pkl, meta.json, config.yml, episodes.csv, eval/, checkpoints/, tb/ "
+               "(tensorboard). --resume continues from the newest checkpoint. Use the result with "
+               "--controller ppo:DIR.")
+DEFAULT_CONFIG = Path(__file__).resolve().parents[2] / "agents" / "configs" / "ppo_residual_fast.yml"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--config", metavar="FILE", type=Path, default=DEFAULT_CONFIG,
+                        help="training config (YAML; default agents/configs/ppo_residual_fast.yml)")
+    parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/train"), help="default out/train")
+    parser.add_argument("--resume", action="store_true", help="continue the run in DIR from its newest checkpoint")
+    parser.add_argument("--no-progress", action="store_true", help="do not show the progress bar")
+
+
+def run(args: argparse.Namespace) -> int:
+    from agents.ppo_config import TrainConfig
+    from agents.ppo_training import train
+
+    if args.set:
+        raise UsageError("--set is not used by train (the turn map fixes the swimmer); edit the config's task")
+    try:
+        config = TrainConfig.from_yaml(args.config)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    if args.preset is not None and args.preset != config.preset:
+        raise UsageError(f"--preset {args.preset} differs from the config's task.preset {config.preset!r}; "
+                         "edit the config (the turn map and the agent belong to one preset)")
+    try:
+        result = train(config, args.out, resume=args.resume, progress=not args.no_progress,
+                       config_text=args.config.read_text(encoding="utf-8"))
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    budget = " (stopped by the wall-time budget)" if result.stopped_by_budget else ""
+    print(f"trained {result.decisions} decisions in {result.wall_time_s / 60:.1f} min{budget}; wrote "
+          f"{result.out_dir}/model.zip and vecnormalize.pkl; use it with --controller ppo:{result.out_dir}")
+    return 0
