@@ -1,0 +1,170 @@
+"""PPO agent: residual corrections, the config, a short training run (and resume), the pretrained
+agent on a short path, determinism of predict, CLI errors."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from agents.path_following import default_turn_map, env_settings, make_controller, run_episode
+from agents.ppo_config import TrainConfig
+from agents.ppo_policy import PRETRAINED_DIR, load_agent
+from agents.residual_planner import N_FEATURES, ResidualLimits, corrected_plan, turn_features
+from agents.turn_map import TurnMap
+from flagellum.cli import main
+from flagellum_env.paths import path_from_waypoints
+from flagellum_env.steer_env import FlagellumSteerEnv
+
+# 2 cm ahead, then a left turn of 90 degrees and 8 cm: one planned turn
+ONE_TURN = path_from_waypoints([[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]], name="one_turn", reach_radius_m=0.015)
+SHORT_TURN = {"n_waypoints": 1, "segment_length_m": [0.03, 0.04], "min_turn_deg": 70.0, "max_turn_deg": 90.0}
+TINY = {"tiny": {"n_envs": 1, "n_timesteps": 3, "seed": 0, "checkpoint_every": 1, "n_steps": 3, "batch_size": 3,
+                 "n_epochs": 1, "policy_kwargs": {"net_arch": [8], "log_std_init": -1.0},
+                 "task": {"preset": "fast", "limits": {"max_dtheta_deg": 10.0},
+                          "curriculum": [{"name": "one", "until": 3, "random_path": SHORT_TURN}],
+                          "validation": {"seeds": [5], "every": 3, "random_path": SHORT_TURN}}}}
+
+
+@pytest.fixture(scope="module")
+def fast_map() -> TurnMap:
+    return TurnMap.load(default_turn_map("fast"))
+
+
+def _plan(theta: float = 60.0) -> dict:
+    return {"t_c": 9.5, "theta_deg": theta, "burst_phase": 1.0, "predicted_miss_m": 0.004, "miss_straight_m": 0.05,
+            "heading": [1.0, 0.0, 0.0], "head": [0.0, 0.0, 0.0]}
+
+
+def test_zero_correction_is_the_planners_turn(fast_map):
+    out = corrected_plan(_plan(), np.zeros(2), fast_map, ResidualLimits())
+    assert out["theta_deg"] == pytest.approx(60.0) and out["burst_phase"] == pytest.approx(1.0)
+    assert out["t_c"] == pytest.approx(fast_map.t_c_for(60.0))
+    assert out["planned_theta_deg"] == 60.0 and out["residual"] == [0.0, 0.0]
+
+
+def test_full_correction_moves_theta_and_phase_by_the_limits_and_stays_on_the_map(fast_map):
+    lim = ResidualLimits(max_dtheta_deg=20.0, max_dphase_deg=30.0)
+    out = corrected_plan(_plan(), np.array([1.0, -1.0]), fast_map, lim)
+    assert out["theta_deg"] == pytest.approx(80.0)
+    assert out["burst_phase"] == pytest.approx(1.0 - math.radians(30.0))
+    assert out["t_c"] > fast_map.t_c_for(60.0)
+    # actions are clipped to [-1, 1]; theta never leaves [min_theta_deg, map maximum]
+    top = corrected_plan(_plan(fast_map.max_theta_deg - 1.0), np.array([5.0, 0.0]), fast_map, lim)
+    assert top["theta_deg"] == pytest.approx(fast_map.max_theta_deg)
+    low = corrected_plan(_plan(5.0), np.array([-1.0, 0.0]), fast_map, lim)
+    assert low["theta_deg"] == pytest.approx(lim.min_theta_deg)
+    with pytest.raises(ValueError, match="two finite numbers"):
+        corrected_plan(_plan(), np.array([np.nan, 0.0]), fast_map, lim)
+
+
+def test_residual_limits_name_the_bad_value():
+    with pytest.raises(ValueError, match="max_dtheta_deg=-1"):
+        ResidualLimits(max_dtheta_deg=-1)
+
+
+def test_turn_features_describe_the_turn_and_the_next_corner():
+    targets = np.array([[0.0, 0.1, 0.0], [0.1, 0.1, 0.0]])  # 10 cm to the left, then a right turn of 90 deg
+    f = turn_features(_plan(), targets, 0.015, 1.0, 0.5, 2, max_theta_deg=120.0)
+    assert f.shape == (N_FEATURES,) and f.dtype == np.float32
+    assert f[0] == pytest.approx(0.5) and f[4] == pytest.approx(1.0)  # theta / max, distance / 0.1 m
+    assert f[5] == pytest.approx(1.0) and f[6] == pytest.approx(1.0)  # 90 deg off the heading; 90 deg corner
+    assert f[7] == pytest.approx(1.0) and f[10] == pytest.approx(0.4)
+    one = turn_features(_plan(), targets[:1], 0.015, 1.0, 0.5, 0, max_theta_deg=120.0)  # n_lookahead = 1
+    assert one[6] == 0.0 and one[7] == 0.0
+
+
+def test_shipped_config_loads_and_held_out_seeds_are_refused(tmp_path):
+    cfg = TrainConfig.from_yaml("agents/configs/ppo_residual_fast.yml")
+    assert cfg.preset == "fast" and cfg.n_envs == 2 and cfg.max_wall_time_s <= 7200
+    assert cfg.stage_at(0).name == "single_turns" and cfg.stage_at(10_000).name == "eval_like"
+    assert all(s < 1000 for s in cfg.validation.seeds) and len(cfg.validation.paths()) == 2
+    bad = json.loads(json.dumps(TINY))
+    bad["tiny"]["task"]["validation"]["seeds"] = [1003]
+    with pytest.raises(ValueError, match="held out"):
+        TrainConfig.from_dict(bad)
+    bad = json.loads(json.dumps(TINY))
+    bad["tiny"]["n_stepz"] = 3
+    with pytest.raises(ValueError, match=r"unknown key\(s\) \['n_stepz'\]"):
+        TrainConfig.from_dict(bad)
+    bad = json.loads(json.dumps(TINY))
+    bad["tiny"]["task"]["curriculum"][0]["random_path"]["max_turn_deg"] = 400
+    with pytest.raises(ValueError, match="max_turn_deg=400"):
+        TrainConfig.from_dict(bad)
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory):
+    from agents.ppo_training import train
+
+    out = tmp_path_factory.mktemp("ppo") / "run"
+    result = train(TrainConfig.from_dict(TINY), out, progress=False)
+    return out, result
+
+
+def test_short_training_run_writes_an_agent_that_loads(tiny_run):
+    out, result = tiny_run
+    assert result.decisions == 3 and not result.stopped_by_budget
+    for name in ("model.zip", "vecnormalize.pkl", "meta.json", "episodes.csv", "eval/evaluations.npz"):
+        assert (out / name).is_file(), name
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["mode"] == "residual" and meta["decisions"] == 3 and meta["finished"]
+    assert meta["limits"] == {"max_dtheta_deg": 10.0}
+    with np.load(out / "eval" / "evaluations.npz") as d:
+        assert list(d["timesteps"]) == [3]
+    agent = load_agent(str(out))
+    f = np.linspace(-1, 1, N_FEATURES).astype(np.float32)
+    a = agent.act(f)
+    assert a.shape == (2,) and np.all(np.abs(a) <= 1.0)
+    assert np.array_equal(agent.act(f, deterministic=True), a)
+
+
+def test_training_resumes_from_its_checkpoint_and_refuses_to_overwrite(tiny_run):
+    from agents.ppo_training import latest_checkpoint, train
+
+    out, _ = tiny_run
+    with pytest.raises(ValueError, match="--resume"):
+        train(TrainConfig.from_dict(TINY), out, progress=False)
+    rows_before = (out / "episodes.csv").read_text().count("\n")
+    more = json.loads(json.dumps(TINY))
+    more["tiny"]["n_timesteps"] = 6
+    more["tiny"]["task"]["curriculum"][0]["until"] = 6
+    result = train(TrainConfig.from_dict(more), out, resume=True, progress=False)
+    assert result.decisions == 6 and latest_checkpoint(out)[2] == 6
+    assert (out / "episodes.csv").read_text().count("\n") > rows_before  # appended, not rewritten
+    with np.load(out / "eval" / "evaluations.npz") as d:
+        assert list(d["timesteps"]) == [3, 6]  # the first run's evaluation is kept
+
+
+def test_pretrained_agent_completes_a_short_path_deterministically():
+    assert (PRETRAINED_DIR / "model.zip").is_file(), "the pretrained agent is committed with the package"
+    meta = json.loads((PRETRAINED_DIR / "meta.json").read_text())
+    assert meta["preset"] == "fast" and meta["commit"]
+    runs = []
+    for _ in range(2):
+        env = FlagellumSteerEnv(path=ONE_TURN, **env_settings("ppo", "fast"))
+        ctrl = make_controller("ppo", env, "fast")
+        metrics, trace = run_episode(env, ctrl, ONE_TURN)
+        runs.append((metrics, trace, ctrl.turns))
+    (m, trace, turns), (m2, trace2, turns2) = runs
+    assert m["success"] and m["waypoints_reached"] == 2 and len(turns) >= 1
+    assert all("residual" in t for t in turns)
+    # deterministic=True: the same episode twice, bit for bit
+    assert np.array_equal(trace.head, trace2.head) and [t["residual"] for t in turns] == [t["residual"] for t in turns2]
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["train", "--config", "no/such.yml"], "cannot read the training config"),
+    (["train", "--resume", "--out", "{tmp}/empty"], "no checkpoint"),
+    (["train", "--preset", "paper"], "differs from the config's task.preset"),
+    (["follow", "--path", "square", "--controller", "ppo:{tmp}/nothing"], "no trained PPO agent"),
+])
+def test_cli_errors_name_the_problem(capsys, tmp_path, argv, fragment):
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert fragment in err and err.count("\n") == 1
