@@ -209,6 +209,7 @@ class _Bookkeeping(BaseCallback):
 
         self.meta.update({
             "name": self.config.name, "mode": MODE, "preset": self.config.preset, "turn_map": self.config.turn_map,
+            "config": self.config.source, "n_envs": self.config.n_envs,
             "limits": dict(self.config.limits), "env_kwargs": dict(self.config.env_kwargs),
             "decisions": int(self.num_timesteps), "wall_time_s": round(self.elapsed(), 1),
             "stopped_by_wall_time_budget": self.stopped, "finished": final,
