@@ -18,7 +18,7 @@ hyperparameters (flat, as in rl-zoo3's ``hyperparams/ppo.yml``) and a ``task`` s
       task:
         preset: fast
         turn_map: null          # null: data/turn_maps/<preset>.json
-        limits: {max_dtheta_deg: 20, max_dphase_deg: 30}
+        limits: {max_dtc_fraction: 0.25, max_dphase_deg: 30}
         env_kwargs: {randomize: true, reward: {cross_track_per_cm_s: 0.05}}
         curriculum:             # stages by decisions done; random_path = RandomPathConfig fields
           - {name: single_turns, until: 160, random_path: {n_waypoints: 2, ...}}

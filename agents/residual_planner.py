@@ -1,20 +1,22 @@
 """The turn planner with a learned correction of each turn it plans (residual policy learning).
 
-The rule planner (``agents.turn_planner``) chooses every turn from the turn map: a turning
-angle theta (hence a burst length t_c) and the flagellum phase beta at which to burst. The map
-is a calibration of the nominal swimmer, averaged over phases and measured from a fully relaxed
+The rule planner (``agents.turn_planner``) chooses every turn from the turn map: a burst length
+t_c (hence a turning angle theta) and the flagellum phase beta at which to burst. The map is a
+calibration of the nominal swimmer, averaged over phases and measured from a fully relaxed
 straight start; a real turn differs (the flagellum may not have relaxed, the parameters may be
-off). ``ResidualPlanner`` asks a *residual policy* for a correction of each planned turn,
+off by some per cent, which moves the buckling time and so the turn). ``ResidualPlanner`` asks a
+*residual policy* for a correction of each planned turn,
 
-    theta' = clip(theta + a_0 * max_dtheta_deg, min, map maximum),   t_c' = map^-1(theta'),
-    beta'  = beta + a_1 * max_dphase_deg,
+    t_c' = t_c * (1 + a_0 * max_dtc_fraction),     beta' = beta + a_1 * max_dphase_deg,
 
-with the action a in [-1, 1]^2 (a = 0 is the rule planner's plan; Johannink et al. 2019,
-"Residual reinforcement learning for robot control", and Silver et al. 2018, "Residual policy
-learning", use the same split: a model-based controller plus a learned correction). Everything
-else (hovering to the phase, the burst, waiting for a steady heading, re-planning) is the rule
-planner's. ``turn_features`` is what the policy sees at the moment of a decision (``N_FEATURES``
-numbers, each O(1)).
+with the action a in [-1, 1]^2 (a = 0 is the rule planner's plan; Silver et al. 2018, "Residual
+policy learning", and Johannink et al. 2019, "Residual reinforcement learning for robot
+control", use the same split: a model-based controller plus a learned correction). The burst
+length is scaled because a parameter error rescales time: the viscous time mu L^4 / EI sets
+when the flagellum buckles. Everything else (hovering to the phase, the burst, waiting for a
+steady heading, re-planning) is the rule planner's. ``turn_features`` is what the policy sees at
+a decision (``N_FEATURES`` numbers, each O(1)), including how the previous turn came out
+against its prediction, so that a policy can adapt to a swimmer that differs from the map.
 
 Two ways to supply the correction:
 
@@ -33,51 +35,59 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agents.turn_geometry import angle_between, wrap_angle
+from agents.turn_geometry import angle_between, azimuth, wrap_angle
 from agents.turn_map import TurnMap
 from agents.turn_planner import PlannerConfig, RulePlanner, _Episode
 
 #: Length of the feature vector the residual policy sees.
-N_FEATURES = 11
+N_FEATURES = 14
 #: Distances in the features are in units of this, m (about a path segment).
 FEATURE_LENGTH_M = 0.1
 
 
 @dataclass(frozen=True)
 class ResidualLimits:
-    """How far the residual may move a planned turn: theta by up to ``max_dtheta_deg``, the burst
-    phase by up to ``max_dphase_deg`` (both degrees, > 0); theta' is kept >= ``min_theta_deg``."""
+    """How far the residual may move a planned turn: the burst length by up to the fraction
+    ``max_dtc_fraction`` (in (0, 1)), the burst phase by up to ``max_dphase_deg`` (degrees, > 0)."""
 
-    max_dtheta_deg: float = 20.0
+    max_dtc_fraction: float = 0.25
     max_dphase_deg: float = 30.0
-    min_theta_deg: float = 2.0
 
     def __post_init__(self) -> None:
-        for name in ("max_dtheta_deg", "max_dphase_deg", "min_theta_deg"):
+        for name, hi in (("max_dtc_fraction", 1.0), ("max_dphase_deg", 180.0)):
             v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"ResidualLimits.{name}={v!r} must be a finite number > 0 (degrees)")
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 < v < hi:
+                raise ValueError(f"ResidualLimits.{name}={v!r} must be a number in (0, {hi:g})")
             object.__setattr__(self, name, float(v))
 
 
 def turn_features(plan: dict, targets: np.ndarray, reach_radius_m: float, end_to_end_ratio: float,
-                  time_left: float, n_turns: int, max_theta_deg: float) -> np.ndarray:
+                  time_left: float, previous: dict | None, n_turns: int, max_theta_deg: float) -> np.ndarray:
     """What the residual policy sees when a turn is planned, (N_FEATURES,) float32.
 
     plan: the rule planner's plan (``RulePlanner._plan_turn``: t_c, theta_deg, predicted and
-    straight misses, heading and head). targets: (2, 3) the next two waypoints minus the head,
-    start frame, m (the second repeats the first on the last segment; one row with n_lookahead = 1).
+    straight misses, heading). targets: (W, 3) the next waypoints minus the head, start frame, m
+    (W = n_lookahead; the second repeats the first on the last segment). previous: the last turn
+    flown in this episode (a ``corrected_plan``), or None.
 
     Features: planned theta / map maximum; planned t_c / 10 s; predicted miss and straight miss /
     reach radius; distance to the target / 0.1 m; angle between heading and target / 90 deg;
     the turn at the target (angle between the two segments) / 90 deg and the next segment's
-    length / 0.1 m; L'/L; fraction of the time budget left; turns so far / 5.
+    length / 0.1 m; L'/L; fraction of the time budget left; turns so far / 5; and the previous
+    turn's outcome: 1 if there was one, its actual / predicted turning angle, and the error of
+    its direction (azimuth about the old heading, actual - predicted) / 90 deg (0, 1, 0 without one).
     """
     d = np.asarray(plan["heading"], dtype=np.float64)
     to_target = targets[0]
     after = targets[1] - targets[0] if len(targets) > 1 else np.zeros(3)
     next_len = float(np.linalg.norm(after))
     corner = angle_between(to_target, after) if next_len > 1e-9 else 0.0
+    had, ratio, az_err = 0.0, 1.0, 0.0
+    if previous is not None and "predicted_theta_deg" in previous:
+        d0 = np.asarray(previous["heading"], dtype=np.float64)
+        had = 1.0
+        ratio = math.degrees(angle_between(d0, d)) / max(previous["predicted_theta_deg"], 1.0)
+        az_err = math.degrees(wrap_angle(azimuth(d, d0) - previous["predicted_azimuth"])) / 90.0
     f = np.array([
         plan["theta_deg"] / max_theta_deg,
         plan["t_c"] / 10.0,
@@ -90,22 +100,29 @@ def turn_features(plan: dict, targets: np.ndarray, reach_radius_m: float, end_to
         end_to_end_ratio,
         time_left,
         n_turns / 5.0,
+        had,
+        ratio,
+        az_err,
     ])
     return np.clip(np.nan_to_num(f, nan=0.0, posinf=10.0, neginf=-10.0), -10.0, 10.0).astype(np.float32)
 
 
 def corrected_plan(plan: dict, action: np.ndarray, turn_map: TurnMap, limits: ResidualLimits) -> dict:
-    """The plan with the residual ``action`` (2,) in [-1, 1] applied (module docstring)."""
+    """The plan with the residual ``action`` (2,) in [-1, 1] applied (module docstring), with the
+    map's prediction of the corrected turn: ``predicted_theta_deg`` (the rising branch, held at
+    its maximum beyond it) and ``predicted_azimuth`` (rad, of the new heading about the old one in
+    ``perpendicular_basis(heading)``, as the planner predicts it: phase + psi)."""
     a = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
     if a.size != 2 or not np.all(np.isfinite(a)):
         raise ValueError(f"residual action={action!r} must be two finite numbers in [-1, 1]")
-    top = turn_map.max_theta_deg
-    theta = float(np.clip(plan["theta_deg"] + a[0] * limits.max_dtheta_deg, min(limits.min_theta_deg, top), top))
+    t_c = plan["t_c"] * (1.0 + a[0] * limits.max_dtc_fraction)
+    phase = wrap_angle(plan["burst_phase"] + math.radians(a[1] * limits.max_dphase_deg))
+    t_branch, theta_branch = turn_map.rising_branch()
     out = dict(plan)
-    out.update(theta_deg=theta, t_c=turn_map.t_c_for(theta),
-               burst_phase=wrap_angle(plan["burst_phase"] + math.radians(a[1] * limits.max_dphase_deg)),
-               residual=[float(a[0]), float(a[1])], planned_theta_deg=float(plan["theta_deg"]),
-               planned_t_c=float(plan["t_c"]))
+    out.update(t_c=float(t_c), burst_phase=phase, residual=[float(a[0]), float(a[1])],
+               planned_t_c=float(plan["t_c"]), planned_theta_deg=float(plan["theta_deg"]),
+               predicted_theta_deg=float(np.interp(t_c, t_branch, theta_branch)),
+               predicted_azimuth=wrap_angle(phase + math.radians(turn_map.psi_for(t_c))))
     return out
 
 
@@ -154,7 +171,8 @@ class ResidualPlanner(RulePlanner):
             action, self._decision = self._decision, None
             return corrected_plan(plan, action, self.turn_map, self.limits)
         features = turn_features(plan, ep.prev_rel, self.reach_radius_m, float(obs[self.end_slice][0]),
-                                 float(obs[self.time_slice][0]), len(ep.turns), self.turn_map.max_theta_deg)
+                                 float(obs[self.time_slice][0]), ep.turns[-1] if ep.turns else None, len(ep.turns),
+                                 self.turn_map.max_theta_deg)
         if self.policy is None:
             self.awaiting = features
             return None  # cruise on for this step; the next one flies the decided turn

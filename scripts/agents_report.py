@@ -127,26 +127,29 @@ DESIGN = """## The agent
 
 - **What PPO controls.** Not the motor speed every step: the agent corrects each turn the rule
   planner plans (residual policy learning: Silver et al. 2018; Johannink et al. 2019). When the
-  planner has chosen a turn (a turning angle θ on the turn map, hence a burst length t_c, and the
-  flagellum phase at which to burst), the agent returns a ∈ [-1, 1]², and the turn flown is
-  θ + 20° a₀ (kept on the map's rising branch) at phase + 30° a₁. Hovering, the 150 rpm burst, the
-  wait for a steady heading and the re-planning stay the planner's. a = 0 is the planner.
+  planner has chosen a turn (a burst length t_c from the turn map, and the flagellum phase at
+  which to burst), the agent returns a ∈ [-1, 1]², and the turn flown is a burst of
+  t_c (1 + 0.25 a₀) at phase + 30° a₁. Hovering, the 150 rpm burst, the wait for a steady heading
+  and the re-planning stay the planner's; a = 0 is the planner. The burst length is scaled because
+  a parameter error rescales time (the viscous time μL⁴/EI sets when the flagellum buckles).
 - **Why.** One env step of `FlagellumSteer-v0` at the `fast` preset costs 0.16 s of wall time straight and
   ~1.7 s buckled (docs/env.md); a 20-cm path is ~450 simulated seconds. Within the 2-hour budget on
   two cores that is ~10⁴ motor-speed steps, far too few for PPO to discover buckling, phase timing
-  and turn lengths from scratch. A turn-level action gives a few hundred decisions whose effect
-  is direct; the turn map keeps the correction meaningful across presets (the same correction in
-  θ is turned into each preset's burst length by that preset's map).
-- **Observation** (11 numbers at each decision): the planned θ and t_c, the predicted and the
+  and burst lengths from scratch. A turn-level action gives a few hundred decisions whose effect
+  is direct, and the turn map carries the correction across presets (each preset's planner
+  proposes its own t_c; the agent scales it).
+- **Observation** (14 numbers at each decision): the planned θ and t_c, the predicted and the
   straight-line miss of the waypoint (in reach radii), distance and angle to the waypoint, the
-  corner after it, L'/L, time left, turns so far. Normalised by `VecNormalize` (saved with the model).
+  corner after it, L'/L, time left, turns so far, and how the previous turn came out against the
+  map's prediction (turning-angle ratio, direction error), from which a policy can tell a swimmer
+  that differs from the map. Normalised by `VecNormalize` (saved with the model).
 - **Reward**: `FlagellumSteer-v0`'s reward summed over the control steps between decisions
   (progress +1/cm, waypoints +10, off-path/failure −20, energy), with the cross-track weight raised
   tenfold to 0.05 per cm per second.
 - **Curriculum and randomisation**: paths with one corner first, then three-corner paths of the
-  evaluation distribution (other seeds); planar and 3-D alternate; every training episode draws
-  E, μ, b (±10 %), helix pitch and radius (±5 %) and adds observation noise, while the planner keeps
-  the nominal turn map, so the agent sees the model error the paper warns about."""
+  evaluation distribution (other seeds); planar and 3-D alternate. Training episodes draw the
+  physical parameters (fractions in the config) while the planner keeps the nominal turn map,
+  so the agent meets the model error the paper warns about."""
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ from agents.path_following import default_turn_map, env_settings, make_controlle
 from agents.ppo_config import TrainConfig
 from agents.ppo_policy import PRETRAINED_DIR, load_agent
 from agents.residual_planner import N_FEATURES, ResidualLimits, corrected_plan, turn_features
+from agents.turn_geometry import azimuth, wrap_angle
 from agents.turn_map import TurnMap
 from flagellum.cli import main
 from flagellum_env.paths import path_from_waypoints
@@ -23,7 +24,7 @@ ONE_TURN = path_from_waypoints([[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]], name="one_
 SHORT_TURN = {"n_waypoints": 1, "segment_length_m": [0.03, 0.04], "min_turn_deg": 70.0, "max_turn_deg": 90.0}
 TINY = {"tiny": {"n_envs": 1, "n_timesteps": 3, "seed": 0, "checkpoint_every": 1, "n_steps": 3, "batch_size": 3,
                  "n_epochs": 1, "policy_kwargs": {"net_arch": [8], "log_std_init": -1.0},
-                 "task": {"preset": "fast", "limits": {"max_dtheta_deg": 10.0},
+                 "task": {"preset": "fast", "limits": {"max_dtc_fraction": 0.1},
                           "curriculum": [{"name": "one", "until": 3, "random_path": SHORT_TURN}],
                           "validation": {"seeds": [5], "every": 3, "random_path": SHORT_TURN}}}}
 
@@ -40,40 +41,50 @@ def _plan(theta: float = 60.0) -> dict:
 
 def test_zero_correction_is_the_planners_turn(fast_map):
     out = corrected_plan(_plan(), np.zeros(2), fast_map, ResidualLimits())
-    assert out["theta_deg"] == pytest.approx(60.0) and out["burst_phase"] == pytest.approx(1.0)
-    assert out["t_c"] == pytest.approx(fast_map.t_c_for(60.0))
-    assert out["planned_theta_deg"] == 60.0 and out["residual"] == [0.0, 0.0]
+    assert out["t_c"] == 9.5 and out["burst_phase"] == pytest.approx(1.0)
+    assert out["planned_t_c"] == 9.5 and out["residual"] == [0.0, 0.0]
+    t, th = fast_map.rising_branch()
+    assert out["predicted_theta_deg"] == pytest.approx(np.interp(9.5, t, th))
+    assert out["predicted_azimuth"] == pytest.approx(wrap_angle(1.0 + math.radians(fast_map.psi_for(9.5))))
 
 
-def test_full_correction_moves_theta_and_phase_by_the_limits_and_stays_on_the_map(fast_map):
-    lim = ResidualLimits(max_dtheta_deg=20.0, max_dphase_deg=30.0)
+def test_full_correction_scales_the_burst_and_shifts_the_phase_by_the_limits(fast_map):
+    lim = ResidualLimits(max_dtc_fraction=0.2, max_dphase_deg=30.0)
     out = corrected_plan(_plan(), np.array([1.0, -1.0]), fast_map, lim)
-    assert out["theta_deg"] == pytest.approx(80.0)
+    assert out["t_c"] == pytest.approx(9.5 * 1.2)
     assert out["burst_phase"] == pytest.approx(1.0 - math.radians(30.0))
-    assert out["t_c"] > fast_map.t_c_for(60.0)
-    # actions are clipped to [-1, 1]; theta never leaves [min_theta_deg, map maximum]
-    top = corrected_plan(_plan(fast_map.max_theta_deg - 1.0), np.array([5.0, 0.0]), fast_map, lim)
-    assert top["theta_deg"] == pytest.approx(fast_map.max_theta_deg)
-    low = corrected_plan(_plan(5.0), np.array([-1.0, 0.0]), fast_map, lim)
-    assert low["theta_deg"] == pytest.approx(lim.min_theta_deg)
+    assert out["predicted_theta_deg"] > corrected_plan(_plan(), np.zeros(2), fast_map, lim)["predicted_theta_deg"]
+    # actions are clipped to [-1, 1]; beyond the rising branch the prediction is the map's maximum
+    short = corrected_plan(_plan(), np.array([-5.0, 0.0]), fast_map, lim)
+    assert short["t_c"] == pytest.approx(9.5 * 0.8)
+    long = corrected_plan({**_plan(), "t_c": 11.0}, np.array([1.0, 0.0]), fast_map, lim)
+    assert long["predicted_theta_deg"] == pytest.approx(fast_map.max_theta_deg)
     with pytest.raises(ValueError, match="two finite numbers"):
         corrected_plan(_plan(), np.array([np.nan, 0.0]), fast_map, lim)
 
 
 def test_residual_limits_name_the_bad_value():
-    with pytest.raises(ValueError, match="max_dtheta_deg=-1"):
-        ResidualLimits(max_dtheta_deg=-1)
+    with pytest.raises(ValueError, match="max_dtc_fraction=1.5"):
+        ResidualLimits(max_dtc_fraction=1.5)
 
 
-def test_turn_features_describe_the_turn_and_the_next_corner():
+def test_turn_features_describe_the_turn_the_next_corner_and_the_last_turns_error():
     targets = np.array([[0.0, 0.1, 0.0], [0.1, 0.1, 0.0]])  # 10 cm to the left, then a right turn of 90 deg
-    f = turn_features(_plan(), targets, 0.015, 1.0, 0.5, 2, max_theta_deg=120.0)
+    f = turn_features(_plan(), targets, 0.015, 1.0, 0.5, None, 2, max_theta_deg=120.0)
     assert f.shape == (N_FEATURES,) and f.dtype == np.float32
     assert f[0] == pytest.approx(0.5) and f[4] == pytest.approx(1.0)  # theta / max, distance / 0.1 m
     assert f[5] == pytest.approx(1.0) and f[6] == pytest.approx(1.0)  # 90 deg off the heading; 90 deg corner
     assert f[7] == pytest.approx(1.0) and f[10] == pytest.approx(0.4)
-    one = turn_features(_plan(), targets[:1], 0.015, 1.0, 0.5, 0, max_theta_deg=120.0)  # n_lookahead = 1
+    assert list(f[11:]) == [0.0, 1.0, 0.0]  # no previous turn
+    one = turn_features(_plan(), targets[:1], 0.015, 1.0, 0.5, None, 0, max_theta_deg=120.0)  # n_lookahead = 1
     assert one[6] == 0.0 and one[7] == 0.0
+    # the previous turn was predicted as 60 deg towards azimuth 0 about +y; the heading is now +x:
+    # 90 deg turned (ratio 1.5), towards the azimuth of +x about +y
+    d0 = np.array([0.0, 1.0, 0.0])
+    prev = {"heading": d0.tolist(), "predicted_theta_deg": 60.0, "predicted_azimuth": 0.0}
+    g = turn_features(_plan(), targets, 0.015, 1.0, 0.5, prev, 1, max_theta_deg=120.0)
+    assert g[11] == 1.0 and g[12] == pytest.approx(1.5)
+    assert g[13] == pytest.approx(math.degrees(azimuth(np.array([1.0, 0, 0]), d0)) / 90.0)
 
 
 def test_shipped_config_loads_and_held_out_seeds_are_refused(tmp_path):
@@ -111,7 +122,7 @@ def test_short_training_run_writes_an_agent_that_loads(tiny_run):
         assert (out / name).is_file(), name
     meta = json.loads((out / "meta.json").read_text())
     assert meta["mode"] == "residual" and meta["decisions"] == 3 and meta["finished"]
-    assert meta["limits"] == {"max_dtheta_deg": 10.0}
+    assert meta["limits"] == {"max_dtc_fraction": 0.1}
     with np.load(out / "eval" / "evaluations.npz") as d:
         assert list(d["timesteps"]) == [3]
     agent = load_agent(str(out))
