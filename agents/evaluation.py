@@ -53,16 +53,19 @@ def resolve_paths(specs: Sequence[str]) -> list[WaypointPath]:
 
 def evaluate(paths: Sequence[WaypointPath], controllers: Sequence[str], preset: str, out_dir: str | os.PathLike,
              workers: int | None = None, resume: bool = False, env_overrides: dict[str, Any] | None = None,
-             progress: bool = True, report_only: bool = False) -> dict[str, Any]:
+             progress: bool = True, report_only: bool = False, seed_per_path: bool = False) -> dict[str, Any]:
     """Run every (controller, path) episode (parallel, resumable) and write the results files.
 
     ``report_only``: run nothing; write the results files from the episodes already in
-    ``out_dir`` (the others are listed under ``missing``).
+    ``out_dir`` (the others are listed under ``missing``). ``seed_per_path``: the env is reset
+    with seed k for the k-th path (every controller meets the same draws; with randomisation,
+    each path its own swimmer) instead of seed 0 for all.
     """
     for c in controllers:
         controller_kind(c)
     env_kw = tuple(sorted((env_overrides or {}).items()))
-    tasks = [EpisodeTask(c, p, preset, env_kw) for c in controllers for p in paths]
+    tasks = [EpisodeTask(c, p, preset, env_kw, seed=k if seed_per_path else 0)
+             for c in controllers for k, p in enumerate(paths)]
     out = Path(out_dir)
     with ResultsStore(out, resume or report_only) as store:
         if not report_only:
@@ -71,6 +74,7 @@ def evaluate(paths: Sequence[WaypointPath], controllers: Sequence[str], preset: 
         records = [store.records.get(t.point_id) for t in tasks]
     results = summarise([r for r in records if r is not None], controllers)
     results["preset"] = preset
+    results["env_overrides"] = dict(env_overrides or {})
     results["missing"] = [t.label() for t, r in zip(tasks, records, strict=True) if r is None]
     (out / "results.json").write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")
     (out / "results.md").write_text(results_markdown(results), encoding="utf-8")

@@ -23,6 +23,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--resume", action="store_true", help="keep the episodes already in DIR")
     parser.add_argument("--report-only", action="store_true",
                         help="run nothing: write results.json/.md from the episodes already in DIR")
+    parser.add_argument("--randomize", metavar="F",
+                        help="model error: each path's swimmer has E, mu and b drawn within +-F (a fraction, e.g. "
+                             "0.05) and the helix within +-0.4 F, while the controllers keep the nominal turn map; "
+                             "the k-th path uses env seed k")
     parser.add_argument("--no-progress", action="store_true", help="do not show the progress bar")
 
 
@@ -38,9 +42,17 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     workers = None if args.workers is None else int(parse_number("--workers", args.workers, "an integer >= 1",
                                                                  positive=True))
+    overrides = None
+    if args.randomize is not None:
+        f = parse_number("--randomize", args.randomize, "a fraction in (0, 0.5]", positive=True)
+        if f > 0.5:
+            raise UsageError(f"--randomize {args.randomize!r} is not allowed; allowed: a fraction in (0, 0.5]")
+        overrides = {"randomize": {"youngs_modulus": f, "viscosity": f, "head_radius": f, "geometry": 0.4 * f,
+                                   "obs_noise_std": 0.0}}
     try:
         results = evaluate(paths, args.controller, args.preset or "fast", args.out, workers=workers,
-                           resume=args.resume, progress=not args.no_progress, report_only=args.report_only)
+                           resume=args.resume, progress=not args.no_progress, report_only=args.report_only,
+                           env_overrides=overrides, seed_per_path=overrides is not None)
     except (ValueError, SweepError) as exc:  # a bad controller name, a locked or used DIR
         raise UsageError(str(exc)) from None
     print((args.out / "results.md").read_text(encoding="utf-8"))
