@@ -88,7 +88,7 @@ def test_resolve_paths_errors_and_folders(tmp_path):
 @pytest.mark.parametrize("argv, message", [
     (["evaluate", "--paths", "nowhere.json", "--controller", "rule"], "neither 'square'"),
     (["evaluate", "--paths", "square", "--controller", "magic"], "controller 'magic' is not allowed"),
-    (["follow", "--path", "square", "--controller", "ppo"], "no trained PPO agent"),
+    (["follow", "--path", "square", "--controller", "ppo:no_agent_here"], "no trained PPO agent"),
     (["follow", "--path", "square", "--controller", "rule:nomap.json"], "no turn map at 'nomap.json'"),
     (["calibrate-turns", "--preset", "fast", "--t-c", "-1"], "--t-c '-1' is not allowed"),
 ])

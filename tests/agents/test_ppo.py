@@ -170,7 +170,6 @@ def test_pretrained_agent_completes_a_short_path_deterministically():
     (["train", "--config", "no/such.yml"], "cannot read the training config"),
     (["train", "--resume", "--out", "{tmp}/empty"], "no checkpoint"),
     (["train", "--preset", "paper"], "differs from the config's task.preset"),
-    (["follow", "--path", "square", "--controller", "ppo:{tmp}/nothing"], "no trained PPO agent"),
     (["evaluate", "--paths", "square", "--controller", "rule", "--randomize", "0.9"], "a fraction in (0, 0.5]"),
 ])
 def test_cli_errors_name_the_problem(capsys, tmp_path, argv, fragment):
