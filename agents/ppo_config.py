@@ -6,7 +6,7 @@ hyperparameters (flat, as in rl-zoo3's ``hyperparams/ppo.yml``) and a ``task`` s
     ppo_residual_fast:
       policy: MlpPolicy
       n_envs: 2                 # SubprocVecEnv workers
-      n_timesteps: 480          # turn decisions (steps of TurnDecisionEnv)
+      n_timesteps: 640          # turn decisions (steps of TurnDecisionEnv)
       max_wall_time_s: 5400     # stop (and save) after this much training wall time
       seed: 0
       checkpoint_every: 32      # decisions

@@ -2,7 +2,8 @@
 
 ``train(config, out_dir)`` runs PPO on ``TurnDecisionEnv`` (``agents.turn_decision_env``): a
 ``SubprocVecEnv`` of ``n_envs`` workers (a ``DummyVecEnv`` for one), ``VecMonitor`` and
-``VecNormalize``; an ``EvalCallback`` on the fixed validation paths (reports ``is_success``);
+``VecNormalize``; an ``EvalCallback`` on the fixed validation paths with the nominal swimmer
+(reports ``is_success``);
 the curriculum; checkpoints with their VecNormalize statistics; tensorboard logs; a progress bar;
 a wall-time budget. ``out_dir`` receives::
 
@@ -51,11 +52,15 @@ class TrainResult:
 
 
 def _make_env(config: TrainConfig, rank: int, paths=None):
-    """A picklable factory of one TurnDecisionEnv (training: the curriculum's first stage)."""
+    """A picklable factory of one TurnDecisionEnv: training (the curriculum's first stage, the
+    config's randomisation) or, with ``paths``, validation (those paths, nominal parameters)."""
     def factory():
         from agents.turn_decision_env import TurnDecisionEnv
 
-        env = TurnDecisionEnv(preset=config.preset, turn_map=config.turn_map, env_kwargs=config.env_kwargs,
+        kwargs = dict(config.env_kwargs)
+        if paths:
+            kwargs.pop("randomize", None)
+        env = TurnDecisionEnv(preset=config.preset, turn_map=config.turn_map, env_kwargs=kwargs,
                               paths=paths, random_path=None if paths else config.curriculum[0].random_path,
                               limits=config.limits)
         env.reset(seed=config.seed + rank)
