@@ -8,6 +8,9 @@ Inputs (each made by a committed command):
 - data/eval/<preset>/results.json for preset fast and paper, holding both controllers
       flagellum evaluate --paths data/paths/eval --controller rule --controller ppo --preset <preset>
                          --out data/eval/<preset> --resume
+- data/eval/fast_randomized/results.json (model error: each path's swimmer off the map by up to 5 %)
+      flagellum evaluate --paths data/paths/eval --controller rule --controller ppo --preset fast
+                         --randomize 0.05 --out data/eval/fast_randomized
   (held-out paths: seeds 1000-1009; training drew its paths from other seeds, validation used 900, 901).
 Missing inputs are reported as not measured.
 """
@@ -72,16 +75,17 @@ def evaluation_section(lines: list[str]) -> dict[str, Any]:
               "1000-1009, which training never drew), one episode per controller and path, "
               "`flagellum evaluate ... --controller rule --controller ppo`. Means over the paths run.", ""]
     found: dict[str, Any] = {}
-    for preset in PRESETS:
-        f = Path("data/eval") / preset / "results.json"
+    for folder, title in [(p, f"`{p}` preset") for p in PRESETS] + [
+            ("fast_randomized", "`fast` preset, swimmer parameters off the turn map's (`--randomize 0.05`)")]:
+        f = Path("data/eval") / folder / "results.json"
         res = json.loads(f.read_text(encoding="utf-8")) if f.is_file() else None
         agg = (res or {}).get("aggregate", {})
         if "rule" not in agg or "ppo" not in agg:
-            lines += [f"### `{preset}` preset", "", "Not measured for both controllers yet.", ""]
+            lines += [f"### {title}", "", "Not measured for both controllers yet.", ""]
             continue
-        found[preset] = res
+        found[folder] = res
         r, p = agg["rule"], agg["ppo"]
-        lines += [f"### `{preset}` preset", "", f"Episodes: rule {r['episodes']}, PPO {p['episodes']}"
+        lines += [f"### {title}", "", f"Episodes: rule {r['episodes']}, PPO {p['episodes']}"
                   + (f"; not run yet: {', '.join(res['missing'])}" if res.get("missing") else "") + ".", "",
                   "| metric | rule planner | PPO (residual) |", "|---|---|---|"]
         for label, key, scale, digits in ROWS:
