@@ -47,26 +47,64 @@ def training_section(agent: Path, lines: list[str]) -> None:
     fig = save(training_figure(agent, f"PPO residual agent {meta['name']}: training on the {meta['preset']} preset"),
                DOCS / "figures" / "ppo_training.png")
     ep = read_episodes(agent / "episodes.csv")
-    n = len(ep["decisions"])
-    third = max(1, n // 3)
-    first, last = slice(0, third), slice(n - third, n)
+    stages = _stages(agent / "episodes.csv")
+    rnd = meta.get("env_kwargs", {}).get("randomize")
+    rnd_text = (", ".join(f"{k} ±{100 * v:g} %" for k, v in rnd.items() if v) if isinstance(rnd, dict)
+                else str(rnd)) if rnd else "none"
     budget = " It stopped at the wall-time budget." if meta.get("stopped_by_wall_time_budget") else ""
     lines += ["## Training", "",
-              f"`flagellum train --config {meta.get('config')} --out {agent}`: "
-              f"**{meta['decisions']} decisions (planned turns) in {meta['wall_time_s'] / 60:.0f} min** of wall time on "
-              f"this 2-core machine ({meta.get('n_envs')} env workers, PyTorch on the CPU), {n} training "
-              f"episodes.{budget} "
-              f"Trained from commit `{meta['commit']}` with stable-baselines3 {meta['versions']['stable_baselines3']}, "
-              f"torch {meta['versions']['torch']}.", "",
+              f"`flagellum train --config {meta.get('config')}`: **{meta['decisions']} decisions (planned turns) in "
+              f"{meta['wall_time_s'] / 60:.0f} min** of wall time on this 2-core machine ({meta.get('n_envs')} env "
+              f"workers, PyTorch on the CPU), {len(ep['decisions'])} training episodes.{budget} Trained from commit "
+              f"`{meta['commit']}` (`-dirty`: result files being written, not code) with stable-baselines3 "
+              f"{meta['versions']['stable_baselines3']}, torch {meta['versions']['torch']}; the shipped files are in "
+              f"`{agent}`.", "",
               f"![PPO training curve](figures/{fig.name})", "",
               "*Training episodes (dots; rolling mean, line) and the deterministic policy on the two validation "
-              "paths (squares), against the number of decisions. Training episodes use domain randomisation "
-              "(E, μ, b ±10 %, helix ±5 %, observation noise) and a stochastic policy.*", "",
-              "| training episodes | return | success | mean cross-track (cm) |", "|---|---|---|---|",
-              f"| first third ({third}) | {ep['return'][first].mean():.1f} | {ep['is_success'][first].mean():.0%} | "
-              f"{ep['mean_cross_track_m'][first].mean() * 100:.2f} |",
-              f"| last third ({third}) | {ep['return'][last].mean():.1f} | {ep['is_success'][last].mean():.0%} | "
-              f"{ep['mean_cross_track_m'][last].mean() * 100:.2f} |", ""]
+              f"paths with the nominal swimmer (squares), against the number of decisions. Training episodes draw "
+              f"the swimmer's parameters ({rnd_text}) and use the stochastic policy.*", "",
+              "| training episodes | episodes | return | success | mean cross-track (cm) |", "|---|---|---|---|---|"]
+    for name, idx in stages.items():
+        half = len(idx) // 2
+        for label, part in (("first half", idx[:half]), ("second half", idx[half:])):
+            if len(part):
+                lines.append(f"| {name}, {label} | {len(part)} | {ep['return'][part].mean():.1f} | "
+                             f"{ep['is_success'][part].mean():.0%} | {ep['mean_cross_track_m'][part].mean() * 100:.2f} |")
+    lines += ["", *policy_probe(agent), ""]
+
+
+def _stages(file: Path) -> dict[str, list[int]]:
+    """Row indices of each curriculum stage in episodes.csv, in order."""
+    import csv
+
+    out: dict[str, list[int]] = {}
+    with open(file, newline="", encoding="utf-8") as f:
+        for k, row in enumerate(csv.DictReader(f)):
+            out.setdefault(row["stage"], []).append(k)
+    return out
+
+
+def policy_probe(agent: Path) -> list[str]:
+    """What the deterministic policy does at the mean features, as the previous turn's outcome varies."""
+    from agents.ppo_policy import load_agent
+    from agents.residual_planner import ResidualLimits
+
+    a = load_agent(str(agent))
+    if a.obs_rms is None:
+        return []
+    lim = ResidualLimits(**a.meta.get("limits", {}))
+    rows = ["What the trained policy does (deterministic, all other features at their training means; "
+            f"a₀ scales the burst by 1 + {lim.max_dtc_fraction:g} a₀, a₁ shifts the phase by {lim.max_dphase_deg:g}° "
+            "a₁):", "",
+            "| previous turn | a₀ (burst) | a₁ (phase) |", "|---|---|---|"]
+    for label, had, ratio, az in (("none (first turn)", 0, 1, 0), ("as predicted", 1, 1, 0),
+                                  ("turned 50 % too far", 1, 1.5, 0), ("turned half as far", 1, 0.5, 0),
+                                  ("direction off by +45°", 1, 1, 0.5), ("direction off by -45°", 1, 1, -0.5)):
+        f = a.obs_rms.mean.copy()
+        f[11:14] = (had, ratio, az)
+        act = a.act(f)
+        rows.append(f"| {label} | {act[0]:+.3f} | {act[1]:+.3f} |")
+    return rows
 
 
 def evaluation_section(lines: list[str]) -> dict[str, Any]:
