@@ -18,7 +18,8 @@ hyperparameters (flat, as in rl-zoo3's ``hyperparams/ppo.yml``) and a ``task`` s
       task:
         preset: fast
         turn_map: null          # null: data/turn_maps/<preset>.json
-        limits: {max_dtc_fraction: 0.25, max_dphase_deg: 30}
+        limits: {max_dtc_fraction: 0.05, max_dphase_deg: 15}
+        action_cost: 5.0        # reward - action_cost |a|^2 per decision
         env_kwargs: {randomize: true, reward: {cross_track_per_cm_s: 0.05}}
         curriculum:             # stages by decisions done; random_path = RandomPathConfig fields
           - {name: single_turns, until: 160, random_path: {n_waypoints: 2, ...}}
@@ -52,7 +53,7 @@ PPO_KEYS = ("learning_rate", "n_steps", "batch_size", "n_epochs", "gamma", "gae_
 NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma")
 TOP_KEYS = ("policy", "n_envs", "n_timesteps", "max_wall_time_s", "seed", "checkpoint_every", "normalize", "task",
             *PPO_KEYS)
-TASK_KEYS = ("preset", "turn_map", "limits", "env_kwargs", "curriculum", "validation")
+TASK_KEYS = ("preset", "turn_map", "limits", "action_cost", "env_kwargs", "curriculum", "validation")
 #: Seeds from here on are the held-out evaluation paths.
 HELD_OUT_SEED0 = 1000
 
@@ -105,6 +106,7 @@ class TrainConfig:
     preset: str = "fast"
     turn_map: str | None = None
     limits: Mapping[str, Any] = field(default_factory=dict)
+    action_cost: float = 0.0
     env_kwargs: Mapping[str, Any] = field(default_factory=dict)
     source: str = "<dict>"
 
@@ -171,6 +173,9 @@ class TrainConfig:
             ResidualLimits(**limits)
         except TypeError as exc:
             raise ValueError(f"{where}: {name}.task.limits: {exc}") from None
+        cost = task.get("action_cost", 0.0)
+        if isinstance(cost, bool) or not isinstance(cost, (int, float)) or not math.isfinite(cost) or cost < 0:
+            raise ValueError(f"{where}: {name}.task.action_cost={cost!r} must be a number >= 0")
         normalize = dict(body.get("normalize") or {"norm_obs": True, "norm_reward": True})
         _only(normalize, NORMALIZE_KEYS, f"{where}: {name}.normalize")
         wall = body.get("max_wall_time_s")
@@ -187,7 +192,8 @@ class TrainConfig:
                    seed=_int(body.get("seed", 0), f"{where}: {name}.seed", 0),
                    checkpoint_every=_int(body.get("checkpoint_every", 32), f"{where}: {name}.checkpoint_every", 1),
                    normalize=normalize, ppo={k: body[k] for k in PPO_KEYS if k in body}, preset=preset,
-                   turn_map=task.get("turn_map"), limits=limits, env_kwargs=dict(task.get("env_kwargs") or {}),
+                   turn_map=task.get("turn_map"), limits=limits, action_cost=float(cost),
+                   env_kwargs=dict(task.get("env_kwargs") or {}),
                    source=source)
 
 

@@ -62,7 +62,7 @@ def _make_env(config: TrainConfig, rank: int, paths=None):
             kwargs.pop("randomize", None)
         env = TurnDecisionEnv(preset=config.preset, turn_map=config.turn_map, env_kwargs=kwargs,
                               paths=paths, random_path=None if paths else config.curriculum[0].random_path,
-                              limits=config.limits)
+                              limits=config.limits, action_cost=config.action_cost)
         env.reset(seed=config.seed + rank)
         return env
     return factory
@@ -215,7 +215,8 @@ class _Bookkeeping(BaseCallback):
         self.meta.update({
             "name": self.config.name, "mode": MODE, "preset": self.config.preset, "turn_map": self.config.turn_map,
             "config": self.config.source, "n_envs": self.config.n_envs,
-            "limits": dict(self.config.limits), "env_kwargs": dict(self.config.env_kwargs),
+            "limits": dict(self.config.limits), "action_cost": self.config.action_cost,
+            "env_kwargs": dict(self.config.env_kwargs),
             "decisions": int(self.num_timesteps), "wall_time_s": round(self.elapsed(), 1),
             "stopped_by_wall_time_budget": self.stopped, "finished": final,
             "commit": self.meta.get("commit") or git_commit(), "last_commit": git_commit(),

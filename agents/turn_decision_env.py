@@ -5,8 +5,8 @@ the rule planner's). Whenever the planner plans a turn it stops and hands the tu
 to the agent (the observation); the agent's action corrects the turn (``ResidualLimits``); the
 env then runs on until the next planned turn or the end of the episode. The reward of a step is
 the sum of ``FlagellumSteer-v0``'s rewards over the control steps it covered (progress, cross-track
-error, energy, waypoints, penalties; weights from ``env_kwargs["reward"]``), so the return of
-an episode is the base env's return.
+error, energy, waypoints, penalties; weights from ``env_kwargs["reward"]``) less ``action_cost``
+times |a|^2, so with ``action_cost = 0`` the return of an episode is the base env's return.
 
 An episode is one path: from ``paths`` in turn (validation), else drawn from this env's seeded
 generator with ``random_path`` (training paths; ``planar`` may be a list to alternate planar
@@ -20,6 +20,7 @@ and ``turns`` (decisions taken).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -41,7 +42,9 @@ class TurnDecisionEnv(gym.Env):
     preset: physics preset of the swimmer; turn_map: a map file (default: the preset's committed
     map); env_kwargs: further ``FlagellumSteer-v0`` arguments (e.g. ``randomize``, ``reward``);
     paths: fixed paths, used in turn; random_path: ``RandomPathConfig`` fields for drawn paths
-    (``planar`` may be a list, cycled per episode); limits: ``ResidualLimits`` or its fields.
+    (``planar`` may be a list, cycled per episode); limits: ``ResidualLimits`` or its fields;
+    action_cost: c >= 0, the reward of a decision is lowered by c |a|^2 (the price of leaving the
+    planner's turn: a residual policy should move it only where that pays).
 
     Observation: ``Box(-10, 10, (N_FEATURES,), float32)`` (``residual_planner.turn_features``).
     Action: ``Box(-1, 1, (2,), float32)``: correction of the turning angle and of the burst phase.
@@ -51,7 +54,7 @@ class TurnDecisionEnv(gym.Env):
 
     def __init__(self, preset: str = "fast", turn_map: str | None = None, env_kwargs: Mapping[str, Any] | None = None,
                  paths: Sequence[WaypointPath] | None = None, random_path: Mapping[str, Any] | None = None,
-                 limits: ResidualLimits | Mapping[str, Any] | None = None) -> None:
+                 limits: ResidualLimits | Mapping[str, Any] | None = None, action_cost: float = 0.0) -> None:
         kwargs = {**CONTROLLER_ENV_DEFAULTS["rule"], "preset": preset, **dict(env_kwargs or {})}
         if "path" in kwargs:
             raise ValueError("env_kwargs must not hold 'path'; give paths= or random_path=")
@@ -60,6 +63,9 @@ class TurnDecisionEnv(gym.Env):
         if isinstance(limits, Mapping):
             limits = ResidualLimits(**limits)
         self.planner = ResidualPlanner.for_env(self.base, tmap, limits=limits)
+        if not (isinstance(action_cost, (int, float)) and math.isfinite(action_cost) and action_cost >= 0):
+            raise ValueError(f"action_cost={action_cost!r} must be a finite number >= 0")
+        self.action_cost = float(action_cost)
         self.paths = list(paths) if paths else None
         self.set_random_path(random_path or {})
         self.observation_space = spaces.Box(-10.0, 10.0, (N_FEATURES,), np.float32)
@@ -108,10 +114,11 @@ class TurnDecisionEnv(gym.Env):
         if self._pending_end is not None:
             terminated, truncated, info = self._pending_end
         else:
-            self.planner.decide(np.asarray(action, dtype=np.float64))
+            a = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
+            self.planner.decide(a)
             self._turns += 1
             r, terminated, truncated, info = self._advance()
-            reward += r
+            reward += r - self.action_cost * float(a @ a)
         self._done = terminated or truncated
         out_info: dict[str, Any] = {}
         if self._done:
