@@ -38,21 +38,22 @@ def _fmt(v: Any, scale: float, digits: int) -> str:
     return "-" if v is None else f"{float(v) * scale:.{digits}f}"
 
 
-def training_section(agent: Path, lines: list[str]) -> None:
+def training_section(agent: Path, lines: list[str], heading: str = "## Training",
+                     figure: str = "ppo_training.png") -> None:
     meta_file = agent / "meta.json"
     if not meta_file.is_file():
-        lines += ["## Training", "", f"Not measured: no trained agent in `{agent}`.", ""]
+        lines += [heading, "", f"Not measured: no trained agent in `{agent}`.", ""]
         return
     meta = json.loads(meta_file.read_text(encoding="utf-8"))
     fig = save(training_figure(agent, f"PPO residual agent {meta['name']}: training on the {meta['preset']} preset"),
-               DOCS / "figures" / "ppo_training.png")
+               DOCS / "figures" / figure)
     ep = read_episodes(agent / "episodes.csv")
     stages = _stages(agent / "episodes.csv")
     rnd = meta.get("env_kwargs", {}).get("randomize")
     rnd_text = (", ".join(f"{k} ±{100 * v:g} %" for k, v in rnd.items() if v) if isinstance(rnd, dict)
                 else str(rnd)) if rnd else "none"
     budget = " It stopped at the wall-time budget." if meta.get("stopped_by_wall_time_budget") else ""
-    lines += ["## Training", "",
+    lines += [heading, "",
               f"`flagellum train --config {meta.get('config')}`: **{meta['decisions']} decisions (planned turns) in "
               f"{meta['wall_time_s'] / 60:.0f} min** of wall time on this 2-core machine ({meta.get('n_envs')} env "
               f"workers, PyTorch on the CPU), {len(ep['decisions'])} training episodes.{budget} Trained from commit "
@@ -60,9 +61,9 @@ def training_section(agent: Path, lines: list[str]) -> None:
               f"{meta['versions']['stable_baselines3']}, torch {meta['versions']['torch']}; the shipped files are in "
               f"`{agent}`.", "",
               f"![PPO training curve](figures/{fig.name})", "",
-              "*Training episodes (dots; rolling mean, line) and the deterministic policy on the two validation "
-              f"paths with the nominal swimmer (squares), against the number of decisions. Training episodes draw "
-              f"the swimmer's parameters ({rnd_text}) and use the stochastic policy.*", "",
+              "*Training episodes (dots; rolling mean, line) and the deterministic policy on the validation "
+              "paths with the nominal swimmer (squares), against the number of decisions. Training episodes use "
+              f"the stochastic policy; swimmer parameters drawn per episode: {rnd_text}.*", "",
               "| training episodes | episodes | return | success | mean cross-track (cm) |", "|---|---|---|---|---|"]
     for name, idx in stages.items():
         half = len(idx) // 2
@@ -107,6 +108,31 @@ def policy_probe(agent: Path) -> list[str]:
     return rows
 
 
+def comparison_lines(res: dict[str, Any]) -> list[str]:
+    """The aggregate table (rule planner vs PPO) and the paired comparison of one results file."""
+    r, p = res["aggregate"]["rule"], res["aggregate"]["ppo"]
+    out = [f"Episodes: rule {r['episodes']}, PPO {p['episodes']}"
+           + (f"; not run yet: {', '.join(res['missing'])}" if res.get("missing") else "") + ".", "",
+           "| metric | rule planner | PPO (residual) |", "|---|---|---|"]
+    for label, key, scale, digits in ROWS:
+        out.append(f"| {label} | {_fmt(r.get(key), scale, digits)} | {_fmt(p.get(key), scale, digits)} |")
+    return out + ["", *paired_lines(res)]
+
+
+def first_design_section(lines: list[str]) -> None:
+    agent = Path("agents/pretrained/ppo_residual_fast_randomized")
+    lines += ["## The first design (kept for the record)", "",
+              "Trained with a randomised swimmer (E, μ, b ±5 %, helix ±2 %), corrections of up to 20 % of the "
+              "burst and 30° of phase, and no price on a correction. Its files and config are in "
+              f"`{agent}` (the config was then named `ppo_residual_fast.yml`; it is now "
+              "`agents/configs/ppo_residual_fast_randomized.yml`).", ""]
+    training_section(agent, lines, "### Its training", "ppo_training_randomized.png")
+    f = Path("data/eval/ppo_randomized_fast/results.json")
+    if f.is_file():
+        lines += ["### On the 20 held-out paths, `fast` preset", "",
+                  *comparison_lines(json.loads(f.read_text(encoding="utf-8"))), ""]
+
+
 def evaluation_section(lines: list[str]) -> dict[str, Any]:
     lines += ["## Held-out paths: PPO against the rule planner", "",
               "20 paths (`data/paths/eval`: 10 planar, 10 3-D, three segments of 12-20 cm, turns of 30°-150°, seeds "
@@ -122,13 +148,7 @@ def evaluation_section(lines: list[str]) -> dict[str, Any]:
             lines += [f"### {title}", "", "Not measured for both controllers yet.", ""]
             continue
         found[folder] = res
-        r, p = agg["rule"], agg["ppo"]
-        lines += [f"### {title}", "", f"Episodes: rule {r['episodes']}, PPO {p['episodes']}"
-                  + (f"; not run yet: {', '.join(res['missing'])}" if res.get("missing") else "") + ".", "",
-                  "| metric | rule planner | PPO (residual) |", "|---|---|---|"]
-        for label, key, scale, digits in ROWS:
-            lines.append(f"| {label} | {_fmt(r.get(key), scale, digits)} | {_fmt(p.get(key), scale, digits)} |")
-        lines += ["", *paired_lines(res), ""]
+        lines += [f"### {title}", "", *comparison_lines(res), ""]
     return found
 
 
@@ -161,6 +181,7 @@ def main() -> None:
              "`agents/configs/ppo_residual_fast.yml`.", "", DESIGN, ""]
     training_section(args.agent, lines)
     evaluation_section(lines)
+    first_design_section(lines)
     (DOCS / "agents.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
     print(f"wrote {DOCS / 'agents.md'}")
 
@@ -171,15 +192,16 @@ DESIGN = """## The agent
   planner plans (residual policy learning: Silver et al. 2018; Johannink et al. 2019). When the
   planner has chosen a turn (a burst length t_c from the turn map, and the flagellum phase at
   which to burst), the agent returns a ∈ [-1, 1]², and the turn flown is a burst of
-  t_c (1 + 0.25 a₀) at phase + 30° a₁. Hovering, the 150 rpm burst, the wait for a steady heading
-  and the re-planning stay the planner's; a = 0 is the planner. The burst length is scaled because
-  a parameter error rescales time (the viscous time μL⁴/EI sets when the flagellum buckles).
+  t_c (1 + 0.05 a₀) at phase + 15° a₁ (the shipped agent's limits; `task.limits`). Hovering, the
+  150 rpm burst, the wait for a steady heading and the re-planning stay the planner's; a = 0 is
+  the planner. The burst length is scaled because a parameter error rescales time (the viscous
+  time μL⁴/EI sets when the flagellum buckles).
 - **Why.** One env step of `FlagellumSteer-v0` at the `fast` preset costs 0.16 s of wall time straight and
   ~1.7 s buckled (docs/env.md); a 20-cm path is ~450 simulated seconds. Within the 2-hour budget on
   two cores that is ~10⁴ motor-speed steps, far too few for PPO to discover buckling, phase timing
-  and burst lengths from scratch. A turn-level action gives a few hundred decisions whose effect
-  is direct, and the turn map carries the correction across presets (each preset's planner
-  proposes its own t_c; the agent scales it).
+  and burst lengths from scratch. A turn-level action gives several hundred decisions whose
+  effect is direct, and the turn map carries the correction across presets (each preset's
+  planner proposes its own t_c; the agent scales it).
 - **Observation** (14 numbers at each decision): the planned θ and t_c, the predicted and the
   straight-line miss of the waypoint (in reach radii), distance and angle to the waypoint, the
   corner after it, L'/L, time left, turns so far, and how the previous turn came out against the
@@ -187,11 +209,14 @@ DESIGN = """## The agent
   that differs from the map. Normalised by `VecNormalize` (saved with the model).
 - **Reward**: `FlagellumSteer-v0`'s reward summed over the control steps between decisions
   (progress +1/cm, waypoints +10, off-path/failure −20, energy), with the cross-track weight raised
-  tenfold to 0.05 per cm per second.
-- **Curriculum and randomisation**: paths with one corner first, then three-corner paths of the
-  evaluation distribution (other seeds); planar and 3-D alternate. Training episodes draw the
-  physical parameters (fractions in the config) while the planner keeps the nominal turn map,
-  so the agent meets the model error the paper warns about."""
+  tenfold to 0.05 per cm per second, less 5 |a|² per decision (a correction must pay for itself).
+- **Curriculum**: paths with one corner first, then three-corner paths of the evaluation
+  distribution (other seeds); planar and 3-D alternate. The shipped agent trains on the nominal
+  swimmer; the first design (below) trained on randomised swimmers.
+- **Sensitivity that shapes all of this.** θ(t_c) is steep: on the fast preset's map a 7 % longer
+  burst (t_c 9.7 → 10.4 s) takes a 62° turn to 91°, so a correction of a few per cent of the burst
+  is already a large one, and so is a swimmer whose viscous time differs from the map's by a few per
+  cent (the robustness table below: `--randomize 0.05`)."""
 
 
 if __name__ == "__main__":

@@ -91,7 +91,8 @@ def test_shipped_config_loads_and_held_out_seeds_are_refused(tmp_path):
     cfg = TrainConfig.from_yaml("agents/configs/ppo_residual_fast.yml")
     assert cfg.preset == "fast" and cfg.n_envs == 2 and cfg.max_wall_time_s <= 7200
     assert cfg.stage_at(0).name == "single_turns" and cfg.stage_at(10_000).name == "eval_like"
-    assert all(s < 1000 for s in cfg.validation.seeds) and len(cfg.validation.paths()) == 2
+    assert all(s < 1000 for s in cfg.validation.seeds)
+    assert [p.name for p in cfg.validation.paths()] == [f"{'planar' if i % 2 == 0 else '3d'}_{s}" for i, s in enumerate(cfg.validation.seeds)]
     bad = json.loads(json.dumps(TINY))
     bad["tiny"]["task"]["validation"]["seeds"] = [1003]
     with pytest.raises(ValueError, match="held out"):
