@@ -133,6 +133,10 @@ def train(config: TrainConfig, out_dir: str | Path, resume: bool = False, progre
     _restore_eval_log(eval_cb, out / "eval" / "evaluations.npz")
     ckpt_cb = CheckpointCallback(save_freq=max(1, config.checkpoint_every // n), save_path=str(out / "checkpoints"),
                                  name_prefix=CHECKPOINT_PREFIX, save_vecnormalize=True)
+    if ckpt is not None:
+        # the callbacks count their own calls from 0; a resumed run must evaluate and checkpoint at the
+        # same decision counts as an uninterrupted one (every `validation.every` decisions, and at the end)
+        eval_cb.n_calls = ckpt_cb.n_calls = int(model.num_timesteps) // n
     book = _Bookkeeping(config, out, spent_before, meta)
     t0 = time.perf_counter()
     remaining = max(0, config.n_timesteps - model.num_timesteps)

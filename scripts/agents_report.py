@@ -22,6 +22,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from agents.evaluation import summarise
 from agents.follow_plots import save
 from agents.training_plots import read_episodes, training_figure
 
@@ -109,13 +110,25 @@ def policy_probe(agent: Path) -> list[str]:
 
 
 def comparison_lines(res: dict[str, Any]) -> list[str]:
-    """The aggregate table (rule planner vs PPO) and the paired comparison of one results file."""
+    """The aggregate table (rule planner vs PPO) and the paired comparison of one results file.
+
+    When PPO ran on fewer paths than the rule planner, a middle column gives the rule planner's
+    means over the same paths, so that the two controllers are compared like for like.
+    """
     r, p = res["aggregate"]["rule"], res["aggregate"]["ppo"]
     out = [f"Episodes: rule {r['episodes']}, PPO {p['episodes']}"
-           + (f"; not run yet: {', '.join(res['missing'])}" if res.get("missing") else "") + ".", "",
-           "| metric | rule planner | PPO (residual) |", "|---|---|---|"]
+           + (f"; not run: {', '.join(res['missing'])}" if res.get("missing") else "") + ".", ""]
+    cols = [("rule planner", r)]
+    if r["episodes"] != p["episodes"]:
+        ppo_paths = {row["path"] for row in res["per_path"] if row["controller"] == "ppo"}
+        same = [{**row, "trajectory": None} for row in res["per_path"]
+                if row["controller"] == "rule" and row["path"] in ppo_paths]
+        cols = [(f"rule planner, all {r['episodes']} paths", r),
+                (f"rule planner, PPO's {len(same)} paths", summarise(same, ["rule"])["aggregate"]["rule"])]
+    cols.append(("PPO (residual)", p))
+    out += ["| metric | " + " | ".join(c for c, _ in cols) + " |", "|---" * (len(cols) + 1) + "|"]
     for label, key, scale, digits in ROWS:
-        out.append(f"| {label} | {_fmt(r.get(key), scale, digits)} | {_fmt(p.get(key), scale, digits)} |")
+        out.append(f"| {label} | " + " | ".join(_fmt(a.get(key), scale, digits) for _, a in cols) + " |")
     return out + ["", *paired_lines(res)]
 
 

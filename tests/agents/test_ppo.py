@@ -143,11 +143,12 @@ def test_training_resumes_from_its_checkpoint_and_refuses_to_overwrite(tiny_run)
     more = json.loads(json.dumps(TINY))
     more["tiny"]["n_timesteps"] = 6
     more["tiny"]["task"]["curriculum"][0]["until"] = 6
+    more["tiny"]["task"]["validation"]["every"] = 2  # counted in decisions since the start, not since the resume
     result = train(TrainConfig.from_dict(more), out, resume=True, progress=False)
     assert result.decisions == 6 and latest_checkpoint(out)[2] == 6
     assert (out / "episodes.csv").read_text().count("\n") > rows_before  # appended, not rewritten
     with np.load(out / "eval" / "evaluations.npz") as d:
-        assert list(d["timesteps"]) == [3, 6]  # the first run's evaluation is kept
+        assert list(d["timesteps"]) == [3, 4, 6]  # the first run's evaluation is kept
 
 
 def test_pretrained_agent_completes_a_short_path_deterministically():
