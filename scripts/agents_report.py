@@ -11,7 +11,7 @@ Inputs (each made by a committed command):
 - data/eval/fast_randomized/results.json (model error: each path's swimmer off the map by up to 5 %)
       flagellum evaluate --paths data/paths/eval --controller rule --controller ppo --preset fast
                          --randomize 0.05 --out data/eval/fast_randomized
-  (held-out paths: seeds 1000-1009; training drew its paths from other seeds, validation used 900, 901).
+  (held-out paths: seeds 1000-1009; training drew its paths from other seeds, validation used 900-903).
 Missing inputs are reported as not measured.
 """
 
@@ -165,6 +165,26 @@ def evaluation_section(lines: list[str]) -> dict[str, Any]:
     return found
 
 
+def square_section(lines: list[str]) -> None:
+    """The demo: both controllers on the paper's square (``make demo``), fast preset."""
+    f = DOCS / "square" / "compare_fast" / "summary.json"
+    lines += ["## The square path (`make demo`)", ""]
+    if not f.is_file():
+        lines += ["Not measured: no `docs/square/compare_fast/summary.json`.", ""]
+        return
+    ctrl = json.loads(f.read_text(encoding="utf-8"))["controllers"]
+    lines += ["`flagellum follow --path square --controller rule --controller ppo --preset fast --out "
+              "docs/square/compare_fast` (the paper's 0.25 m square, Fig. 6; a path of a kind training never saw).", "",
+              "| metric | " + " | ".join(ctrl) + " |", "|---" * (len(ctrl) + 1) + "|"]
+    for label, key, scale, digits in ROWS:
+        if key == "success_rate":
+            lines.append("| all waypoints reached | " + " | ".join("yes" if ctrl[c].get("success") else "no"
+                                                             for c in ctrl) + " |")
+            continue
+        lines.append(f"| {label} | " + " | ".join(_fmt(ctrl[c].get(key), scale, digits) for c in ctrl) + " |")
+    lines += ["", "![Both controllers on the square](square/compare_fast/path.png)", ""]
+
+
 def paired_lines(res: dict[str, Any]) -> list[str]:
     """Per-path comparison on the paths both controllers ran."""
     by = {(row["path"], row["controller"]): row for row in res["per_path"]}
@@ -194,6 +214,7 @@ def main() -> None:
              "`agents/configs/ppo_residual_fast.yml`.", "", DESIGN, ""]
     training_section(args.agent, lines)
     evaluation_section(lines)
+    square_section(lines)
     first_design_section(lines)
     (DOCS / "agents.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
     print(f"wrote {DOCS / 'agents.md'}")
