@@ -146,11 +146,13 @@ def _worker_init() -> None:
     os.environ["OMP_NUM_THREADS"] = "1"
 
 
-def _task(cfg: FidelityConfig, metric: str) -> dict[str, Any]:
+def _task(cfg: FidelityConfig, metric: str, commit: str | None = None) -> dict[str, Any]:
+    stamp = {"measured": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "commit": commit}
     try:
-        return {"config": cfg.name, "metric": metric, "result": run_metric(cfg, metric), "error": None}
+        return {"config": cfg.name, "metric": metric, "result": run_metric(cfg, metric), "error": None, **stamp}
     except Exception as exc:  # a diverging configuration is a result too
-        return {"config": cfg.name, "metric": metric, "result": None, "error": f"{type(exc).__name__}: {exc}"}
+        return {"config": cfg.name, "metric": metric, "result": None, "error": f"{type(exc).__name__}: {exc}",
+                **stamp}
 
 
 def load_done(path: Path) -> dict[tuple[str, str], dict]:
@@ -175,8 +177,11 @@ def run_fidelity(path: Path, configs=LADDER, metrics=FULL_METRICS, workers: int 
     # cheap metrics of every configuration first, so a partial run still compares all of them
     todo = [(c, m) for m in metrics for c in configs if (c.name, m) not in done]
     workers = workers or os.cpu_count() or 1
+    from agents.provenance import git_commit
+
+    commit = git_commit()
     with ProcessPoolExecutor(max_workers=workers, initializer=_worker_init) as pool, open(path, "a") as fh:
-        futs = [pool.submit(_task, c, m) for c, m in todo]
+        futs = [pool.submit(_task, c, m, commit) for c, m in todo]
         for fut in tqdm(as_completed(futs), total=len(futs), disable=not progress, desc="fidelity", unit="task"):
             rec = fut.result()
             fh.write(json.dumps(rec) + "\n")
@@ -187,6 +192,19 @@ def run_fidelity(path: Path, configs=LADDER, metrics=FULL_METRICS, workers: int 
 
 
 ANGLE_FLOOR_DEG = 10.0
+
+REPORT_NOTES = (
+    "Every task is one configuration on one metric, on one core (two tasks at a time on this 2-core machine). "
+    f"The turning metrics burst at {OMEGA_HIGH_RPM:g} rpm, not the paper's 60 rpm: with the torque-free head "
+    "(eqn 13) 60 rpm is below this model's buckling threshold and makes no turn. Relative errors are "
+    f"|x - x_paper| / max(|x_paper|, floor), floor {ANGLE_FLOOR_DEG:g}° for angles (φ is often near 0) and 0 "
+    "otherwise. RTF = simulated seconds per wall second; RTF (10 rpm) is from the swim-speed task, RTF (90 rpm) "
+    "from the L'/L task.")
+
+
+def missing_tasks(done: dict[tuple[str, str], dict], configs=LADDER, metrics=FULL_METRICS) -> list[str]:
+    """``"config: metric"`` for every task of the grid without a result."""
+    return [f"{c.name}: {m}" for m in metrics for c in configs if (c.name, m) not in done]
 
 
 def rows_from(done: dict[tuple[str, str], dict], configs=LADDER) -> list[dict[str, Any]]:
@@ -209,6 +227,8 @@ def rows_from(done: dict[tuple[str, str], dict], configs=LADDER) -> list[dict[st
         values[c.name] = vals
         rows.append({"config": c.name, "preset": c.preset if not c.params and not c.numerics else None,
                      "values": vals, "rtf_by_metric": rtfs,
+                     "measured": sorted({rec.get("measured") or "undated" for (name, _), rec in done.items()
+                                         if name == c.name}),
                      "real_time_factor": rtfs.get("swim_per_turn_10rpm"),
                      "real_time_factor_buckled": rtfs.get("lratio_100s"), "failures": errors})
     ref = values.get("paper", {})

@@ -44,28 +44,47 @@ def markdown(rows: list[dict[str, Any]], header: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+TURN_KEYS = tuple(f"{a}_tc{t}" for t in (10, 20, 40) for a in ("theta", "phi"))
+
+
+def _turn_error(row: dict[str, Any]) -> float | None:
+    """Largest relative error of the turning and out-of-plane angles (None if none measured)."""
+    errs = [row["errors"][k] for k in TURN_KEYS if k in row["errors"]]
+    return max(errs) if errs else None
+
+
 def pareto_plot(rows: list[dict[str, Any]], path: Path) -> None:
+    """Error against real-time factor: swim speed (left) and the worst turning angle (right)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    for r in rows:
-        rtf = r["real_time_factor"]
-        err = r["errors"].get("swim_per_turn_10rpm")
-        if rtf is None or err is None:
-            continue
-        err = max(err, 1e-4)
-        marker = "o" if r["preset"] else "s"
-        ax.scatter(rtf, err, marker=marker, s=60 if r["preset"] else 30)
-        ax.annotate(r["config"], (rtf, err), fontsize=7, xytext=(4, 3), textcoords="offset points")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("real-time factor at 10 rpm (simulated s per wall s, one core)")
-    ax.set_ylabel("relative error of the swim speed vs paper")
-    ax.set_title("Fidelity ladder (circles: presets; errors below 1e-4 drawn at 1e-4)")
-    ax.grid(True, which="both", alpha=0.3)
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
+    panels = ((axes[0], lambda r: r["errors"].get("swim_per_turn_10rpm"), "relative error of the swim speed (10 rpm)"),
+              (axes[1], _turn_error, "largest relative error of θ, φ (t_c = 10, 20, 40 s)"))
+    for ax, err_of, ylabel in panels:
+        drawn = 0
+        for r in rows:
+            rtf, err = r["real_time_factor"], err_of(r)
+            if rtf is None or err is None:
+                continue
+            err = max(err, 1e-4)
+            ax.scatter(rtf, err, marker="o" if r["preset"] else "s", s=70 if r["preset"] else 30,
+                       color="C3" if r["preset"] else "C0")
+            ax.annotate(r["config"] + (" (preset)" if r["preset"] else ""), (rtf, err), fontsize=7,
+                        xytext=(4, 3), textcoords="offset points")
+            drawn += 1
+        if not drawn:
+            ax.text(0.5, 0.5, "not measured", ha="center", va="center", transform=ax.transAxes)
+        ax.axhline(0.10, color="grey", lw=0.8, ls="--")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("real-time factor at 10 rpm (simulated s per wall s, one core)")
+        ax.set_ylabel(ylabel)
+        ax.grid(True, which="both", alpha=0.3)
+    fig.suptitle("Fidelity ladder: error vs paper against speed (red circles: presets; dashed: 10 %; "
+                 "errors below 1e-4 drawn at 1e-4)", fontsize=10)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
@@ -73,14 +92,22 @@ def pareto_plot(rows: list[dict[str, Any]], path: Path) -> None:
 
 
 def write_report(rows: list[dict[str, Any]], json_path: Path, md_path: Path | None, png_path: Path | None,
-                 command: str, wall_s: float) -> None:
-    meta = {"command": command, "date": time.strftime("%Y-%m-%d %H:%M"), "wall_time_s": wall_s,
-            "machine": f"{platform.platform()}, {platform.processor() or 'cpu'}, one core per task"}
+                 command: str, wall_s: float, missing: list[str] = (), notes: str = "") -> None:
+    """JSON (a list of rows), markdown table and Pareto plot. ``missing``: tasks not measured yet."""
+    date = time.strftime("%Y-%m-%d %H:%M")
+    machine = f"{platform.platform()}, {platform.processor() or 'cpu'}, one core per task"
     json_path.parent.mkdir(parents=True, exist_ok=True)
-    json_path.write_text(json.dumps({"meta": meta, "rows": rows}, indent=2))
+    json_path.write_text(json.dumps(list(rows), indent=2) + "\n")
     if md_path is not None:
-        header = (f"# Fidelity ladder\n\nProduced by `{command}` on {meta['date']} "
-                  f"({meta['machine']}; {wall_s / 60:.0f} min wall).")
+        dates = sorted({d for r in rows for d in r.get("measured", [])})
+        header = (f"# Fidelity ladder\n\nProduced by `{command}` on {date} ({machine}; this call: "
+                  f"{wall_s / 60:.0f} min wall; tasks measured {dates[0] if dates else '-'} to "
+                  f"{dates[-1] if dates else '-'}).")
+        if notes:
+            header += "\n\n" + notes
+        if missing:
+            header += ("\n\n**Not measured yet** (— in the tables; the command resumes them): "
+                       + ", ".join(missing) + ".")
         md_path.write_text(markdown(rows, header))
     if png_path is not None:
         pareto_plot(rows, png_path)

@@ -113,17 +113,18 @@ class DenseChordSolver:
         x_pred = nodes_of(q_pred)
         self.jac_fresh = False
         if self.lu is None or self.lu_h != h:
-            self._refresh_jacobian(q_pred, h, keep_resistance=False)
+            self._refresh_jacobian(q_pred, h, keep_resistance=False)  # rebuilds the resistance at x_pred
             self.jac_fresh = True
-        elif nm.single_iteration:  # one linearly implicit solve per step needs the current Jacobian
-            self._refresh_jacobian(q_pred, h, keep_resistance=True)
-            self.jac_fresh = True
-        elif self.since_hydro >= nm.hydro_refresh_max_steps:
-            self._refresh_hydro(q_pred)
         else:
-            Qh, dev = best_fit_rotation(self.x_hyd, x_pred)
-            if dev > nm.hydro_refresh_tol * p.rod_radius:
+            if self.since_hydro >= nm.hydro_refresh_max_steps:
                 self._refresh_hydro(q_pred)
+            else:
+                Qh, dev = best_fit_rotation(self.x_hyd, x_pred)
+                if dev > nm.hydro_refresh_tol * p.rod_radius:
+                    self._refresh_hydro(q_pred)
+            if nm.single_iteration:  # one linearly implicit solve per step needs the current Jacobian
+                self._refresh_jacobian(q_pred, h, keep_resistance=True)
+                self.jac_fresh = True
         # a resistance rebuilt this step sits at x_pred already; otherwise reuse the fit above
         self.Qh = _EYE if self.since_hydro == 0 else Qh
         self.Qj = _EYE if self.jac_fresh else best_fit_rotation(self.x_jac, x_pred)[0]

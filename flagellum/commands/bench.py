@@ -24,7 +24,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from flagellum.fidelity import FULL_METRICS, LADDER, QUICK_METRICS, rows_from, run_fidelity
+    from flagellum.fidelity import (FULL_METRICS, LADDER, QUICK_METRICS, REPORT_NOTES, missing_tasks,
+                                    rows_from, run_fidelity)
     from flagellum.fidelity_report import write_report
 
     metrics = ("swim_per_turn_10rpm",) if args.quick else (FULL_METRICS if args.full else QUICK_METRICS)
@@ -35,7 +36,7 @@ def run(args: argparse.Namespace) -> int:
     rows = rows_from(done)
     write_report(rows, out, out.with_suffix(".md"), out.with_suffix(".png"),
                  "flagellum bench " + ("--quick" if args.quick else "--full" if args.full else ""),
-                 time.perf_counter() - t0)
+                 time.perf_counter() - t0, missing=missing_tasks(done, LADDER, metrics), notes=REPORT_NOTES)
     for r in rows:
         err = r["errors"].get("swim_per_turn_10rpm")
         rtf = r["real_time_factor"]

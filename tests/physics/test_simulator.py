@@ -123,3 +123,20 @@ def test_sixty_rpm_for_100_s_buckles_the_flagellum_when_the_head_does_not_spin()
     assert sim.end_to_end_ratio() < 0.9
     axis = sim.head_orientation[:, 0]
     assert axis[0] < 0.9  # the body axis has turned away from x
+
+
+def test_single_iteration_mode_swims_like_newton_and_refreshes_its_resistance():
+    """The linearly implicit option (one Newton iteration per step, LSBT) must rebuild the resistance
+    on the same rules as full Newton (here: at least every 5 steps) and stay close to it at 10 rpm."""
+    def run(**numerics) -> Simulator:
+        sim = Simulator(SwimmerParams(n_nodes=30), NumericsConfig(dt=0.02, **numerics))
+        sim.set_motor_speed(W10)
+        sim.advance(2.0)
+        return sim
+
+    newton = run(hydro_refresh_max_steps=5)
+    single = run(hydro_refresh_max_steps=5, single_iteration=True)
+    assert single.stats.resistance_refreshes >= 100 // 5
+    assert single.stats.newton_iterations == 100
+    d_newton, d_single = newton.head_position[0], single.head_position[0]
+    assert abs(d_single - d_newton) < 0.05 * abs(d_newton)
