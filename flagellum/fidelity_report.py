@@ -101,13 +101,17 @@ def write_report(rows: list[dict[str, Any]], json_path: Path, md_path: Path | No
     if md_path is not None:
         dates = sorted({d for r in rows for d in r.get("measured", [])})
         header = (f"# Fidelity ladder\n\nProduced by `{command}` on {date} ({machine}; this call: "
-                  f"{wall_s / 60:.0f} min wall; tasks measured {dates[0] if dates else '-'} to "
-                  f"{dates[-1] if dates else '-'}).")
+                  f"{wall_s / 60:.0f} min wall; tasks measured "
+                  + ("-" if not dates else dates[0] if len(dates) == 1 else f"{dates[0]} to {dates[-1]}") + ").")
         if notes:
             header += "\n\n" + notes
         if missing:
+            by_metric: dict[str, list[str]] = {}
+            for task in missing:
+                config, metric = task.rsplit(": ", 1)
+                by_metric.setdefault(metric, []).append(config)
             header += ("\n\n**Not measured yet** (— in the tables; the command resumes them): "
-                       + ", ".join(missing) + ".")
+                       + "; ".join(f"{m} for {', '.join(f'`{c}`' for c in cs)}" for m, cs in by_metric.items()) + ".")
         md_path.write_text(markdown(rows, header))
     if png_path is not None:
         pareto_plot(rows, png_path)

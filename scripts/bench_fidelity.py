@@ -1,6 +1,6 @@
 """Full fidelity ladder: every configuration x every metric, written to docs/.
 
-    python scripts/bench_fidelity.py [--metrics quick|full] [--workers N] [--report-only]
+    python scripts/bench_fidelity.py [--metrics quick|full|M1,M2] [--config NAME ...] [--workers N] [--report-only]
 
 Resumable: finished tasks are kept in data/bench/fidelity_full.results.jsonl (committed); re-running skips them.
 Outputs docs/fidelity.json, docs/fidelity.md and docs/figures/fidelity_pareto.png.
@@ -19,19 +19,32 @@ from flagellum.fidelity_report import write_report
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--metrics", choices=("quick", "full"), default="full")
+    ap.add_argument("--metrics", default="full",
+                    help=f"quick, full, or a comma-separated list of {', '.join(FULL_METRICS)}")
+    ap.add_argument("--config", action="append", default=None, metavar="NAME",
+                    help="a ladder configuration to run (repeatable; default: all; 'paper' is always included)")
     ap.add_argument("--workers", type=int, default=None)
     ap.add_argument("--results", default="data/bench/fidelity_full.results.jsonl")
     ap.add_argument("--report-only", action="store_true", help="run nothing; rebuild the report from --results")
     args = ap.parse_args(argv)
-    metrics = FULL_METRICS if args.metrics == "full" else QUICK_METRICS
+    metrics = {"full": FULL_METRICS, "quick": QUICK_METRICS}.get(args.metrics) or tuple(args.metrics.split(","))
+    bad = [m for m in metrics if m not in FULL_METRICS]
+    if bad:
+        ap.error(f"--metrics: unknown {bad}; allowed: quick, full or a list of {', '.join(FULL_METRICS)}")
+    configs = LADDER
+    if args.config:
+        names = set(args.config) | {"paper"}
+        unknown = names - {c.name for c in LADDER}
+        if unknown:
+            ap.error(f"--config: unknown {sorted(unknown)}; the ladder has {[c.name for c in LADDER]}")
+        configs = tuple(c for c in LADDER if c.name in names)
     t0 = time.perf_counter()
     done = (load_done(Path(args.results)) if args.report_only
-            else run_fidelity(Path(args.results), LADDER, metrics, workers=args.workers))
+            else run_fidelity(Path(args.results), configs, metrics, workers=args.workers))
     rows = rows_from(done)
     write_report(rows, Path("docs/fidelity.json"), Path("docs/fidelity.md"), Path("docs/figures/fidelity_pareto.png"),
                  f"python scripts/bench_fidelity.py --metrics {args.metrics}", time.perf_counter() - t0,
-                 missing=missing_tasks(done, LADDER, metrics), notes=REPORT_NOTES)
+                 missing=missing_tasks(done, LADDER, FULL_METRICS), notes=REPORT_NOTES)
     print(Path("docs/fidelity.md").read_text())
     return 0
 

@@ -42,7 +42,7 @@ def test_tasks_are_appended_resumed_and_compared_against_paper(tmp_path):
     table = json.loads(out.read_text())
     assert isinstance(table, list)
     assert {"config", "preset", "real_time_factor", "errors"} <= set(table[0])
-    assert "paper: omega_b" in (tmp_path / "fidelity.md").read_text()
+    assert "omega_b for `paper`" in (tmp_path / "fidelity.md").read_text()
     assert (tmp_path / "pareto.png").stat().st_size > 0
 
 
