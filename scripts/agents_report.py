@@ -65,6 +65,7 @@ def training_section(agent: Path, lines: list[str], heading: str = "## Training"
               "*Training episodes (dots; rolling mean, line) and the deterministic policy on the validation "
               "paths with the nominal swimmer (squares), against the number of decisions. Training episodes use "
               f"the stochastic policy; swimmer parameters drawn per episode: {rnd_text}.*", "",
+              *validation_lines(agent, meta), "",
               "| training episodes | episodes | return | success | mean cross-track (cm) |", "|---|---|---|---|---|"]
     for name, idx in stages.items():
         half = len(idx) // 2
@@ -107,6 +108,39 @@ def policy_probe(agent: Path) -> list[str]:
         act = a.act(f)
         rows.append(f"| {label} | {act[0]:+.3f} | {act[1]:+.3f} |")
     return rows
+
+
+def validation_lines(agent: Path, meta: dict[str, Any]) -> list[str]:
+    """The EvalCallback's validation results (deterministic policy, nominal swimmer)."""
+    f = agent / "eval" / "evaluations.npz"
+    if not f.is_file():
+        return ["No validation log."]
+    import numpy as np
+
+    with np.load(f) as d:
+        steps = [int(t) for t in d["timesteps"]]
+        succ = d["successes"].mean(axis=1) if "successes" in d and d["successes"].size else None
+    text = "Validation (deterministic policy on the config's validation paths): " + ", ".join(
+        f"{t} decisions: {'-' if succ is None else f'{100 * s:.0f} %'} success" for t, s in
+        zip(steps, succ if succ is not None else [None] * len(steps)))
+    decisions = int(meta["decisions"])
+    every = _validation_every(agent)
+    if decisions not in steps:
+        text += f". None at the final {decisions} decisions"
+        if every and decisions % every == 0 and not meta.get("stopped_by_wall_time_budget"):
+            text += (": the run was resumed from a checkpoint, and before 9150d8e a resumed run counted its "
+                     "evaluation schedule from the resume point")
+    return [text + "."]
+
+
+def _validation_every(agent: Path) -> int | None:
+    try:
+        import yaml
+
+        cfg = yaml.safe_load((agent / "config.yml").read_text(encoding="utf-8"))
+        return int(next(iter(cfg.values()))["task"]["validation"]["every"])
+    except (OSError, KeyError, TypeError, ValueError, StopIteration):
+        return None
 
 
 def comparison_lines(res: dict[str, Any]) -> list[str]:
