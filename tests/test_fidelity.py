@@ -8,7 +8,7 @@ import pytest
 
 from flagellum.fidelity import (FidelityConfig, load_done, missing_tasks, rows_from, run_fidelity,
                                 run_metric)
-from flagellum.fidelity_report import write_report
+from flagellum.fidelity_report import markdown, write_report
 
 # cheap stand-ins (N = 30, 50 ms steps): the machinery, not the physics, is under test here
 CHEAP = {"n_nodes": 30}
@@ -56,3 +56,28 @@ def test_a_failing_configuration_is_recorded_not_raised(tmp_path):
 def test_unknown_metric_names_the_known_ones():
     with pytest.raises(ValueError, match="unknown metric 'speed'.*swim_per_turn_10rpm"):
         run_metric(REF, "speed")
+
+
+TINY = FidelityConfig("tiny", params={"n_nodes": 20}, numerics={"dt": 0.05, "hydro_refresh_tol": 0.3})
+
+
+def test_swim_metric_reports_a_forward_distance_and_a_cost():
+    out = run_metric(TINY, "swim_per_turn_10rpm")
+    assert 0.001 < out["swim_per_turn_10rpm"] < 0.01  # m per motor turn
+    assert out["rtf"] > 0
+
+
+def test_errors_are_relative_to_paper_with_an_angle_floor():
+    done = {
+        ("paper", "m"): {"config": "paper", "metric": "m", "error": None,
+                         "result": {"swim_per_turn_10rpm": 0.004, "theta_tc10": 2.0, "rtf": 1.0}},
+        ("tiny", "m"): {"config": "tiny", "metric": "m", "error": None,
+                        "result": {"swim_per_turn_10rpm": 0.005, "theta_tc10": 5.0, "rtf": 10.0}},
+    }
+    rows = rows_from(done, (FidelityConfig("paper", "paper"), TINY))
+    tiny = rows[1]
+    assert tiny["errors"]["swim_per_turn_10rpm"] == pytest.approx(0.25)
+    assert tiny["errors"]["theta_tc10"] == pytest.approx(3.0 / 10.0)  # floor of 10 degrees
+    assert rows[0]["errors"]["swim_per_turn_10rpm"] == 0.0
+    assert "tiny" in markdown(rows, "# t")
+    json.dumps(rows)
