@@ -24,6 +24,7 @@ from typing import Any
 
 from agents.evaluation import summarise
 from agents.follow_plots import save
+from agents.ppo_config import TrainConfig
 from agents.training_plots import read_episodes, training_figure
 
 DOCS = Path("docs")
@@ -135,11 +136,8 @@ def validation_lines(agent: Path, meta: dict[str, Any]) -> list[str]:
 
 def _validation_every(agent: Path) -> int | None:
     try:
-        import yaml
-
-        cfg = yaml.safe_load((agent / "config.yml").read_text(encoding="utf-8"))
-        return int(next(iter(cfg.values()))["task"]["validation"]["every"])
-    except (OSError, KeyError, TypeError, ValueError, StopIteration):
+        return TrainConfig.from_yaml(str(agent / "config.yml")).validation.every
+    except (OSError, ValueError):
         return None
 
 
