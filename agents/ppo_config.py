@@ -9,6 +9,7 @@ hyperparameters (flat, as in rl-zoo3's ``hyperparams/ppo.yml``) and a ``task`` s
       n_timesteps: 640          # turn decisions (steps of TurnDecisionEnv)
       max_wall_time_s: 5400     # stop (and save) after this much training wall time
       seed: 0
+      init_from: null           # or a trained agent's folder (model.zip, vecnormalize.pkl): fine-tune it
       checkpoint_every: 32      # decisions
       normalize: {norm_obs: true, norm_reward: true, clip_obs: 10.0}
       n_steps: 16               # per env and rollout
@@ -52,7 +53,7 @@ PPO_KEYS = ("learning_rate", "n_steps", "batch_size", "n_epochs", "gamma", "gae_
             "vf_coef", "max_grad_norm", "target_kl", "policy_kwargs", "normalize_advantage", "use_sde")
 NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma")
 TOP_KEYS = ("policy", "n_envs", "n_timesteps", "max_wall_time_s", "seed", "checkpoint_every", "normalize", "task",
-            *PPO_KEYS)
+            "init_from", *PPO_KEYS)
 TASK_KEYS = ("preset", "turn_map", "limits", "action_cost", "env_kwargs", "curriculum", "validation")
 #: Seeds from here on are the held-out evaluation paths.
 HELD_OUT_SEED0 = 1000
@@ -108,6 +109,7 @@ class TrainConfig:
     limits: Mapping[str, Any] = field(default_factory=dict)
     action_cost: float = 0.0
     env_kwargs: Mapping[str, Any] = field(default_factory=dict)
+    init_from: str | None = None
     source: str = "<dict>"
 
     def stage_at(self, decisions: int) -> CurriculumStage:
@@ -182,6 +184,13 @@ class TrainConfig:
         if wall is not None and not (isinstance(wall, (int, float)) and not isinstance(wall, bool)
                                      and math.isfinite(wall) and wall > 0):
             raise ValueError(f"{where}: {name}.max_wall_time_s={wall!r} must be a number of seconds > 0 or null")
+        init_from = body.get("init_from")
+        if init_from is not None:
+            missing = [f for f in ("model.zip", "vecnormalize.pkl") if not (Path(str(init_from)) / f).is_file()]
+            if missing:
+                raise ValueError(f"{where}: {name}.init_from={init_from!r} must be a trained agent's folder; it lacks "
+                                 f"{missing}")
+            init_from = str(init_from)
         policy = body.get("policy", "MlpPolicy")
         if policy != "MlpPolicy":
             raise ValueError(f"{where}: {name}.policy={policy!r} is not allowed; the turn features are a flat "
@@ -193,7 +202,7 @@ class TrainConfig:
                    checkpoint_every=_int(body.get("checkpoint_every", 32), f"{where}: {name}.checkpoint_every", 1),
                    normalize=normalize, ppo={k: body[k] for k in PPO_KEYS if k in body}, preset=preset,
                    turn_map=task.get("turn_map"), limits=limits, action_cost=float(cost),
-                   env_kwargs=dict(task.get("env_kwargs") or {}),
+                   env_kwargs=dict(task.get("env_kwargs") or {}), init_from=init_from,
                    source=source)
 
 

@@ -16,7 +16,9 @@ a wall-time budget. ``out_dir`` receives::
     tb/                 tensorboard logs
 
 ``resume=True`` continues from the newest checkpoint with its statistics, the decisions done and
-the wall time already spent.
+the wall time already spent. A config with ``init_from`` starts from that trained agent's policy
+and VecNormalize statistics instead of a fresh network (fine-tuning, e.g. on another preset);
+meta.json then records the agent it started from, with that agent's own decisions and wall time.
 """
 
 from __future__ import annotations
@@ -118,6 +120,18 @@ def train(config: TrainConfig, out_dir: str | Path, resume: bool = False, progre
         venv = VecNormalize.load(str(ckpt[1]), raw)
         venv.training = True
         model = PPO.load(str(ckpt[0]), env=venv, device="cpu", tensorboard_log=str(out / "tb"))
+    elif config.init_from is not None:  # fine-tune: the trained policy and its statistics, this config's PPO settings
+        init = Path(config.init_from)
+        venv = VecNormalize.load(str(init / "vecnormalize.pkl"), raw)
+        venv.training = True
+        ppo = {k: v for k, v in config.ppo.items() if k != "policy_kwargs"}  # the network is the trained one
+        model = PPO.load(str(init / "model.zip"), env=venv, device="cpu", tensorboard_log=str(out / "tb"),
+                         seed=config.seed, **ppo)
+        model.num_timesteps = 0  # this run's decisions count from 0 (curriculum, budget, checkpoints)
+        init_meta = init / "meta.json"
+        meta["init_from"] = {"path": str(init), **({k: v for k, v in json.loads(init_meta.read_text()).items()
+                                                   if k in ("name", "preset", "decisions", "wall_time_s", "commit")}
+                                                if init_meta.is_file() else {})}
     else:
         norm = dict(config.normalize)
         venv = VecNormalize(raw, **norm)

@@ -52,6 +52,14 @@ class FidelityConfig:
         p, n = apply_preset(self.preset) if self.preset else (SwimmerParams(), NumericsConfig())
         return p.replace(**self.params), n.replace(**self.numerics)
 
+    def setup(self) -> dict[str, Any]:
+        """The resolved parameters and numerics (JSON types): a record measured with another setup
+        (e.g. before a preset was redefined) is stale for this configuration."""
+        from dataclasses import asdict
+
+        p, n = self.build()
+        return json.loads(json.dumps({"params": asdict(p), "numerics": asdict(n)}))
+
 
 LADDER: tuple[FidelityConfig, ...] = (
     FidelityConfig("paper", "paper"),
@@ -59,6 +67,8 @@ LADDER: tuple[FidelityConfig, ...] = (
     FidelityConfig("paper, h = 5 ms, refresh 0.3 r0", "paper", numerics={"dt": 5e-3, "hydro_refresh_tol": 0.3}),
     FidelityConfig("paper, h = 5 ms, Stokes head", "paper", numerics={"dt": 5e-3, "head_model": "stokes"}),
     FidelityConfig("balanced", "balanced"),
+    FidelityConfig("LSBT N = 60, h = 5 ms, refresh 0.1 r0", "paper",  # `balanced` before 2026-12-01
+                   params={"n_nodes": 60}, numerics={"dt": 5e-3, "hydro_refresh_tol": 0.1}),
     FidelityConfig("fast", "fast"),
     FidelityConfig("LSBT N = 30, h = 50 ms, one iteration", "paper",
                    params={"n_nodes": 30}, numerics={"dt": 0.05, "single_iteration": True, "hydro_refresh_tol": 0.3}),
@@ -147,7 +157,8 @@ def _worker_init() -> None:
 
 
 def _task(cfg: FidelityConfig, metric: str, commit: str | None = None) -> dict[str, Any]:
-    stamp = {"measured": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "commit": commit}
+    stamp = {"measured": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "commit": commit,
+             "setup": cfg.setup()}
     try:
         return {"config": cfg.name, "metric": metric, "result": run_metric(cfg, metric), "error": None, **stamp}
     except Exception as exc:  # a diverging configuration is a result too
@@ -155,7 +166,11 @@ def _task(cfg: FidelityConfig, metric: str, commit: str | None = None) -> dict[s
                 **stamp}
 
 
-def load_done(path: Path) -> dict[tuple[str, str], dict]:
+def load_done(path: Path, configs=None) -> dict[tuple[str, str], dict]:
+    """The latest record per (config, metric) in ``path``. With ``configs``, records whose stored
+    ``setup`` differs from the configuration's current one are stale and skipped (records from
+    before setups were stored are kept)."""
+    setups = {c.name: c.setup() for c in configs} if configs is not None else {}
     done: dict[tuple[str, str], dict] = {}
     if path.exists():
         for line in path.read_text().splitlines():
@@ -163,6 +178,8 @@ def load_done(path: Path) -> dict[tuple[str, str], dict]:
                 rec = json.loads(line)
             except json.JSONDecodeError:
                 continue  # torn last line of an interrupted run
+            if rec.get("setup") is not None and rec["config"] in setups and rec["setup"] != setups[rec["config"]]:
+                continue
             done[(rec["config"], rec["metric"])] = rec
     return done
 
@@ -173,7 +190,7 @@ def run_fidelity(path: Path, configs=LADDER, metrics=FULL_METRICS, workers: int 
     from tqdm import tqdm
 
     path.parent.mkdir(parents=True, exist_ok=True)
-    done = load_done(path)
+    done = load_done(path, configs)
     # cheap metrics of every configuration first, so a partial run still compares all of them
     todo = [(c, m) for m in metrics for c in configs if (c.name, m) not in done]
     workers = workers or os.cpu_count() or 1
@@ -199,7 +216,10 @@ REPORT_NOTES = (
     "(eqn 13) 60 rpm is below this model's buckling threshold and makes no turn. Relative errors are "
     f"|x - x_paper| / max(|x_paper|, floor), floor {ANGLE_FLOOR_DEG:g}° for angles (φ is often near 0) and 0 "
     "otherwise. RTF = simulated seconds per wall second; RTF (10 rpm) is from the swim-speed task, RTF (90 rpm) "
-    "from the L'/L task.")
+    "from the L'/L task. Presets: `paper` N = 122, h = 1 ms, refresh 0.03 r0, Newton 1e-6; `balanced` N = 122, "
+    "h = 20 ms, refresh 0.03 r0, Newton 1e-5 (until 2026-12-01 `balanced` was N = 60, h = 5 ms, refresh 0.1 r0: "
+    "that configuration keeps its records under its own name, `LSBT N = 60, ...`); `fast` N = 45, h = 10 ms, "
+    "refresh 0.1 r0, Newton 1e-5. Why the coarse grids turn less: docs/node_convergence.md.")
 
 
 def missing_tasks(done: dict[tuple[str, str], dict], configs=LADDER, metrics=FULL_METRICS) -> list[str]:

@@ -3,10 +3,12 @@
 ``paper`` is the reference: the paper's discretisation (N = 122, edges 2 delta, LSBT + Higdon
 head) at the paper's h = 1 ms, with the resistance refreshed whenever the shape has changed by
 more than 0.03 r0 (indistinguishable from refreshing every step, see docs/fidelity.md).
-``balanced`` and ``fast`` trade accuracy for speed; their measured costs and errors against
-``paper`` are in docs/fidelity.md (scripts/bench_fidelity.py). Coarser grids than N = 45 (e.g.
-N = 30) keep the swim speed within ~1 % but raise the buckling threshold: at N = 30 the
-swimmer did not buckle in 60 s at 90 rpm, where N = 45 and N = 122 do (docs/fidelity.md).
+``balanced`` keeps the paper's grid and refresh rule and takes a 20x longer step (h = 20 ms,
+Newton tolerance 1e-5): the onset of buckling, and so every turn, needs the paper's grid near the
+head (docs/node_convergence.md). ``fast`` coarsens the grid to N = 45 and refreshes the resistance
+lazily: it swims like ``paper`` (within ~1 %) but buckles later, so its turns are its own and its
+turn map must be calibrated on it (the planner does). Measured costs and errors against ``paper``:
+docs/fidelity.md (scripts/bench_fidelity.py).
 """
 
 from __future__ import annotations
@@ -19,9 +21,10 @@ PRESETS: dict[str, dict[str, dict[str, Any]]] = {
     "paper": {"params": {"n_nodes": 122},
               "numerics": {"dt": 1e-3, "hydro_model": "lsbt", "head_model": "higdon",
                            "hydro_refresh_tol": 0.03, "newton_tol": 1e-6}},
-    "balanced": {"params": {"n_nodes": 60},
-                 "numerics": {"dt": 5e-3, "hydro_model": "lsbt", "head_model": "higdon",
-                              "hydro_refresh_tol": 0.1, "newton_tol": 1e-6}},
+    # the paper's grid (the buckling onset needs it, docs/node_convergence.md) at h = 20 ms
+    "balanced": {"params": {"n_nodes": 122},
+                 "numerics": {"dt": 2e-2, "hydro_model": "lsbt", "head_model": "higdon",
+                              "hydro_refresh_tol": 0.03, "newton_tol": 1e-5}},
     "fast": {"params": {"n_nodes": 45},
              "numerics": {"dt": 1e-2, "hydro_model": "lsbt", "head_model": "higdon",
                           "hydro_refresh_tol": 0.1, "newton_tol": 1e-5}},

@@ -39,8 +39,9 @@ def main(argv: list[str] | None = None) -> int:
             ap.error(f"--config: unknown {sorted(unknown)}; the ladder has {[c.name for c in LADDER]}")
         configs = tuple(c for c in LADDER if c.name in names)
     t0 = time.perf_counter()
-    done = (load_done(Path(args.results)) if args.report_only
-            else run_fidelity(Path(args.results), configs, metrics, workers=args.workers))
+    if not args.report_only:
+        run_fidelity(Path(args.results), configs, metrics, workers=args.workers)
+    done = load_done(Path(args.results), LADDER)  # records of a redefined configuration are stale
     rows = rows_from(done)
     write_report(rows, Path("docs/fidelity.json"), Path("docs/fidelity.md"), Path("docs/figures/fidelity_pareto.png"),
                  f"python scripts/bench_fidelity.py --metrics {args.metrics}", time.perf_counter() - t0,

@@ -81,3 +81,39 @@ def test_errors_are_relative_to_paper_with_an_angle_floor():
     assert rows[0]["errors"]["swim_per_turn_10rpm"] == 0.0
     assert "tiny" in markdown(rows, "# t")
     json.dumps(rows)
+
+
+def test_a_record_measured_with_another_setup_is_stale(tmp_path):
+    """Redefining a configuration (e.g. a preset) must not reuse the numbers measured before."""
+    results = tmp_path / "r.jsonl"
+    run_fidelity(results, (TINY,), METRICS, workers=1, progress=False)
+    assert ("tiny", METRICS[0]) in load_done(results, (TINY,))
+    redefined = FidelityConfig("tiny", params={"n_nodes": 21}, numerics=TINY.numerics)
+    assert ("tiny", METRICS[0]) not in load_done(results, (redefined,))
+    assert ("tiny", METRICS[0]) in load_done(results)  # without configs nothing is filtered
+    # a legacy record without a stored setup is kept
+    rec = json.loads(results.read_text().splitlines()[0])
+    del rec["setup"]
+    results.write_text(json.dumps(rec) + "\n")
+    assert ("tiny", METRICS[0]) in load_done(results, (redefined,))
+
+
+def test_node_convergence_rows_table_and_plot(tmp_path):
+    from flagellum.node_convergence import METRIC, markdown as nc_markdown, plot, sweep_configs, sweep_rows
+
+    configs = sweep_configs()
+    assert len({c.name for c in configs}) == len(configs)  # no duplicate grid points
+    first, second = configs[0], configs[1]
+    done = {(first.name, METRIC): {"config": first.name, "metric": METRIC, "error": None, "measured": "x",
+                                   "result": {"theta_tc40": 30.0, "phi_tc40": 20.0, "rtf": 5.0}},
+            (second.name, METRIC): {"config": second.name, "metric": METRIC, "result": None, "measured": "x",
+                                    "error": "SimulationError: step 3"}}
+    ref = {"theta_tc40": 40.0, "phi_tc40": 35.0, "rtf": 0.5}
+    rows = sweep_rows(done, ref)
+    assert rows[0]["theta_error"] == pytest.approx(0.25)
+    assert rows[1]["theta_tc40"] is None and rows[1]["error"].startswith("SimulationError")
+    assert all(r["theta_tc40"] is None for r in rows[2:])
+    table = nc_markdown(rows, ref, "# t")
+    assert "| 45 | 10 | 0.1 | 30.0 | 20.0 | 25 % | 5.00 |" in table and "SimulationError: step 3" in table
+    plot(rows, ref, tmp_path / "nc.png")
+    assert (tmp_path / "nc.png").stat().st_size > 0

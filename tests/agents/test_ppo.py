@@ -151,6 +151,28 @@ def test_training_resumes_from_its_checkpoint_and_refuses_to_overwrite(tiny_run)
         assert list(d["timesteps"]) == [3, 4, 6]  # the first run's evaluation is kept
 
 
+def test_fine_tuning_starts_from_a_trained_agent(tiny_run, tmp_path):
+    """init_from: the trained policy and statistics, a fresh decision count, the source recorded."""
+    import torch
+    from stable_baselines3 import PPO
+
+    from agents.ppo_training import train
+
+    src, _ = tiny_run
+    cfg = json.loads(json.dumps(TINY))
+    cfg["tiny"]["init_from"] = str(src)
+    cfg["tiny"]["learning_rate"] = 0.0  # no update: the fine-tuned policy must be the source's
+    result = train(TrainConfig.from_dict(cfg), tmp_path / "ft", progress=False)
+    assert result.decisions == 3
+    meta = json.loads((tmp_path / "ft" / "meta.json").read_text())
+    assert meta["init_from"]["path"] == str(src) and meta["init_from"]["decisions"] >= 3
+    a, b = (PPO.load(str(d / "model.zip"), device="cpu").policy.state_dict() for d in (src, tmp_path / "ft"))
+    assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+    cfg["tiny"]["init_from"] = str(tmp_path / "nowhere")
+    with pytest.raises(ValueError, match=r"init_from=.*nowhere.*lacks \['model.zip', 'vecnormalize.pkl'\]"):
+        TrainConfig.from_dict(cfg)
+
+
 def test_pretrained_agent_completes_a_short_path_deterministically():
     assert (PRETRAINED_DIR / "model.zip").is_file(), "the pretrained agent is committed with the package"
     meta = json.loads((PRETRAINED_DIR / "meta.json").read_text())
