@@ -216,7 +216,8 @@ REPORT_NOTES = (
     "(eqn 13) 60 rpm is below this model's buckling threshold and makes no turn. Relative errors are "
     f"|x - x_paper| / max(|x_paper|, floor), floor {ANGLE_FLOOR_DEG:g}° for angles (φ is often near 0) and 0 "
     "otherwise. RTF = simulated seconds per wall second; RTF (10 rpm) is from the swim-speed task, RTF (90 rpm) "
-    "from the L'/L task. Presets: `paper` N = 122, h = 1 ms, refresh 0.03 r0, Newton 1e-6; `balanced` N = 122, "
+    "from the L'/L task. ω_b is the midpoint of its final 10-rpm bracket (L'/L(100 s) < 0.98 by bisection on "
+    "[50, 130] rpm), so configurations in the same bracket show 0 % and a neighbouring bracket 13 %. Presets: `paper` N = 122, h = 1 ms, refresh 0.03 r0, Newton 1e-6; `balanced` N = 122, "
     "h = 20 ms, refresh 0.03 r0, Newton 1e-5 (until 2026-12-01 `balanced` was N = 60, h = 5 ms, refresh 0.1 r0: "
     "that configuration keeps its records under its own name, `LSBT N = 60, ...`); `fast` N = 45, h = 10 ms, "
     "refresh 0.1 r0, Newton 1e-5. Why the coarse grids turn less: docs/node_convergence.md.")

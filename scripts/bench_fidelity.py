@@ -44,7 +44,8 @@ def main(argv: list[str] | None = None) -> int:
     done = load_done(Path(args.results), LADDER)  # records of a redefined configuration are stale
     rows = rows_from(done)
     write_report(rows, Path("docs/fidelity.json"), Path("docs/fidelity.md"), Path("docs/figures/fidelity_pareto.png"),
-                 f"python scripts/bench_fidelity.py --metrics {args.metrics}", time.perf_counter() - t0,
+                 "python scripts/bench_fidelity.py " + ("--report-only" if args.report_only else f"--metrics {args.metrics}"),
+                 time.perf_counter() - t0,
                  missing=missing_tasks(done, LADDER, FULL_METRICS), notes=REPORT_NOTES)
     print(Path("docs/fidelity.md").read_text())
     return 0
