@@ -4,8 +4,8 @@
 head) at the paper's h = 1 ms, with the resistance refreshed whenever the shape has changed by
 more than 0.03 r0 (indistinguishable from refreshing every step, see docs/fidelity.md).
 ``balanced`` keeps the paper's grid and refresh rule and takes a 20x longer step (h = 20 ms,
-Newton tolerance 1e-5): the onset of buckling, and so every turn, needs the paper's grid near the
-head (docs/node_convergence.md). ``fast`` coarsens the grid to N = 45 and refreshes the resistance
+Newton tolerance 1e-5): the onset of buckling, and so every turn, needs the paper's grid and
+refresh rule; the time step matters little up to 20 ms (docs/node_convergence.md). ``fast`` coarsens the grid to N = 45 and refreshes the resistance
 lazily: it swims like ``paper`` (within ~1 %) but buckles later, so its turns are its own and its
 turn map must be calibrated on it (the planner does). Measured costs and errors against ``paper``:
 docs/fidelity.md (scripts/bench_fidelity.py).
