@@ -141,18 +141,24 @@ def _validation_every(agent: Path) -> int | None:
         return None
 
 
-def comparison_lines(res: dict[str, Any]) -> list[str]:
+FT_AGENT = Path("agents/pretrained/ppo_residual_balanced_ft")
+FT_KEY = f"ppo:{FT_AGENT}"
+#: the PPO controllers an evaluation folder may hold: (results key, label)
+PPO_CONTROLLERS = (("ppo", "PPO, trained on fast (shipped default)"), (FT_KEY, "PPO, fine-tuned on balanced"))
+
+
+def comparison_lines(res: dict[str, Any], ppo: str = "ppo") -> list[str]:
     """The aggregate table (rule planner vs PPO) and the paired comparison of one results file.
 
     When PPO ran on fewer paths than the rule planner, a middle column gives the rule planner's
     means over the same paths, so that the two controllers are compared like for like.
     """
-    r, p = res["aggregate"]["rule"], res["aggregate"]["ppo"]
+    r, p = res["aggregate"]["rule"], res["aggregate"][ppo]
     out = [f"Episodes: rule {r['episodes']}, PPO {p['episodes']}"
            + (f"; not run: {', '.join(res['missing'])}" if res.get("missing") else "") + ".", ""]
     cols = [("rule planner", r)]
     if r["episodes"] != p["episodes"]:
-        ppo_paths = {row["path"] for row in res["per_path"] if row["controller"] == "ppo"}
+        ppo_paths = {row["path"] for row in res["per_path"] if row["controller"] == ppo}
         same = [{**row, "trajectory": None} for row in res["per_path"]
                 if row["controller"] == "rule" and row["path"] in ppo_paths]
         cols = [(f"rule planner, all {r['episodes']} paths", r),
@@ -161,7 +167,7 @@ def comparison_lines(res: dict[str, Any]) -> list[str]:
     out += ["| metric | " + " | ".join(c for c, _ in cols) + " |", "|---" * (len(cols) + 1) + "|"]
     for label, key, scale, digits in ROWS:
         out.append(f"| {label} | " + " | ".join(_fmt(a.get(key), scale, digits) for _, a in cols) + " |")
-    return out + ["", *paired_lines(res)]
+    return out + ["", *paired_lines(res, ppo)]
 
 
 def first_design_section(lines: list[str]) -> None:
@@ -196,7 +202,11 @@ def evaluation_section(lines: list[str]) -> dict[str, Any]:
             lines += [f"### {title}", "", "Not measured for both controllers yet.", ""]
             continue
         found[folder] = res
-        lines += [f"### {title}", "", *comparison_lines(res), ""]
+        lines += [f"### {title}", ""]
+        for key, label in PPO_CONTROLLERS:
+            if key in agg:
+                lines += ([f"**{label}** (`--controller {key}`)", ""] if key != "ppo" or FT_KEY in agg else []) + [
+                    *comparison_lines(res, key), ""]
     return found
 
 
@@ -215,12 +225,20 @@ def verdict_section(found: dict[str, Any], agent: Path, lines: list[str]) -> Non
         if res is None:
             lines.append(f"- `{preset}`: not measured for both controllers.")
             continue
-        r, p = res["aggregate"]["rule"], res["aggregate"]["ppo"]
-        ok_s = p["success_rate"] >= r["success_rate"]
-        ok_x = p["mean_cross_track_m"] < r["mean_cross_track_m"]
-        lines.append(f"- `{preset}`: success {100 * p['success_rate']:.0f} % vs {100 * r['success_rate']:.0f} % "
-                     f"({'met' if ok_s else 'not met'}); mean cross-track {100 * p['mean_cross_track_m']:.2f} vs "
-                     f"{100 * r['mean_cross_track_m']:.2f} cm ({'lower: met' if ok_x else 'not lower: not met'}).")
+        r = res["aggregate"]["rule"]
+        for key, label in PPO_CONTROLLERS:
+            p = res["aggregate"].get(key)
+            if p is None:
+                continue
+            if p["episodes"] != r["episodes"]:
+                lines.append(f"- `{preset}`, {label}: {p['episodes']} of {r['episodes']} paths run, not compared.")
+                continue
+            ok_s = p["success_rate"] >= r["success_rate"]
+            ok_x = p["mean_cross_track_m"] < r["mean_cross_track_m"]
+            lines.append(f"- `{preset}`, {label}: success {100 * p['success_rate']:.0f} % vs "
+                         f"{100 * r['success_rate']:.0f} % ({'met' if ok_s else 'not met'}); mean cross-track "
+                         f"{100 * p['mean_cross_track_m']:.2f} vs {100 * r['mean_cross_track_m']:.2f} cm "
+                         f"({'lower: met' if ok_x else 'not lower: not met'}).")
     lines += ["", GAP_TEXT, ""]
 
 
@@ -244,11 +262,11 @@ def square_section(lines: list[str]) -> None:
     lines += ["", "![Both controllers on the square](square/compare_fast/path.png)", ""]
 
 
-def paired_lines(res: dict[str, Any]) -> list[str]:
+def paired_lines(res: dict[str, Any], ppo: str = "ppo") -> list[str]:
     """Per-path comparison on the paths both controllers ran."""
     by = {(row["path"], row["controller"]): row for row in res["per_path"]}
     names = sorted({row["path"] for row in res["per_path"]})
-    pairs = [(by[(n, "rule")], by[(n, "ppo")]) for n in names if (n, "rule") in by and (n, "ppo") in by]
+    pairs = [(by[(n, "rule")], by[(n, ppo)]) for n in names if (n, "rule") in by and (n, ppo) in by]
     if not pairs:
         return []
     d = [p["mean_cross_track_m"] - r["mean_cross_track_m"] for r, p in pairs
