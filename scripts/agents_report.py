@@ -184,6 +184,21 @@ def first_design_section(lines: list[str]) -> None:
                   *comparison_lines(json.loads(f.read_text(encoding="utf-8"))), ""]
 
 
+def fine_tune_section(lines: list[str]) -> None:
+    """The shipped agent fine-tuned on the balanced preset (``init_from``)."""
+    if not (FT_AGENT / "meta.json").is_file():
+        return
+    lines += ["## Fine-tuning on `balanced`", "",
+              "Why: at `paper` the fast-trained agent was behind the planner (below). `fast` (N = 45) buckles "
+              "about 3 s later than `paper` in a 150 rpm burst, so its turn map and the corrections learnt "
+              "against it are its own; the redefined `balanced` preset (N = 122, h = 20 ms) follows paper's "
+              "turns to within ~10 % (docs/fidelity.md, docs/planner.md) at about a fifth of paper's cost. "
+              "`agents/configs/ppo_residual_balanced_ft.yml` starts from the shipped agent's policy and "
+              "VecNormalize statistics (`init_from`), with the same task, reward and limits, the three-corner "
+              "stage only, and the planner on the balanced turn map; it stopped at its 30-min budget.", ""]
+    training_section(FT_AGENT, lines, "### Its training", "ppo_training_balanced_ft.png")
+
+
 def evaluation_section(lines: list[str]) -> dict[str, Any]:
     lines += ["## Held-out paths: PPO against the rule planner", "",
               "20 paths (`data/paths/eval`: 10 planar, 10 3-D, three segments of 12-20 cm, turns of 30°-150°, seeds "
@@ -220,6 +235,12 @@ def verdict_section(found: dict[str, Any], agent: Path, lines: list[str]) -> Non
             minutes.append(json.loads(f.read_text(encoding="utf-8"))["wall_time_s"] / 60)
     lines.append(f"- Training wall time, both designs together: {sum(minutes):.0f} min "
                  f"({' + '.join(f'{m:.0f}' for m in minutes)}; target ≤ 120 min).")
+    ft = FT_AGENT / "meta.json"
+    if ft.is_file():
+        m = json.loads(ft.read_text(encoding="utf-8"))["wall_time_s"] / 60
+        lines.append(f"- With the fine-tuning on `balanced` ({m:.0f} min, from the shipped agent): "
+                     f"{sum(minutes) + m:.0f} min of training in all; the fine-tuned agent's own chain "
+                     f"(fast agent + fine-tuning) {minutes[0] + m:.0f} min.")
     for preset in PRESETS:
         res = found.get(preset)
         if res is None:
@@ -290,6 +311,7 @@ def main() -> None:
              "reasons: `agents/residual_planner.py`, `agents/turn_decision_env.py`; configuration: "
              "`agents/configs/ppo_residual_fast.yml`.", "", DESIGN, ""]
     training_section(args.agent, lines)
+    fine_tune_section(lines)
     found = evaluation_section(lines)
     verdict_section(found, args.agent, lines)
     square_section(lines)
