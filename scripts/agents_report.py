@@ -334,10 +334,18 @@ the evaluation distribution; and, in the first design, domain randomisation of E
 with which the policy fitted noise and lost most held-out paths. What the curves show: no clear
 trend within a curriculum stage (the stage table above), and validation success is 100 % whenever
 it was measured, so the validation paths cannot tell a useful policy from a harmless one; the
-held-out cross-track error is what separates them. What follows from this: train, or fine-tune for
-a few hundred decisions, on the `paper` preset's dynamics (an order of magnitude more wall time per
-decision: see the wall-time rows), or make the corrections map-relative (feed the map's local slope
-dθ/dt_c) so that a correction learnt on one preset means the same on another."""
+held-out cross-track error is what separates them.
+
+**Fine-tuning on `balanced`** (the section above) tested the explanation: `fast` buckles about 3 s
+later than `paper` in a 150 rpm burst (docs/node_convergence.md explains why: the onset needs the
+paper's grid), while `balanced` turns like `paper`. 160 decisions (30 min, the rest of the 2-hour
+budget) did not help: at `paper` the fine-tuned agent is no closer to the planner than the
+fast-trained one (the `paper` tables above), and its training curve shows no improvement within
+those five PPO updates. So the preset gap is not the whole story: the residual corrections do not
+beat the planner on a swimmer whose turn map is accurate. What is left: more decisions
+on `balanced` (~10 s each on two workers, so a few hundred cost about an hour beyond the budget), or
+map-relative corrections (feed the map's local slope dθ/dt_c) so that a correction learnt on one
+preset means the same on another."""
 
 
 DESIGN = """## The agent
