@@ -210,6 +210,14 @@ def run_fidelity(path: Path, configs=LADDER, metrics=FULL_METRICS, workers: int 
 
 ANGLE_FLOOR_DEG = 10.0
 
+
+def relative_error(metric: str, value: float, reference: float) -> float:
+    """|value - reference| / max(|reference|, floor): the floor is ``ANGLE_FLOOR_DEG`` for angle metrics
+    (names starting with theta or phi; phi is often near 0) and 0 otherwise (0 if both are 0)."""
+    floor = ANGLE_FLOOR_DEG if metric.startswith(("theta", "phi")) else 0.0
+    denom = max(abs(reference), floor)
+    return abs(value - reference) / denom if denom > 0 else 0.0
+
 REPORT_NOTES = (
     "Every task is one configuration on one metric, on one core (two tasks at a time on this 2-core machine). "
     f"The turning metrics burst at {OMEGA_HIGH_RPM:g} rpm, not the paper's 60 rpm: with the torque-free head "
@@ -258,8 +266,6 @@ def rows_from(done: dict[tuple[str, str], dict], configs=LADDER) -> list[dict[st
         for k, v in row["values"].items():
             if k not in ref or not isinstance(v, (int, float)) or k.endswith("bracket"):
                 continue
-            floor = ANGLE_FLOOR_DEG if k.startswith(("theta", "phi")) else 0.0
-            denom = max(abs(ref[k]), floor)
-            errs[k] = abs(v - ref[k]) / denom if denom > 0 else 0.0
+            errs[k] = relative_error(k, v, ref[k])
         row["errors"] = errs
     return rows

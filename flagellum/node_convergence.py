@@ -12,7 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from flagellum.fidelity import ANGLE_FLOOR_DEG, FidelityConfig
+from flagellum.fidelity import FidelityConfig, relative_error
 
 NODE_COUNTS = (45, 60, 80, 100, 122)
 REFRESH_TOLS = (0.1, 0.03)
@@ -41,7 +41,7 @@ def sweep_rows(done: dict[tuple[str, str], dict], reference: dict[str, float] | 
         theta = res.get("theta_tc40")
         err = None
         if theta is not None and reference:
-            err = abs(theta - reference["theta_tc40"]) / max(abs(reference["theta_tc40"]), ANGLE_FLOOR_DEG)
+            err = relative_error("theta_tc40", theta, reference["theta_tc40"])
         rows.append({"config": cfg.name, "n_nodes": cfg.params["n_nodes"], "dt": cfg.numerics["dt"],
                      "hydro_refresh_tol": cfg.numerics["hydro_refresh_tol"], "theta_tc40": theta,
                      "phi_tc40": res.get("phi_tc40"), "rtf_turn": res.get("rtf"), "theta_error": err,

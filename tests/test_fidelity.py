@@ -117,3 +117,13 @@ def test_node_convergence_rows_table_and_plot(tmp_path):
     assert "| 45 | 10 | 0.1 | 30.0 | 20.0 | 25 % | 5.00 |" in table and "SimulationError: step 3" in table
     plot(rows, ref, tmp_path / "nc.png")
     assert (tmp_path / "nc.png").stat().st_size > 0
+
+
+def test_relative_error_floors_angles_only():
+    from flagellum.fidelity import ANGLE_FLOOR_DEG, relative_error
+
+    assert relative_error("swim_per_turn_10rpm", 1.1, 1.0) == pytest.approx(0.1)
+    # an angle near 0 is compared against the floor, not against itself
+    assert relative_error("phi_tc40", 3.0, 1.0) == pytest.approx(2.0 / ANGLE_FLOOR_DEG)
+    assert relative_error("theta_tc40", 49.0, 47.5) == pytest.approx(1.5 / 47.5)
+    assert relative_error("lratio_100s", 0.0, 0.0) == 0.0
