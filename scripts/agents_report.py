@@ -141,10 +141,16 @@ def _validation_every(agent: Path) -> int | None:
         return None
 
 
-FT_AGENT = Path("agents/pretrained/ppo_residual_balanced_ft")
-FT_KEY = f"ppo:{FT_AGENT}"
+#: the fine-tuned agents (``init_from`` the shipped one, on `balanced`): (folder, label, training figure)
+FINE_TUNES = ((Path("agents/pretrained/ppo_residual_balanced_ft"), "PPO, fine-tuned on balanced",
+               "ppo_training_balanced_ft.png"),
+              (Path("agents/pretrained/ppo_residual_balanced_ft_long"),
+               "PPO, fine-tuned on balanced up to the 2-h budget", "ppo_training_balanced_ft_long.png"))
+FT_AGENT = FINE_TUNES[0][0]
+FT_KEYS = tuple(f"ppo:{agent}" for agent, _, _ in FINE_TUNES)
 #: the PPO controllers an evaluation folder may hold: (results key, label)
-PPO_CONTROLLERS = (("ppo", "PPO, trained on fast (shipped default)"), (FT_KEY, "PPO, fine-tuned on balanced"))
+PPO_CONTROLLERS = (("ppo", "PPO, trained on fast (shipped default)"),
+                   *((key, label) for key, (_, label, _) in zip(FT_KEYS, FINE_TUNES)))
 
 
 def comparison_lines(res: dict[str, Any], ppo: str = "ppo") -> list[str]:
@@ -196,7 +202,15 @@ def fine_tune_section(lines: list[str]) -> None:
               "`agents/configs/ppo_residual_balanced_ft.yml` starts from the shipped agent's policy and "
               "VecNormalize statistics (`init_from`), with the same task, reward and limits, the three-corner "
               "stage only, and the planner on the balanced turn map; it stopped at its 30-min budget.", ""]
-    training_section(FT_AGENT, lines, "### Its training", "ppo_training_balanced_ft.png")
+    training_section(FT_AGENT, lines, "### Its training", FINE_TUNES[0][2])
+    agent, _, figure = FINE_TUNES[1]
+    if (agent / "meta.json").is_file():
+        lines += ["### The same fine-tune, continued up to the 2-hour budget", "",
+                  "`agents/configs/ppo_residual_balanced_ft_long.yml`: the run above resumed from its last "
+                  "checkpoint (160 decisions, `flagellum train --resume`) with a budget that brings the chain "
+                  "(fast agent + fine-tune) to 2 h; settings otherwise unchanged. It asks whether more decisions "
+                  "on a preset that turns like `paper` close the gap.", ""]
+        training_section(agent, lines, "#### Its training", figure)
 
 
 def evaluation_section(lines: list[str]) -> dict[str, Any]:
@@ -220,7 +234,8 @@ def evaluation_section(lines: list[str]) -> dict[str, Any]:
         lines += [f"### {title}", ""]
         for key, label in PPO_CONTROLLERS:
             if key in agg:
-                lines += ([f"**{label}** (`--controller {key}`)", ""] if key != "ppo" or FT_KEY in agg else []) + [
+                lines += ([f"**{label}** (`--controller {key}`)", ""]
+                          if key != "ppo" or any(k in agg for k in FT_KEYS) else []) + [
                     *comparison_lines(res, key), ""]
     return found
 
@@ -235,12 +250,13 @@ def verdict_section(found: dict[str, Any], agent: Path, lines: list[str]) -> Non
             minutes.append(json.loads(f.read_text(encoding="utf-8"))["wall_time_s"] / 60)
     lines.append(f"- Training wall time, both designs together: {sum(minutes):.0f} min "
                  f"({' + '.join(f'{m:.0f}' for m in minutes)}; target ≤ 120 min).")
-    ft = FT_AGENT / "meta.json"
-    if ft.is_file():
-        m = json.loads(ft.read_text(encoding="utf-8"))["wall_time_s"] / 60
-        lines.append(f"- With the fine-tuning on `balanced` ({m:.0f} min, from the shipped agent): "
-                     f"{sum(minutes) + m:.0f} min of training in all; the fine-tuned agent's own chain "
-                     f"(fast agent + fine-tuning) {minutes[0] + m:.0f} min.")
+    for ft_agent, label, _ in FINE_TUNES:
+        ft = ft_agent / "meta.json"
+        if ft.is_file():
+            meta = json.loads(ft.read_text(encoding="utf-8"))
+            m = meta["wall_time_s"] / 60
+            lines.append(f"- {label} ({meta['decisions']} decisions in {m:.0f} min, from the shipped agent): "
+                         f"its own chain (fast agent + fine-tuning) {minutes[0] + m:.0f} min (target ≤ 120 min).")
     for preset in PRESETS:
         res = found.get(preset)
         if res is None:
