@@ -357,11 +357,29 @@ later than `paper` in a 150 rpm burst (docs/node_convergence.md explains why: th
 paper's grid), while `balanced` turns like `paper`. 160 decisions (30 min, the rest of the 2-hour
 budget) did not help: at `paper` the fine-tuned agent is no closer to the planner than the
 fast-trained one (the `paper` tables above), and its training curve shows no improvement within
-those five PPO updates. So the preset gap is not the whole story: the residual corrections do not
-beat the planner on a swimmer whose turn map is accurate. What is left: more decisions
-on `balanced` (~10 s each on two workers, so a few hundred cost about an hour beyond the budget), or
-map-relative corrections (feed the map's local slope dθ/dt_c) so that a correction learnt on one
-preset means the same on another."""
+those five PPO updates. Continued to 364 decisions (69 min, so that the chain of fast agent and
+fine-tune takes the whole 2 hours), it is still behind the planner at `paper` (mean cross-track
+0.76 vs 0.69 cm, lower on 9 of the 20 paths: on 7 of the 10 planar ones, 0.66 vs 0.71 cm, but
+only 2 of the 10 3-D ones, 0.85 vs 0.68 cm; a split seen after the fact, not a result), and its
+training curve shows no improvement either: the training episodes' mean cross-track error is
+0.95 cm in the first half and 1.06 cm in the second. So the preset gap is not the whole story: on
+a swimmer whose turn map is accurate, the residual corrections that a few hundred decisions can
+teach do not beat the planner.
+
+**Where the planner's cross-track error comes from** (from the `paper` evaluation traces, which
+are not committed: 17 of the rule planner's 20 were on this machine; same numbers for PPO). A
+corner counts as reached 1.5 cm (the reach radius) before its waypoint, so each new segment starts
+1.35 cm off its line on average, and the error peaks at 1.95 cm in the segment's first fifth
+while the turn is flown, then falls roughly linearly to 0.3-0.4 cm at its end. Most of that error
+is set before the turn starts, where a per-turn residual cannot act. Nor does a tighter tolerance
+help: the rule planner with `hit_fraction` 0.3 instead of 0.6 (a corrective turn as soon as the
+predicted miss exceeds 0.45 cm instead of 0.9 cm) had a mean cross-track error of 0.963 cm against
+0.961 cm on the 20 paths at `fast`, with the same buckling events. What is left: an agent that
+decides when to start the turn at a corner (the observation holds the waypoint after the next),
+which the planner does not do; a much cheaper preset that still turns like `paper` (the
+node-convergence study says the buckling onset needs the paper's grid); or map-relative
+corrections (feed the map's local slope dθ/dt_c) so that a correction learnt on one preset means
+the same on another."""
 
 
 DESIGN = """## The agent
