@@ -367,14 +367,15 @@ a swimmer whose turn map is accurate, the residual corrections that a few hundre
 teach do not beat the planner.
 
 **Where the planner's cross-track error comes from** (from the `paper` evaluation traces, which
-are not committed: 17 of the rule planner's 20 were on this machine; same numbers for PPO). A
+are not committed: 17 of the rule planner's 20 were on this machine; the shipped agent's give the same). A
 corner counts as reached 1.5 cm (the reach radius) before its waypoint, so each new segment starts
 1.35 cm off its line on average, and the error peaks at 1.95 cm in the segment's first fifth
 while the turn is flown, then falls roughly linearly to 0.3-0.4 cm at its end. Most of that error
 is set before the turn starts, where a per-turn residual cannot act. Nor does a tighter tolerance
 help: the rule planner with `hit_fraction` 0.3 instead of 0.6 (a corrective turn as soon as the
 predicted miss exceeds 0.45 cm instead of 0.9 cm) had a mean cross-track error of 0.963 cm against
-0.961 cm on the 20 paths at `fast`, with the same buckling events. What is left: an agent that
+0.961 cm on the 20 paths at `fast`, with the same buckling events (a one-off run of
+`RulePlanner` with `PlannerConfig(hit_fraction=0.3)`, 2026-12-01). What is left: an agent that
 decides when to start the turn at a corner (the observation holds the waypoint after the next),
 which the planner does not do; a much cheaper preset that still turns like `paper` (the
 node-convergence study says the buckling onset needs the paper's grid); or map-relative
