@@ -354,8 +354,7 @@ held-out cross-track error is what separates them.
 
 **Fine-tuning on `balanced`** (the section above) tested the explanation: `fast` buckles about 3 s
 later than `paper` in a 150 rpm burst (docs/node_convergence.md explains why: the onset needs the
-paper's grid), while `balanced` turns like `paper`. 160 decisions (30 min, the rest of the 2-hour
-budget) did not help: at `paper` the fine-tuned agent is no closer to the planner than the
+paper's grid), while `balanced` turns like `paper`. 160 decisions (30 min) did not help: at `paper` the fine-tuned agent is no closer to the planner than the
 fast-trained one (the `paper` tables above), and its training curve shows no improvement within
 those five PPO updates. Continued to 364 decisions (69 min, so that the chain of fast agent and
 fine-tune takes the whole 2 hours), it is still behind the planner at `paper` (mean cross-track
