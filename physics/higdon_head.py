@@ -18,6 +18,9 @@ surface value opposes the head's rotation; eqn (11)'s isotropic force coefficien
 ours. Our forms make the head-flagellum resistance symmetric and dissipative (reciprocal
 theorem); the printed ones do not. The method of images is not used, as in the paper.
 
+The paper's own reading (``head_rotation="paper"``: head not spinning, flagellum base turning
+at omega in the lab frame, eqns (10)-(11) as printed) is ``head_operators_as_printed``.
+
 r_j = x_j - x_0 (node relative to the head centre), b the head radius.
 """
 
@@ -32,10 +35,12 @@ from numba import njit
 @njit(cache=True)
 def head_flow_operators(x: np.ndarray, x_head: np.ndarray, axis: np.ndarray,
                         b: float) -> tuple[np.ndarray, np.ndarray]:
-    """Head-induced flow operators at the flagellum nodes.
+    """Head-induced flow operators at the flagellum nodes (reciprocal forms).
 
     x: (M,3) node positions, m; x_head: (3,) head centre, m; axis: (3,) unit spin axis;
     b: head radius, m. Returns H (3M,3), dimensionless, and g (3M,), m/s per rad/s.
+    A node closer to the centre than b (possible only with contact switched off) is evaluated
+    on the surface along its direction: the flow is never evaluated inside the head.
     """
     m = x.shape[0]
     H = np.zeros((3 * m, 3))
@@ -43,17 +48,54 @@ def head_flow_operators(x: np.ndarray, x_head: np.ndarray, axis: np.ndarray,
     b3 = b * b * b
     for j in range(m):
         r = x[j] - x_head
-        d = math.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
+        d = max(math.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2), b)
         d3 = d * d * d
         iso = 0.75 * b / d + 0.25 * b3 / d3
         rad = 0.75 * b / d - 0.75 * b3 / d3
+        rn = np.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
+        rs = r * (d / rn)  # r moved out onto the surface if it was inside
         for p in range(3):
             for k in range(3):
-                H[3 * j + p, k] = (iso if p == k else 0.0) + rad * r[p] * r[k] / (d * d)
-        g[3 * j + 0] = b3 * (axis[1] * r[2] - axis[2] * r[1]) / d3
-        g[3 * j + 1] = b3 * (axis[2] * r[0] - axis[0] * r[2]) / d3
-        g[3 * j + 2] = b3 * (axis[0] * r[1] - axis[1] * r[0]) / d3
+                H[3 * j + p, k] = (iso if p == k else 0.0) + rad * rs[p] * rs[k] / (d * d)
+        g[3 * j + 0] = b3 * (axis[1] * rs[2] - axis[2] * rs[1]) / d3
+        g[3 * j + 1] = b3 * (axis[2] * rs[0] - axis[0] * rs[2]) / d3
+        g[3 * j + 2] = b3 * (axis[0] * rs[1] - axis[1] * rs[0]) / d3
     return H, g
+
+
+@njit(cache=True)
+def head_operators_as_printed(x: np.ndarray, x_head: np.ndarray, b: float) -> tuple[np.ndarray, np.ndarray]:
+    """The head's translational flow and force operators exactly as eqns (10)-(11) print them.
+
+    Flow at node j from a head translating at U (eqn 10, head not spinning):
+        u_j = (3b/4) [ (I/r + r r/r^3) + (b^2/3)(I/r^3 - r r/r^5) ] U  =: H_j U,
+    force of the flagellum nodes' forces f_i on the head (eqn 11):
+        f_h = sum_i [ (-3b/(2r) + b^3/(2r^3)) I + (-3b/(4r) + 3b^3/(4r^3)) r r / r^2 ] f_i =: K F.
+    K is not -H^T (the printed forms are not reciprocal), so the resistance built with them is
+    not symmetric. Used by the paper's reading (``head_rotation="paper"``); nodes inside the head
+    are evaluated on its surface as in ``head_flow_operators``.
+    x: (M,3) m; x_head: (3,) m; b: m. Returns H (3M,3) and K (3,3M), dimensionless.
+    """
+    m = x.shape[0]
+    H = np.zeros((3 * m, 3))
+    K = np.zeros((3, 3 * m))
+    b3 = b * b * b
+    for j in range(m):
+        r = x[j] - x_head
+        rn = math.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
+        d = max(rn, b)
+        rs = r * (d / rn)
+        d3 = d * d * d
+        h_iso = 0.75 * b / d + 0.25 * b3 / d3
+        h_rad = 0.75 * b / d - 0.25 * b3 / d3
+        k_iso = -1.5 * b / d + 0.5 * b3 / d3
+        k_rad = -0.75 * b / d + 0.75 * b3 / d3
+        for p in range(3):
+            for q in range(3):
+                rr = rs[p] * rs[q] / (d * d)
+                H[3 * j + p, q] = (h_iso if p == q else 0.0) + h_rad * rr
+                K[p, 3 * j + q] = (k_iso if p == q else 0.0) + k_rad * rr
+    return H, K
 
 
 def sphere_translational_drag(mu: float, b: float) -> float:

@@ -13,6 +13,9 @@ eqn (8) with the head flow of eqn (10) subtracted, the head force f_0 = -6 pi mu
 is eqn (12) with eqn (11), and the head's axial torque -8 pi mu b^3 s - g^T F is the axial
 part of eqn (13)'s head terms. With the reciprocal head forms of ``higdon_head`` R is
 symmetric positive definite (the system can only dissipate energy).
+
+With the head forms as printed in the paper (``printed_head``, the paper's reading) the head
+force is f_h = K F with K != -H^T, so R = [[D - K C H, K C], [-C H, C]] is not symmetric.
 """
 
 from __future__ import annotations
@@ -22,7 +25,8 @@ import math
 import numpy as np
 from scipy.linalg import lapack
 
-from physics.higdon_head import head_flow_operators, sphere_rotational_drag, sphere_translational_drag
+from physics.higdon_head import (head_flow_operators, head_operators_as_printed, sphere_rotational_drag,
+                                 sphere_translational_drag)
 from physics.lsbt import lsbt_mobility, node_tangents
 
 
@@ -42,12 +46,16 @@ class ResistanceOperator:
     """
 
     def __init__(self, nodes: np.ndarray, mu: float, delta: float, head_radius: float,
-                 head_spins: bool, smoothing: float, head_coupling: bool = True) -> None:
+                 head_spins: bool, smoothing: float, head_coupling: bool = True,
+                 near_radius: float = 0.0, printed_head: bool = False) -> None:
         nodes = np.ascontiguousarray(nodes, dtype=np.float64)
         self.has_head = head_radius > 0.0
         self.spin = head_spins and self.has_head
+        self.printed = printed_head and self.has_head
+        if self.spin and printed_head:
+            raise ValueError("the head forms as printed (eqns 10-11) are for a head that does not spin")
         flag = np.ascontiguousarray(nodes[1:]) if self.has_head else nodes
-        a = lsbt_mobility(flag, node_tangents(flag), mu, delta, smoothing)
+        a = lsbt_mobility(flag, node_tangents(flag), mu, delta, smoothing, near_radius)
         self.m3 = a.shape[0]
         self._inv: np.ndarray | None = None
         if smoothing > 0.0:
@@ -60,10 +68,16 @@ class ResistanceOperator:
         if self.has_head:
             e0 = nodes[1] - nodes[0]
             axis = e0 / math.sqrt(e0 @ e0)
-            self.H, self.g = head_flow_operators(flag, nodes[0].copy(), axis, head_radius)
+            if printed_head:
+                self.H, self.K = head_operators_as_printed(flag, nodes[0].copy(), head_radius)
+                self.g = np.zeros(self.m3)
+            else:
+                self.H, self.g = head_flow_operators(flag, nodes[0].copy(), axis, head_radius)
+                self.K = -self.H.T  # Faxen: the force on the head is the adjoint of its flow
             if not head_coupling:  # "stokes" head: own drag and torque only
                 self.H[:] = 0.0
                 self.g[:] = 0.0
+                self.K = np.zeros_like(self.K)
             self.drag_t = sphere_translational_drag(mu, head_radius)
             self.drag_r = sphere_rotational_drag(mu, head_radius)
         self.nv = self.m3 + (3 if self.has_head else 0) + (1 if self.spin else 0)
@@ -103,7 +117,7 @@ class ResistanceOperator:
             bv = bv - self.g * V[-1]
         y = self.solve(bv)
         out = np.empty_like(V)
-        out[0:3] = self.drag_t * U - self.H.T @ y
+        out[0:3] = self.drag_t * U + self.K @ y if self.printed else self.drag_t * U - self.H.T @ y
         out[3:3 + m3] = y
         if self.spin:
             out[-1] = self.drag_r * V[-1] - self.g @ y
@@ -117,8 +131,12 @@ class ResistanceOperator:
         m3, nv = self.m3, self.nv
         R = np.zeros((nv, nv))
         CH = c @ self.H
-        R[0:3, 0:3] = self.drag_t * np.eye(3) + self.H.T @ CH
-        R[0:3, 3:3 + m3] = -CH.T
+        if self.printed:
+            R[0:3, 0:3] = self.drag_t * np.eye(3) - self.K @ CH
+            R[0:3, 3:3 + m3] = self.K @ c
+        else:  # K = -H^T (kept in this form: same arithmetic as before the printed option existed)
+            R[0:3, 0:3] = self.drag_t * np.eye(3) + self.H.T @ CH
+            R[0:3, 3:3 + m3] = -CH.T
         R[3:3 + m3, 0:3] = -CH
         R[3:3 + m3, 3:3 + m3] = c
         if self.spin:
@@ -132,10 +150,14 @@ class ResistanceOperator:
 
 
 def resistance_matrix(nodes: np.ndarray, mu: float, delta: float, head_radius: float,
-                      head_spins: bool, smoothing: float) -> np.ndarray:
+                      head_spins: bool, smoothing: float, near_radius: float = 0.0,
+                      printed_head: bool = False) -> np.ndarray:
     """Generalised resistance R, (3n[+1], 3n[+1]), SI (N s/m, N s, N m s).
 
     nodes: (n,3) rod nodes, m (node 0 is the head centre if head_radius > 0).
     head_spins: append the head spin rate s as the last generalised velocity.
+    near_radius: m, the near-field kernel of ``lsbt`` (0 = plain eqn 8 for every pair).
+    printed_head: eqns (10)-(11) as printed (R not symmetric) instead of the reciprocal forms.
     """
-    return ResistanceOperator(nodes, mu, delta, head_radius, head_spins, smoothing).dense()
+    return ResistanceOperator(nodes, mu, delta, head_radius, head_spins, smoothing,
+                              near_radius=near_radius, printed_head=printed_head).dense()

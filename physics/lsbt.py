@@ -25,6 +25,17 @@ segment ell_j = max(half-edge sum, 2 delta); its local term uses the force densi
 and the Stokeslets of its own segment beyond the cutoff, int_{delta<|s|<a} (I + t t)/(8 pi mu |s|)
 ds, are added in closed form, (I + t t) ln(a/delta) / (8 pi mu ell_j) per half-edge a > delta.
 On the paper's 2-delta grid both reduce exactly to eqn (8).
+
+Near field (strands that come close): eqn (8)'s Stokeslet 1/(8 pi mu r) between two distant
+parts of the rod that approach each other within a few r0 makes the mobility lose definiteness
+(a hairpin of two strands 1.5 mm apart: lowest eigenvalue -0.47 / (8 pi mu 2 delta), the
+Cholesky of the step fails). For node pairs far apart *along* the rod but close in space the
+Stokeslet is blended into the Rotne-Prager-Yamakawa tensor of two spheres of radius
+a = ``near_radius`` (default 1.5 r0: a 2-delta segment of radius r0 has a hydrodynamic radius
+of about that size), which is positive definite for every configuration and bounded as
+r -> 0 (``near_field_weight``, ``rpy_coefficients``). Pairs farther than 5 r0 apart in space, or
+closer than 4 r0 along the rod, keep eqn (8) exactly, so a swimmer whose strands stay apart
+(every unbuckled shape) is unchanged.
 """
 
 from __future__ import annotations
@@ -58,14 +69,57 @@ def _dist(x: np.ndarray, i: int, j: int) -> float:
 
 
 @njit(cache=True)
-def lsbt_mobility(x: np.ndarray, t: np.ndarray, mu: float, delta: float, smoothing: float) -> np.ndarray:
+def _smoothstep(u: float) -> float:
+    """0 for u <= 0, 1 for u >= 1, C1 in between."""
+    if u <= 0.0:
+        return 0.0
+    if u >= 1.0:
+        return 1.0
+    return u * u * (3.0 - 2.0 * u)
+
+
+@njit(cache=True)
+def near_field_weight(dist: float, arc_gap: float, a: float) -> float:
+    """Weight of the near-field kernel for a node pair (0 = plain eqn 8, 1 = RPY).
+
+    dist: distance, m; arc_gap: arc length between the nodes, m; a: near-field radius, m.
+    C1 blends: 1 at dist <= 2a, 0 at dist >= 10a/3; 0 at arc_gap <= 8a/3, 1 at arc_gap >= 16a/3.
+    For the default a = 1.5 r0 that is 3 r0 / 5 r0 in space and 4 r0 / 8 r0 along the rod.
+    """
+    w_arc = _smoothstep((arc_gap - 8.0 * a / 3.0) / (8.0 * a / 3.0))
+    return w_arc * (1.0 - _smoothstep((dist - 2.0 * a) / (4.0 * a / 3.0)))
+
+
+@njit(cache=True)
+def rpy_coefficients(d: float, a: float, mu: float) -> tuple[float, float]:
+    """Rotne-Prager-Yamakawa pair mobility c_iso I + c_rr r^ r^ of two spheres of radius a, m/(N s).
+
+    Rotne & Prager, J. Chem. Phys. 50, 4831 (1969); overlapping form (d < 2a): Wajnryb et al.,
+    J. Fluid Mech. 731, R3 (2013). Positive definite for any configuration; equals the Stokeslet
+    plus its O(a^2 / d^2) Faxen correction for d >= 2a and stays bounded as d -> 0.
+    """
+    if d >= 2.0 * a:
+        c = 1.0 / (8.0 * math.pi * mu * d)
+        return c * (1.0 + 2.0 * a * a / (3.0 * d * d)), c * (1.0 - 2.0 * a * a / (d * d))
+    c = 1.0 / (6.0 * math.pi * mu * a)
+    return c * (1.0 - 9.0 * d / (32.0 * a)), c * 3.0 * d / (32.0 * a)
+
+
+@njit(cache=True)
+def lsbt_mobility(x: np.ndarray, t: np.ndarray, mu: float, delta: float, smoothing: float,
+                  near_radius: float = 0.0) -> np.ndarray:
     """Regularised LSBT mobility A_reg, eqn (8)-(9) plus the smoothness term. (3M,3M), m/(N s).
 
     x: (M,3) flagellum node positions, m; t: (M,3) unit node tangents; mu: Pa s;
-    delta: cutoff length, m; smoothing: s (dimensionless, 0 = plain eqn 8).
+    delta: cutoff length, m; smoothing: s (dimensionless, 0 = plain eqn 8);
+    near_radius: a, m, of the near-field kernel for strands that come close (0 = off, see
+    the module docstring).
     """
     m = x.shape[0]
     a = np.zeros((3 * m, 3 * m))
+    arc = np.zeros(m)  # arc length along the current centre line, m
+    for j in range(1, m):
+        arc[j] = arc[j - 1] + _dist(x, j - 1, j)
     c_nl = 1.0 / (8.0 * math.pi * mu)
     for j in range(m):
         # half-edges on either side of node j; the node stands for a segment of length ell
@@ -91,10 +145,17 @@ def lsbt_mobility(x: np.ndarray, t: np.ndarray, mu: float, delta: float, smoothi
             r2 = x[j, 2] - x[i, 2]
             d = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
             rh = (r0 / d, r1 / d, r2 / d)
-            s = c_nl / d
+            c_iso = c_nl / d  # eqn (8): (I + r r) / (8 pi mu r)
+            c_rr = c_nl / d
+            if near_radius > 0.0 and d < 10.0 / 3.0 * near_radius:
+                w = near_field_weight(d, arc[i] - arc[j], near_radius)
+                if w > 0.0:
+                    k_iso, k_rr = rpy_coefficients(d, near_radius, mu)
+                    c_iso = (1.0 - w) * c_iso + w * k_iso
+                    c_rr = (1.0 - w) * c_rr + w * k_rr
             for p in range(3):
                 for k in range(3):
-                    v = s * ((1.0 if p == k else 0.0) + rh[p] * rh[k])
+                    v = c_iso * (1.0 if p == k else 0.0) + c_rr * rh[p] * rh[k]
                     a[3 * j + p, 3 * i + k] = v
                     a[3 * i + p, 3 * j + k] = v
     if smoothing > 0.0 and m >= 3:
@@ -129,7 +190,8 @@ def lsbt_mobility(x: np.ndarray, t: np.ndarray, mu: float, delta: float, smoothi
     return a
 
 
-def mobility_for(x: np.ndarray, mu: float, delta: float, smoothing: float) -> np.ndarray:
+def mobility_for(x: np.ndarray, mu: float, delta: float, smoothing: float,
+                 near_radius: float = 0.0) -> np.ndarray:
     """Convenience: tangents from x, then ``lsbt_mobility``. x: (M,3) m. Returns (3M,3M)."""
     x = np.ascontiguousarray(x, dtype=np.float64)
-    return lsbt_mobility(x, node_tangents(x), mu, delta, smoothing)
+    return lsbt_mobility(x, node_tangents(x), mu, delta, smoothing, near_radius)

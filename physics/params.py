@@ -61,9 +61,11 @@ class SwimmerParams:
     head_radius: float = _f(0.012, "m", "head radius b (0 = no head)", 0.0, 0.1)
     n_nodes: int = _f(122, "-", "number of DER nodes N including the head node (paper: 122)", 8, 2000)
     head_rotation: str = _f("torque_free", "-",
-                            "torque_free: head spins per the torque balance, eqn (13); "
-                            "fixed: head does not spin, flagellum base turns at omega in the lab frame",
-                            choices=("torque_free", "fixed"))
+                            "torque_free: head spins per the torque balance, eqn (13), reciprocal head flow "
+                            "forms; fixed: head does not spin, flagellum base turns at omega in the lab frame; "
+                            "paper: as fixed, with the head flow and force of eqns (10)-(11) as printed "
+                            "(the paper's reading, docs/validation.md)",
+                            choices=("torque_free", "fixed", "paper"))
 
     def __post_init__(self) -> None:
         if isinstance(self.n_nodes, float) and self.n_nodes.is_integer():
@@ -149,6 +151,15 @@ class NumericsConfig:
                          "eqns 10-11) or stokes (own drag and torque only)", choices=("higdon", "stokes"))
     rft_coefficients: str = _f("lighthill", "-", "drag coefficients of the rft model",
                                choices=("lighthill", "gray_hancock"))
+    contact: bool = _f(True, "-", "head-rod and rod-rod contact (penalty energies in the implicit step, "
+                       "physics/contact.py); false only for comparison: the rod can then pass through the "
+                       "head and itself")
+    contact_stiffness: float = _f(0.1, "N", "contact force at zero gap (the penalty's scale)", 0.0, None, True)
+    contact_margin: float = _f(0.25, "-", "activation distance of the contact penalty, in units of the rod "
+                               "radius r0 (the force rises from 0 at this gap)", 0.0, 10.0, True)
+    near_field_radius: float = _f(1.5, "-", "radius a of the RPY near-field kernel that replaces eqn (8)'s "
+                                  "Stokeslet between strands that come close, in units of r0 (0 = plain eqn 8; "
+                                  "physics/lsbt.py)", 0.0, 10.0)
 
     def __post_init__(self) -> None:
         for name in ("newton_max_iter", "hydro_refresh_max_steps", "max_substeps", "anderson_depth"):

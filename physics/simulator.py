@@ -12,6 +12,10 @@ converged step solves eqn (6) up to the resistance's geometry lag; how the linea
 done (and reused) is the job of ``step_solvers``. A failing step is halved up to
 ``max_substeps`` times before a ``SimulationError`` names the step, time and quantity.
 
+Contact (``physics.contact``, on unless ``numerics.contact`` is false): head-rod and rod-rod
+penalty energies join the elastic energy in eqn (6): their gradient is in the residual, their
+Hessian in every Jacobian the solvers factorise.
+
 Motor (Sec. 2.5): the twist angle theta^0 of the first edge is the motor shaft.
 * ``head_rotation="torque_free"`` (default, eqn 13): theta^0 = psi + omega t where psi is the
   head's spin angle; theta^0 is a free DOF whose generalised force includes the head's
@@ -35,6 +39,7 @@ from physics.elastic import elastic_gradient_kernel, rest_from_configuration, ro
 from physics.errors import SimulationError
 from physics.geometry import initial_nodes, layout_for, nodes_of, pack_q
 from physics.anderson import AndersonMixing
+from physics.contact import ContactModel
 from physics.implicit_residual import assemble_residual, block_max_abs
 from physics.params import NumericsConfig, SwimmerParams
 from physics.step_solvers import BandedNewtonSolver, DenseChordSolver, StepFailed
@@ -55,6 +60,7 @@ class StepStats:
     time_linear_solve: float = 0.0  # chord-iteration back-substitutions
     time_resistance_refresh: float = 0.0  # LSBT mobility + Cholesky
     time_jacobian_refresh: float = 0.0  # elastic Hessian, dense R, LU
+    time_contact: float = 0.0  # contact broad and narrow phase in the residual
 
 
 def lumped_masses(params: SwimmerParams, l_bar: np.ndarray, ndof: int, head_spins: bool) -> np.ndarray:
@@ -127,6 +133,11 @@ class Simulator:
         self.node_forces = np.zeros((n, 3))  # hydrodynamic force on each node, N
         self.head_axial_torque = 0.0
         self.motor_torque = 0.0
+        self.contact = (ContactModel(self.rest.l_bar, p.rod_radius, p.head_radius, self.numerics.contact_margin,
+                                     self.numerics.contact_stiffness) if self.numerics.contact else None)
+        self.contact_energy = 0.0  # J, at the last step
+        self.contact_count = 0  # active contact interactions at the last step
+        self._last_contact = (0.0, 0)
         # chord-iteration caches
         self._solver = (DenseChordSolver(self) if self.numerics.hydro_model == "lsbt"
                         else BandedNewtonSolver(self))
@@ -224,10 +235,29 @@ class Simulator:
         """(t, d1, d2, ref_twist, m1, m2) of q, transported from the start-of-step frames."""
         return rod_frames(q, self.d1, self.tangent, self.ref_twist)
 
+    def contact_terms(self, q: np.ndarray):
+        """Contact at q: (energy J, gradient (3n,) N, active nodes (A,4), Hessian blocks (A,12,12) N/m)."""
+        return self.contact.evaluate(nodes_of(q))
+
+    def min_gaps(self) -> tuple[float, float]:
+        """(smallest rod-rod gap d - 2 r0 over non-adjacent edges, smallest head gap d - b - r0), m,
+        of the current shape (a diagnostic over all pairs; see ``physics.contact``)."""
+        model = self.contact or ContactModel(self.rest.l_bar, self.params.rod_radius, self.params.head_radius,
+                                             self.numerics.contact_margin, self.numerics.contact_stiffness)
+        return model.gaps(self.nodes)
+
     def _residual(self, q: np.ndarray, h: float):
         t0 = time.perf_counter()
         t, d1, d2, rt, m1, m2 = self.frames_at(q)
         grad = elastic_gradient_kernel(q, d1, d2, rt, m1, m2, *self.rest_arrays)
+        if self.contact is not None:
+            tc = time.perf_counter()
+            e_c, g_c, nodes_c, _ = self.contact_terms(q)
+            if nodes_c.shape[0]:
+                for k in range(3):
+                    grad[k::4] += g_c[k::3]
+            self._last_contact = (e_c, nodes_c.shape[0])
+            self.stats.time_contact += time.perf_counter() - tc
         t1 = time.perf_counter()
         G, Q = self._solver.hydro_force(q, h)
         self.stats.time_elastic += t1 - t0
@@ -323,6 +353,8 @@ class Simulator:
         self.head_axial_torque = float(f[3]) if self.head_spins else 0.0
         self.motor_torque = float(grad[3])
         self._update_body_frame(old_axis, dq[3] - h * self.omega)
+        if self.contact is not None:
+            self.contact_energy, self.contact_count = self._last_contact
 
     def _update_body_frame(self, old_axis: np.ndarray, dpsi: float) -> None:
         """Transport the body frame to the new axis, then spin it by the head's rotation dpsi."""

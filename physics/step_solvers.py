@@ -26,6 +26,7 @@ import numpy as np
 from numba import njit
 from scipy.linalg import lapack, lu_factor, solve_banded
 
+from physics.contact import add_blocks_to_dense
 from physics.elastic import BANDWIDTH, banded_to_dense, elastic_hessian_banded_kernel
 from physics.geometry import nodes_of
 from physics.hydrodynamics import HydroError, ResistanceOperator
@@ -64,6 +65,7 @@ class DenseChordSolver:
         self.x_jac: np.ndarray | None = None
         self.Qh = self.Qj = _EYE
         self.jac_fresh = False
+        self.contact_set: frozenset | None = None
 
     def _refresh_hydro(self, q: np.ndarray) -> None:
         sim = self.sim
@@ -72,7 +74,9 @@ class DenseChordSolver:
         x = nodes_of(q)
         try:
             self.hyd = ResistanceOperator(x, p.viscosity, p.cutoff_length, p.head_radius, sim.head_spins,
-                                          nm.lsbt_smoothing, head_coupling=nm.head_model == "higdon")
+                                          nm.lsbt_smoothing, head_coupling=nm.head_model == "higdon",
+                                          near_radius=nm.near_field_radius * p.rod_radius,
+                                          printed_head=p.head_rotation == "paper")
         except HydroError as exc:
             raise StepFailed("hydrodynamic mobility", str(exc)) from None
         self.x_hyd = x
@@ -96,6 +100,11 @@ class DenseChordSolver:
         J = banded_to_dense(elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *sim.rest_arrays))
         J[np.diag_indices_from(J)] += sim.mass / h**2
         J[np.ix_(sim.vdofs, sim.vdofs)] += Rq / h
+        self.contact_set = None
+        if sim.contact is not None:
+            _, _, nodes_c, blocks_c = sim.contact_terms(q)
+            add_blocks_to_dense(J, nodes_c, blocks_c, 4)
+            self.contact_set = _contact_signature(nodes_c)
         for k in sim.prescribed:
             J[k, :] = 0.0
             J[:, k] = 0.0
@@ -122,12 +131,21 @@ class DenseChordSolver:
                 Qh, dev = best_fit_rotation(self.x_hyd, x_pred)
                 if dev > nm.hydro_refresh_tol * p.rod_radius:
                     self._refresh_hydro(q_pred)
-            if nm.single_iteration:  # one linearly implicit solve per step needs the current Jacobian
+            if nm.single_iteration or self._contacts_changed(q_pred):
+                # one linearly implicit solve per step needs the current Jacobian, and so does a
+                # contact that has started or ended since the last factorisation (its stiffness
+                # dominates the iteration)
                 self._refresh_jacobian(q_pred, h, keep_resistance=True)
                 self.jac_fresh = True
         # a resistance rebuilt this step sits at x_pred already; otherwise reuse the fit above
         self.Qh = _EYE if self.since_hydro == 0 else Qh
         self.Qj = _EYE if self.jac_fresh else best_fit_rotation(self.x_jac, x_pred)[0]
+
+    def _contacts_changed(self, q: np.ndarray) -> bool:
+        sim = self.sim
+        if sim.contact is None:
+            return False
+        return _contact_signature(sim.contact_terms(q)[2]) != self.contact_set
 
     def hydro_force(self, q: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
         """(-R V in the resistance's reference frame, the rotation Q back to the lab frame)."""
@@ -153,6 +171,11 @@ class DenseChordSolver:
 
     def end_step(self) -> None:
         self.since_hydro += 1
+
+
+def _contact_signature(nodes: np.ndarray) -> frozenset:
+    """The set of active contact interactions (their node quadruples)."""
+    return frozenset(map(tuple, nodes.tolist()))
 
 
 def _rotate_dense(R: np.ndarray, Q: np.ndarray, spin: bool) -> np.ndarray:
@@ -205,6 +228,9 @@ class BandedNewtonSolver:
         ab = elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *sim.rest_arrays)
         _add_banded_hydro(ab, sim.mass / h**2, self.blocks / h, self.first,
                           self.drag_t / h, self.drag_r / h if sim.head_spins else 0.0)
+        if sim.contact is not None:  # the contact Hessian's node blocks that fit in the band
+            _, _, nodes_c, blocks_c = sim.contact_terms(q)
+            _add_blocks_to_banded(ab, nodes_c, blocks_c)
         for k in sim.prescribed:
             _banded_dirichlet(ab, int(k))
         sim.stats.jacobian_factorisations += 1
@@ -246,3 +272,19 @@ def _banded_dirichlet(ab: np.ndarray, k: int) -> None:
     for i in range(ab.shape[0]):
         ab[i, k] = 0.0  # column k
     ab[bw, k] = 1.0
+
+
+@njit(cache=True)
+def _add_blocks_to_banded(ab: np.ndarray, nodes: np.ndarray, blocks: np.ndarray) -> None:
+    """Add the entries of contact Hessian blocks that lie within the band (others are dropped:
+    a quasi-Newton Jacobian for contact between distant parts of the rod)."""
+    bw = 10  # BANDWIDTH of physics.elastic
+    for a in range(nodes.shape[0]):
+        for p in range(4):
+            for q in range(4):
+                for k in range(3):
+                    for m in range(3):
+                        i = 4 * nodes[a, p] + k
+                        j = 4 * nodes[a, q] + m
+                        if abs(i - j) <= bw:
+                            ab[bw + i - j, j] += blocks[a, 3 * p + k, 3 * q + m]

@@ -1,0 +1,133 @@
+"""Contact energies (physics/contact.py): derivatives against finite differences, the broad
+phase against brute force, and swimmers pushed onto the head and onto themselves keeping
+their gap."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from physics.contact import ContactModel, add_blocks_to_dense, candidate_pairs, contact_kernel
+
+R0 = 1e-3
+EPS = 0.25 * R0
+K = 0.1
+
+
+def _energy_grad_hess(x: np.ndarray, b: float):
+    """Energy, gradient (3n,) and dense Hessian (3n,3n) of every pair of x (brute-force pairs)."""
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(x, axis=0), axis=1))])
+    first = 1 if b > 0 else 0
+    pairs = candidate_pairs(x, arc, first, math.pi * R0, np.inf)
+    E, g, nodes, blocks = contact_kernel(x, pairs, b, 2, R0, EPS, K)
+    H = np.zeros((x.size, x.size))
+    add_blocks_to_dense(H, nodes, blocks, 3)
+    return E, g, H, len(nodes)
+
+
+def _check_fd(x: np.ndarray, b: float) -> int:
+    E, g, H, active = _energy_grad_hess(x, b)
+    h = 1e-8
+    g_fd = np.zeros_like(g)
+    H_fd = np.zeros_like(H)
+    for i in range(x.size):
+        xp = x.copy().ravel()
+        xm = x.copy().ravel()
+        xp[i] += h
+        xm[i] -= h
+        Ep, gp, _, _ = _energy_grad_hess(xp.reshape(-1, 3), b)
+        Em, gm, _, _ = _energy_grad_hess(xm.reshape(-1, 3), b)
+        g_fd[i] = (Ep - Em) / (2 * h)
+        H_fd[:, i] = (gp - gm) / (2 * h)
+    scale_g = np.abs(g).max() + 1e-30
+    scale_h = np.abs(H).max() + 1e-30
+    assert np.abs(g - g_fd).max() <= 1e-5 * scale_g
+    assert np.abs(H - H_fd).max() <= 1e-4 * scale_h
+    return active
+
+
+def _two_segments(a, b, c, d):
+    """A 7-node rod whose edges 0 and 5 are a-b and c-d (edges between them are far away)."""
+    far1 = b + 5 * (b - a) - np.array([0.0, 0.0, 0.01])
+    far2 = c + 5 * (c - d) - np.array([0.0, 0.0, 0.01])
+    mid = 0.5 * (far1 + far2) - np.array([0.0, 0.0, 0.01])
+    return np.array([a, b, far1, mid, far2, c, d])
+
+
+@pytest.mark.parametrize("case", ["interior", "end_interior", "end_end", "parallel", "crossing_skew"])
+def test_rod_rod_gradient_and_hessian_match_finite_differences(case):
+    rng = np.random.default_rng(3)
+    z = 2 * R0 + 0.1 * EPS  # inside the activation distance, outside contact
+    if case == "interior":
+        a, b = np.array([-2e-3, 0, 0]), np.array([2e-3, 0.1e-3, 0])
+        c, d = np.array([0.1e-3, -2e-3, z]), np.array([-0.1e-3, 2e-3, z])
+    elif case == "end_interior":
+        a, b = np.array([-2e-3, 0, 0]), np.array([2e-3, 0, 0])
+        c, d = np.array([2.15e-3, -2e-3, z]), np.array([2.1e-3, 2e-3, z])
+    elif case == "end_end":
+        a, b = np.array([-2e-3, 0, 0]), np.array([0.0, 0, 0])
+        c, d = np.array([0.3e-3, 0.2e-3, z]), np.array([2e-3, 1e-3, 3e-3])
+    elif case == "parallel":
+        a, b = np.array([-1e-3, 0, 0]), np.array([1e-3, 0, 0])
+        c, d = np.array([-0.5e-3, 0, z]), np.array([1.5e-3, 0, z + 1e-9])
+    else:
+        a, b = np.array([-2e-3, 0, 0]), np.array([2e-3, 0, 0])
+        c, d = np.array([0.2e-3, -2e-3, 1.7e-3]), np.array([0.1e-3, 2e-3, 2.3e-3])
+    x = _two_segments(a, b, c, d) + 1e-6 * rng.standard_normal((7, 3))
+    assert _check_fd(x, 0.0) >= 1
+
+
+def test_head_gradient_and_hessian_match_finite_differences():
+    b = 0.012
+    rng = np.random.default_rng(5)
+    # head centre, arm node on the surface, then a rod that comes back close to the head
+    x = np.array([[0, 0, 0], [-b, 0, 0], [-b - 5e-3, 5e-3, 0], [-5e-3, 11e-3, 0.0],
+                  [1e-3, 12.5e-3, 1e-3], [6e-3, 13e-3, 0.0]]) + 1e-6 * rng.standard_normal((6, 3))
+    assert _check_fd(x, b) >= 1
+
+
+def test_penalty_is_zero_outside_the_activation_distance():
+    x = _two_segments(np.array([-2e-3, 0, 0]), np.array([2e-3, 0, 0]),
+                      np.array([0, -2e-3, 2 * R0 + 1.01 * EPS]), np.array([0, 2e-3, 2 * R0 + 1.01 * EPS]))
+    E, g, H, active = _energy_grad_hess(x, 0.0)
+    assert active == 0 and E == 0.0 and not g.any()
+
+
+def test_broad_phase_finds_every_pair_within_reach():
+    """Sweep and prune returns exactly the pairs a brute-force box test returns."""
+    rng = np.random.default_rng(11)
+    steps = rng.standard_normal((150, 3))
+    steps *= 1.6e-3 / np.linalg.norm(steps, axis=1)[:, None]
+    x = np.cumsum(steps, axis=0)  # a random walk folds back on itself often
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(x, axis=0), axis=1))])
+    reach = 2 * R0 + EPS
+    got = {tuple(p) for p in candidate_pairs(x, arc, 0, math.pi * R0, reach)}
+    want = set()
+    for i in range(len(x) - 1):
+        for j in range(i + 2, len(x) - 1):
+            if arc[j] - arc[i + 1] < math.pi * R0:
+                continue
+            lo_i, hi_i = np.minimum(x[i], x[i + 1]), np.maximum(x[i], x[i + 1])
+            lo_j, hi_j = np.minimum(x[j], x[j + 1]), np.maximum(x[j], x[j + 1])
+            if np.all(lo_i - reach <= hi_j) and np.all(lo_j - reach <= hi_i):
+                want.add((i, j))
+    assert got == want and len(want) > 0
+
+
+def test_straight_swimmer_has_no_contact_work():
+    """The undeformed helix: the broad phase passes only pairs two edges apart along the rod (boxes
+    within reach, centre lines 3.3 mm apart), the narrow phase none."""
+    from physics.geometry import initial_nodes
+    from physics.params import SwimmerParams
+
+    p = SwimmerParams()
+    x = initial_nodes(p)
+    model = ContactModel(np.linalg.norm(np.diff(x, axis=0), axis=1), p.rod_radius, p.head_radius, 0.25, K)
+    pairs = model.pairs(x)
+    assert np.all(model.arc[pairs[:, 1]] - model.arc[pairs[:, 0] + 1] < 4 * R0)
+    E, g, nodes, _ = model.evaluate(x)
+    assert E == 0.0 and len(nodes) == 0
+    g_rr, g_h = model.gaps(x)
+    assert g_rr > EPS and g_h > 4 * R0
