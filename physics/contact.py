@@ -221,12 +221,45 @@ def candidate_pairs(x: np.ndarray, arc: np.ndarray, first_edge: int, min_arc_gap
 
 
 @njit(cache=True)
-def contact_kernel(x: np.ndarray, pairs: np.ndarray, head_radius: float, first_head_edge: int,
+def within_reach(x: np.ndarray, pairs: np.ndarray, reach: float) -> np.ndarray:
+    """The pairs of ``pairs`` whose centre lines are closer than ``reach`` (m). (P',2) int64."""
+    keep = np.zeros(pairs.shape[0], dtype=np.bool_)
+    for p in range(pairs.shape[0]):
+        i, j = pairs[p, 0], pairs[p, 1]
+        a, b, c, d = x[i], x[i + 1], x[j], x[j + 1]
+        s, t = _closest_params(a, b, c, d)
+        w = (1.0 - s) * a + s * b - (1.0 - t) * c - t * d
+        keep[p] = w @ w < reach * reach
+    return pairs[keep]
+
+
+@njit(cache=True)
+def head_candidates(x: np.ndarray, first_head_edge: int, reach: float) -> np.ndarray:
+    """Broad phase for the head: edges from ``first_head_edge`` on whose bounding box comes
+    within ``reach`` (m) of the head centre x[0]. (H,) int64."""
+    out = np.empty(x.shape[0], dtype=np.int64)
+    cnt = 0
+    for i in range(first_head_edge, x.shape[0] - 1):
+        near = True
+        for k in range(3):
+            lo = min(x[i, k], x[i + 1, k]) - reach
+            hi = max(x[i, k], x[i + 1, k]) + reach
+            if x[0, k] < lo or x[0, k] > hi:
+                near = False
+                break
+        if near:
+            out[cnt] = i
+            cnt += 1
+    return out[:cnt].copy()
+
+
+@njit(cache=True)
+def contact_kernel(x: np.ndarray, pairs: np.ndarray, head_radius: float, head_edges: np.ndarray,
                    r0: float, eps: float, k: float):
     """Contact energy, gradient and local Hessians.
 
     x: (n,3) nodes, m (x[0] the head centre when head_radius > 0); pairs: (P,2) candidate edge
-    pairs; first_head_edge: first edge tested against the head. eps: activation margin, m;
+    pairs; head_edges: (H,) candidate edges for the head. eps: activation margin, m;
     k: contact force at zero gap, N. Returns (E [J], grad (3n,) [N], nodes (A,4) int64,
     blocks (A,12,12) [N/m]) over the A active interactions; a head interaction lists its node
     as (0, 0, i, i+1) with the head centre as a point (its block is zero in the second slot).
@@ -234,7 +267,7 @@ def contact_kernel(x: np.ndarray, pairs: np.ndarray, head_radius: float, first_h
     n = x.shape[0]
     grad = np.zeros(3 * n)
     npairs = pairs.shape[0]
-    nmax = npairs + n
+    nmax = npairs + head_edges.shape[0]
     nodes = np.empty((nmax, 4), dtype=np.int64)
     blocks = np.empty((nmax, 12, 12))
     g12 = np.empty(12)
@@ -261,7 +294,7 @@ def contact_kernel(x: np.ndarray, pairs: np.ndarray, head_radius: float, first_h
     if head_radius > 0.0:
         dmin_h = head_radius + r0
         h0 = x[0]
-        for i in range(first_head_edge, n - 1):
+        for i in head_edges:
             c, d = x[i], x[i + 1]
             e = d - c
             t = min(max((h0 - c) @ e / (e @ e), 0.0), 1.0)
@@ -310,7 +343,9 @@ def add_blocks_to_dense(J: np.ndarray, nodes: np.ndarray, blocks: np.ndarray, st
 class ContactModel:
     """Contact of one swimmer: which edges take part, distances, stiffness (SI).
 
-    ``evaluate(x)`` -> (E, grad (3n,), nodes, blocks); see ``contact_kernel``.
+    The broad phase runs once per time step (``broad_phase``, padded by how far the nodes may
+    move within the step); the narrow phase (``evaluate``) then only looks at its candidates,
+    and is skipped altogether when there are none (``Candidates.empty``).
     """
 
     def __init__(self, rest_edge_lengths: np.ndarray, rod_radius: float, head_radius: float,
@@ -325,15 +360,25 @@ class ContactModel:
         self.first_rod_edge = 1 if has_head else 0
         self.first_head_edge = 2  # e0 and e1 are attached to the head
         self.min_arc_gap = math.pi * self.r0
-        self.reach = 2.0 * self.r0 + self.eps
+        self._no_edges = np.zeros(0, dtype=np.int64)
 
-    def pairs(self, x: np.ndarray) -> np.ndarray:
-        """Candidate rod-rod edge pairs at x (n,3) (broad phase)."""
-        return candidate_pairs(x, self.arc, self.first_rod_edge, self.min_arc_gap, self.reach)
-
-    def evaluate(self, x: np.ndarray):
+    def broad_phase(self, x: np.ndarray, pad: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """(rod-rod candidate pairs (P,2), head candidate edges (H,)) at x (n,3), m, with boxes
+        padded by the contact distance, the activation margin and ``pad`` (m)."""
         x = np.ascontiguousarray(x)
-        return contact_kernel(x, self.pairs(x), self.b, self.first_head_edge, self.r0, self.eps, self.k)
+        reach = 2.0 * self.r0 + self.eps + pad
+        pairs = within_reach(x, candidate_pairs(x, self.arc, self.first_rod_edge, self.min_arc_gap, reach), reach)
+        if self.b > 0.0:
+            head = head_candidates(x, self.first_head_edge, self.b + self.r0 + self.eps + pad)
+        else:
+            head = self._no_edges
+        return pairs, head
+
+    def evaluate(self, x: np.ndarray, candidates: tuple[np.ndarray, np.ndarray] | None = None):
+        """(E J, grad (3n,) N, nodes (A,4), Hessian blocks (A,12,12) N/m) at x (n,3), m."""
+        x = np.ascontiguousarray(x)
+        pairs, head = candidates if candidates is not None else self.broad_phase(x)
+        return contact_kernel(x, pairs, self.b, head, self.r0, self.eps, self.k)
 
     def gaps(self, x: np.ndarray) -> tuple[float, float]:
         """(smallest rod-rod gap d - 2 r0 over non-adjacent edges, smallest head gap d - b - r0), m.

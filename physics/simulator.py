@@ -236,8 +236,19 @@ class Simulator:
         return rod_frames(q, self.d1, self.tangent, self.ref_twist)
 
     def contact_terms(self, q: np.ndarray):
-        """Contact at q: (energy J, gradient (3n,) N, active nodes (A,4), Hessian blocks (A,12,12) N/m)."""
-        return self.contact.evaluate(nodes_of(q))
+        """Contact at q: (energy J, gradient (3n,) N, active nodes (A,4), Hessian blocks (A,12,12) N/m),
+        over this step's broad-phase candidates."""
+        return self.contact.evaluate(nodes_of(q), self._contact_candidates)
+
+    def _contact_broad_phase(self, q_pred: np.ndarray) -> None:
+        """This step's contact candidates, padded by twice the predicted motion of any node (and at
+        least r0 / 2): the Newton iterates stay that close to the predictor (checked in ``_residual``)."""
+        x_pred = nodes_of(q_pred)
+        move = float(np.abs(q_pred[self._pos] - self.q[self._pos]).max()) if self.step_count else 0.0
+        self._contact_pad = max(0.5 * self.params.rod_radius, 2.0 * move)
+        self._contact_candidates = self.contact.broad_phase(x_pred, self._contact_pad)
+        self._contact_x = x_pred
+        self._contact_none = len(self._contact_candidates[0]) == 0 and len(self._contact_candidates[1]) == 0
 
     def min_gaps(self) -> tuple[float, float]:
         """(smallest rod-rod gap d - 2 r0 over non-adjacent edges, smallest head gap d - b - r0), m,
@@ -252,11 +263,17 @@ class Simulator:
         grad = elastic_gradient_kernel(q, d1, d2, rt, m1, m2, *self.rest_arrays)
         if self.contact is not None:
             tc = time.perf_counter()
-            e_c, g_c, nodes_c, _ = self.contact_terms(q)
-            if nodes_c.shape[0]:
-                for k in range(3):
-                    grad[k::4] += g_c[k::3]
-            self._last_contact = (e_c, nodes_c.shape[0])
+            if block_max_abs(q - self._contact_q, self._pos) > 0.5 * self._contact_pad:
+                self._contact_broad_phase(q)  # the iterate left the padded boxes: redo the broad phase
+                self._contact_q = q.copy()
+            if self._contact_none:
+                self._last_contact = (0.0, 0)
+            else:
+                e_c, g_c, nodes_c, _ = self.contact_terms(q)
+                if nodes_c.shape[0]:
+                    for k in range(3):
+                        grad[k::4] += g_c[k::3]
+                self._last_contact = (e_c, nodes_c.shape[0])
             self.stats.time_contact += time.perf_counter() - tc
         t1 = time.perf_counter()
         G, Q = self._solver.hydro_force(q, h)
@@ -281,6 +298,9 @@ class Simulator:
         # predictor: constant acceleration over the last two steps (first step: constant velocity)
         q = self.q + h * (2.0 * self.v - self._v_prev) if self._v_prev is not None else self.q + h * self.v
         q[self.prescribed] = self.q[self.prescribed] + h * self.omega
+        if self.contact is not None:
+            self._contact_broad_phase(q)
+            self._contact_q = q.copy()
         self._solver.begin_step(q, h)
         hist = [math.inf, math.inf]
         accel = AndersonMixing(self._anderson_weights, self.numerics.anderson_depth)

@@ -133,8 +133,7 @@ class DenseChordSolver:
                     self._refresh_hydro(q_pred)
             if nm.single_iteration or self._contacts_changed(q_pred):
                 # one linearly implicit solve per step needs the current Jacobian, and so does a
-                # contact that has started or ended since the last factorisation (its stiffness
-                # dominates the iteration)
+                # contact that has started since the last factorisation
                 self._refresh_jacobian(q_pred, h, keep_resistance=True)
                 self.jac_fresh = True
         # a resistance rebuilt this step sits at x_pred already; otherwise reuse the fit above
@@ -145,7 +144,10 @@ class DenseChordSolver:
         sim = self.sim
         if sim.contact is None:
             return False
-        return _contact_signature(sim.contact_terms(q)[2]) != self.contact_set
+        # a contact the Jacobian lacks: its stiffness would be missing from the chord iteration. One
+        # that has ended only leaves extra stiffness (slower, still contracting): no refresh for that
+        now = _contact_signature(sim.contact_terms(q)[2])
+        return not now <= self.contact_set if self.contact_set is not None else bool(now)
 
     def hydro_force(self, q: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
         """(-R V in the resistance's reference frame, the rotation Q back to the lab frame)."""
