@@ -40,7 +40,8 @@ def head_flow_operators(x: np.ndarray, x_head: np.ndarray, axis: np.ndarray,
     x: (M,3) node positions, m; x_head: (3,) head centre, m; axis: (3,) unit spin axis;
     b: head radius, m. Returns H (3M,3), dimensionless, and g (3M,), m/s per rad/s.
     A node closer to the centre than b (possible only with contact switched off) is evaluated
-    on the surface along its direction: the flow is never evaluated inside the head.
+    on the surface along its direction: the flow is never evaluated inside the head. The first
+    node x[0] (x1, the end of e0 on the head's surface) is evaluated where it is.
     """
     m = x.shape[0]
     H = np.zeros((3 * m, 3))
@@ -48,11 +49,11 @@ def head_flow_operators(x: np.ndarray, x_head: np.ndarray, axis: np.ndarray,
     b3 = b * b * b
     for j in range(m):
         r = x[j] - x_head
-        d = max(math.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2), b)
+        rn = math.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
+        d = rn if j == 0 else max(rn, b)  # x1 (j = 0) is attached to the surface: never moved
         d3 = d * d * d
         iso = 0.75 * b / d + 0.25 * b3 / d3
         rad = 0.75 * b / d - 0.75 * b3 / d3
-        rn = np.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
         rs = r * (d / rn)  # r moved out onto the surface if it was inside
         for p in range(3):
             for k in range(3):
@@ -83,7 +84,7 @@ def head_operators_as_printed(x: np.ndarray, x_head: np.ndarray, b: float) -> tu
     for j in range(m):
         r = x[j] - x_head
         rn = math.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
-        d = max(rn, b)
+        d = rn if j == 0 else max(rn, b)  # x1 (j = 0) is attached to the surface: never moved
         rs = r * (d / rn)
         d3 = d * d * d
         h_iso = 0.75 * b / d + 0.25 * b3 / d3

@@ -145,19 +145,25 @@ def lsbt_mobility(x: np.ndarray, t: np.ndarray, mu: float, delta: float, smoothi
             r2 = x[j, 2] - x[i, 2]
             d = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
             rh = (r0 / d, r1 / d, r2 / d)
-            c_iso = c_nl / d  # eqn (8): (I + r r) / (8 pi mu r)
-            c_rr = c_nl / d
+            s = c_nl / d  # eqn (8): (I + r r) / (8 pi mu r)
+            w = 0.0
             if near_radius > 0.0 and d < 10.0 / 3.0 * near_radius:
                 w = near_field_weight(d, arc[i] - arc[j], near_radius)
-                if w > 0.0:
-                    k_iso, k_rr = rpy_coefficients(d, near_radius, mu)
-                    c_iso = (1.0 - w) * c_iso + w * k_iso
-                    c_rr = (1.0 - w) * c_rr + w * k_rr
-            for p in range(3):
-                for k in range(3):
-                    v = c_iso * (1.0 if p == k else 0.0) + c_rr * rh[p] * rh[k]
-                    a[3 * j + p, 3 * i + k] = v
-                    a[3 * i + p, 3 * j + k] = v
+            if w == 0.0:
+                for p in range(3):
+                    for k in range(3):
+                        v = s * ((1.0 if p == k else 0.0) + rh[p] * rh[k])
+                        a[3 * j + p, 3 * i + k] = v
+                        a[3 * i + p, 3 * j + k] = v
+            else:  # near field: blend the Stokeslet into the RPY tensor
+                k_iso, k_rr = rpy_coefficients(d, near_radius, mu)
+                c_iso = (1.0 - w) * s + w * k_iso
+                c_rr = (1.0 - w) * s + w * k_rr
+                for p in range(3):
+                    for k in range(3):
+                        v = c_iso * (1.0 if p == k else 0.0) + c_rr * rh[p] * rh[k]
+                        a[3 * j + p, 3 * i + k] = v
+                        a[3 * i + p, 3 * j + k] = v
     if smoothing > 0.0 and m >= 3:
         w = smoothing / (8.0 * math.pi * mu * 2.0 * delta) / 16.0
         # D2^T D2, D2 the second derivative along arc length times (2 delta)^2, so that on the

@@ -132,13 +132,16 @@ def test_head_forms_as_printed_are_eqns_10_and_11():
 
 
 def test_head_flow_is_never_evaluated_inside_the_head():
-    """A node inside the sphere sees the flow of the surface point in its direction."""
-    r = np.array([[0.3 * B, 0.2 * B, 0.0]])
-    on_surface = r / np.linalg.norm(r) * B
+    """A node inside the sphere sees the flow of the surface point in its direction (the first
+    node, x1, sits on the surface by construction and is evaluated where it is)."""
+    x1 = np.array([-B, 0.0, 0.0])
+    r = np.array([x1, [0.3 * B, 0.2 * B, 0.0]])
+    on_surface = np.array([x1, r[1] / np.linalg.norm(r[1]) * B])
     axis = np.array([1.0, 0.0, 0.0])
     for op in (lambda y: head_flow_operators(y, np.zeros(3), axis, B)[0],
                lambda y: head_operators_as_printed(y, np.zeros(3), B)[0]):
         np.testing.assert_allclose(op(r), op(on_surface), rtol=1e-12)
+        assert np.abs(op(r)[3:6]).max() < 2.0  # bounded: the surface value, not the inside one
 
 
 def test_resistance_with_printed_head_forms_is_not_symmetric():
