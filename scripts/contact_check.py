@@ -94,11 +94,11 @@ def main(argv: list[str] | None = None) -> int:
     todo = [r for r in args.runs if r not in done]
     stamp = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "machine": platform.platform(),
              "commit": subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
-                                      text=True).stdout.strip(), "load_avg": os.getloadavg()}
+                                      text=True).stdout.strip()}
     with ProcessPoolExecutor(args.workers) as pool:
         futs = {pool.submit(run_one, r, args.check_every): r for r in todo}
         for f in as_completed(futs):
-            row = {**f.result(), **stamp}
+            row = {**f.result(), **stamp, "load_avg": os.getloadavg()}  # the load as the run ends
             with jl.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")
             done[row["run"]] = row
