@@ -133,34 +133,36 @@ class Plan:
         return lo, hi
 
     def pending(self) -> list[tuple]:
-        """Runs that can start now (their inputs are known)."""
-        tasks = []
+        """Runs that can start now (their inputs are known), most needed first: the low speeds, then
+        the b = 1.2 cm bisection and R9 under the paper's reading, then the other heads' bisection."""
+        low, main, other = [], [], []
         for reading in READINGS:
             for b in HEADS_M:
                 for rpm in LOW_RPM:
                     if self._point(reading, b, rpm) is None:
-                        tasks.append(("point", reading, b, rpm))
+                        low.append(("point", reading, b, rpm))
                 lo, hi = self.bracket(reading, b)
                 if lo is None:
                     continue  # the low speeds are still running
                 width = 2.0 if abs(b - 0.012) < 1e-9 else 5.0
                 if hi is None:
-                    nxt = {30.0: 90.0, 90.0: 150.0, 150.0: 240.0}.get(lo)
+                    nxt = {30.0: 90.0, 90.0: 150.0}.get(lo)
                     if nxt is None and lo < 90.0:
                         nxt = 90.0
                     if nxt is None:
-                        continue  # no buckling up to 240 rpm: reported as such
+                        continue  # no buckling up to 150 rpm (past the paper's speed axis): reported as such
                 elif hi - lo > width:
                     nxt = round(0.5 * (lo + hi), 2)
                 else:
                     continue
-                tasks.append(("point", reading, b, nxt))
-        # R9 (the paper's protocol) under both readings, b = 1.2 cm
-        for reading in READINGS:
+                (main if abs(b - 0.012) < 1e-9 else other).append(("point", reading, b, nxt))
+        # R9 (the paper's protocol), b = 1.2 cm: the paper's reading first
+        turns = []
+        for reading in ("paper", "torque_free"):
             for t_c in R9_TC_S:
                 if _key("turn", reading, 0.012, t_c) not in self.done:
-                    tasks.append(("turn", reading, 0.012, t_c))
-        return tasks
+                    turns.append(("turn", reading, 0.012, t_c))
+        return low + main + turns[:len(R9_TC_S)] + other + turns[len(R9_TC_S):]
 
 
 def _submit(pool, task, dt):
