@@ -74,6 +74,7 @@ def run_corner(name: str, changes: dict, duration: float, max_steps: int) -> dic
         rec.update(outcome="ok" if bounded else "crash", sim_time_s=sim.time, steps=steps,
                    halvings=sim.stats.halvings, edge_ratio=[float(lengths.min()), float(lengths.max())],
                    end_to_end=sim.end_to_end_ratio(), newton_per_step=sim.stats.newton_iterations / max(steps, 1),
+                   min_gaps_mm=[1e3 * g for g in sim.min_gaps()],
                    message=None if bounded else "state not finite/bounded without an error")
     except SimulationError as exc:
         rec.update(outcome="error", message=str(exc), quantity=exc.quantity)
@@ -91,16 +92,19 @@ def _init() -> None:
 def write_md(recs: list[dict], path: Path, command: str) -> None:
     lines = ["# Stability at the extremes", "",
              f"Produced by `{command}` on {time.strftime('%Y-%m-%d %H:%M')}. Base: N = {BASE['n_nodes']}, "
-             f"h = {BASE['dt'] * 1e3:g} ms, b = 1.2 cm, LSBT + Higdon head, torque-free head, 10 rpm, from rest; "
+             f"h = {BASE['dt'] * 1e3:g} ms, b = 1.2 cm, LSBT + Higdon head, torque-free head, contact on, 10 rpm, from rest; "
              "each run a few simulated seconds. Outcomes: ok (finite, every edge within 0.5-2x its rest length), "
              "error (a SimulationError with its message), crash (anything else: a bug).", "",
-             "| corner | outcome | sim time (s) | halvings | Newton it/step | L'/L | wall (s) | message |",
-             "|---|---|---|---|---|---|---|---|"]
+             "Smallest gaps at the end of the run (mm): rod-rod = centre-line distance of non-adjacent edges - 2 r0, "
+             "head = edge to head centre - b - r0 (negative = overlap; the contact margin is 0.25 r0).", "",
+             "| corner | outcome | sim time (s) | halvings | Newton it/step | L'/L | gaps rod-rod / head (mm) | wall (s) | message |",
+             "|---|---|---|---|---|---|---|---|---|"]
     order = {name: i for i, (name, _) in enumerate(CORNERS)}
     for r in sorted(recs, key=lambda r: order.get(r["corner"], 99)):
         lines.append(f"| {r['corner']} | {r['outcome']} | {r.get('sim_time_s', 0):.3g} | {r.get('halvings', '—')} | "
                      f"{r.get('newton_per_step', float('nan')):.2f} | {r.get('end_to_end', float('nan')):.3f} | "
-                     f"{r['wall_s']:.1f} | {(r.get('message') or '').replace('|', '/')[:160]} |")
+                     + (" / ".join(f"{g:.2f}" for g in r["min_gaps_mm"]) if r.get("min_gaps_mm") else "—")
+                     + f" | {r['wall_s']:.1f} | {(r.get('message') or '').replace('|', '/')[:160]} |")
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("\n".join(lines) + "\n")
 
