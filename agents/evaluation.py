@@ -19,8 +19,8 @@ from pathlib import Path
 from typing import Any
 
 from agents.path_following import METRICS, EpisodeTask, controller_kind
-from flagellum.sweep_store import ResultsStore
-from flagellum.task_pool import pending, run_tasks
+from batch.store import ResultsStore
+from batch.pool import pending, run_tasks
 from flagellum_env.paths import WaypointPath, load_path, square_path
 
 AGGREGATED = ("waypoints_reached", "mean_cross_track_m", "max_cross_track_m", "max_out_of_plane_ratio", "time_s",

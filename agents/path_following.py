@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from flagellum.sweep_worker import PointOutcome
+from batch.worker import PointOutcome
 from flagellum_env.paths import WaypointPath
 
 METRICS = ("success", "waypoints_reached", "mean_cross_track_m", "max_cross_track_m", "max_out_of_plane_ratio",
@@ -42,12 +42,6 @@ METRICS = ("success", "waypoints_reached", "mean_cross_track_m", "max_cross_trac
 #: grow by up to ~100 deg per second of burst (paper preset), so it steps every 0.1 s.
 #: The PPO agent corrects the planner's turns (agents.residual_planner), so it steps like the planner.
 CONTROLLER_ENV_DEFAULTS: dict[str, dict[str, Any]] = {"rule": {"control_dt": 0.1}, "ppo": {"control_dt": 0.1}}
-TURN_MAP_DIR = Path(__file__).resolve().parent.parent / "data" / "turn_maps"
-
-
-def default_turn_map(preset: str) -> Path:
-    """The committed turn map of a preset (made by ``flagellum calibrate-turns``)."""
-    return TURN_MAP_DIR / f"{preset}.json"
 
 
 def controller_kind(spec: str) -> str:
@@ -64,7 +58,7 @@ def make_controller(spec: str, env, preset: str):
     kind = controller_kind(spec)
     arg = spec.split(":", 1)[1] if ":" in spec else None
     if kind == "rule":
-        from agents.turn_map import TurnMap
+        from agents.turn_map import TurnMap, default_turn_map
         from agents.turn_planner import RulePlanner
 
         path = Path(arg) if arg else default_turn_map(preset)

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from agents.residual_planner import N_FEATURES, ResidualLimits, ResidualPlanner
+from agents.turn_map import TurnMap, default_turn_map
 
 #: The pretrained agent shipped with the package.
 PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained" / "ppo_residual_fast"
@@ -94,9 +95,6 @@ class PPOController(ResidualPlanner):
 
 def load_ppo_controller(arg: str | None, env, preset: str) -> PPOController:
     """``--controller ppo[:PATH]`` for this env: the agent plus the turn map of ``preset``."""
-    from agents.path_following import default_turn_map
-    from agents.turn_map import TurnMap
-
     agent = load_agent(arg)
     tmap_file = default_turn_map(preset)
     if not tmap_file.is_file():

@@ -1,8 +1,8 @@
 """``flagellum calibrate-turns``: measure the turn map (t_c x burst phase) in parallel, resumably.
 
-Every (t_c, phase) pair is one task of the shared task pool (``flagellum.task_pool``): it
+Every (t_c, phase) pair is one task of the shared task pool (``batch.pool``): it
 starts from the environment's steady start (``flagellum_env.steady_start``: 5 motor turns at
-omega_l from rest, cached), runs ``agents.turn_map.measure_turn`` and returns one JSON record.
+omega_l from rest, cached), runs ``flagellum_env.turn_measurement.measure_turn`` and returns one JSON record.
 Records go to ``<out>.runs/results.jsonl`` as they finish; running again with ``resume=True``
 measures only what is missing. When all are done, the map is written to ``<out>`` (JSON).
 """
@@ -20,12 +20,12 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from agents.provenance import git_commit
-from agents.turn_map import (DEFAULT_PHASES_DEG, DEFAULT_T_C_S, PAPER_OMEGA_L_RPM, PLANNER_OMEGA_H_RPM, TurnMap,
-                             TurnResult, phase_node_index)
-from flagellum.sweep_store import ResultsStore
-from flagellum.sweep_worker import PointOutcome
-from flagellum.task_pool import pending, run_tasks
+from batch.provenance import git_commit
+from agents.turn_map import DEFAULT_PHASES_DEG, DEFAULT_T_C_S, PAPER_OMEGA_L_RPM, PLANNER_OMEGA_H_RPM, TurnMap
+from batch.store import ResultsStore
+from batch.worker import PointOutcome
+from batch.pool import pending, run_tasks
+from flagellum_env.turn_measurement import TurnResult, phase_node_index
 from physics.geometry import layout_for
 from physics.params import RPM_TO_RAD_S, NumericsConfig, SwimmerParams
 
@@ -56,7 +56,7 @@ class TurnTask:
         return f"t_c={self.t_c:g} s, phase={self.phase_deg:g} deg"
 
     def execute(self) -> PointOutcome:
-        from agents.turn_map import measure_turn
+        from flagellum_env.turn_measurement import measure_turn
         from flagellum_env.steady_start import get_steady_start
 
         t0 = time.perf_counter()

@@ -122,7 +122,7 @@ def run_metric(cfg: FidelityConfig, metric: str) -> dict[str, Any]:
         ratio, rtf = _lratio(cfg, OMEGA_HIGH_RPM)
         out["lratio_100s"], out["rtf"] = ratio, rtf
     elif metric.startswith("turn_tc"):
-        from agents.turn_map import measure_turn
+        from flagellum_env.turn_measurement import measure_turn
 
         tc = float(metric[len("turn_tc"):])
         sim = _steady(cfg)
@@ -194,7 +194,7 @@ def run_fidelity(path: Path, configs=LADDER, metrics=FULL_METRICS, workers: int 
     # cheap metrics of every configuration first, so a partial run still compares all of them
     todo = [(c, m) for m in metrics for c in configs if (c.name, m) not in done]
     workers = workers or os.cpu_count() or 1
-    from agents.provenance import git_commit
+    from batch.provenance import git_commit
 
     commit = git_commit()
     with ProcessPoolExecutor(max_workers=workers, initializer=_worker_init) as pool, open(path, "a") as fh:

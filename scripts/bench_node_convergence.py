@@ -40,7 +40,7 @@ def main(argv: list[str] | None = None) -> int:
               f"(this call: {(time.perf_counter() - t0) / 60:.0f} min wall; runs measured "
               + (f"{dates[0]} to {dates[-1]}" if dates else "-") + "; one core per run, two at a time). "
               "Each run: steady 10 rpm swimming, a 40 s burst at 90 rpm, back to 10 rpm until the heading "
-              "settles (`agents.turn_map.measure_turn`); θ is the turn. All runs use `fast`'s Newton tolerance "
+              "settles (`flagellum_env.turn_measurement.measure_turn`); θ is the turn. All runs use `fast`'s Newton tolerance "
               "(1e-5); N, h and the resistance-refresh tolerance vary. θ error = |θ - θ_paper| / θ_paper.")
     Path("docs").mkdir(exist_ok=True)
     Path("docs/node_convergence.json").write_text(json.dumps({"reference": reference, "rows": rows}, indent=2) + "\n")

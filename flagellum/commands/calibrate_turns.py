@@ -36,7 +36,7 @@ def run(args: argparse.Namespace) -> int:
     from agents.follow_plots import save, turn_map_figure
     from agents.turn_calibration import calibrate_turns
     from agents.turn_map import DEFAULT_PHASES_DEG, DEFAULT_T_C_S, PLANNER_OMEGA_H_RPM
-    from flagellum.sweep_store import SweepError
+    from batch.store import SweepError
 
     params, numerics = build_config(parse_overrides(args.set), args.preset)
     out = args.out or Path("data/turn_maps") / f"{args.preset or 'custom'}.json"

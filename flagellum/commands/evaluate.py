@@ -32,7 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from agents.evaluation import evaluate, resolve_paths
-    from flagellum.sweep_store import SweepError
+    from batch.store import SweepError
 
     if args.set:
         raise UsageError("--set is not used by evaluate (the turn map fixes the swimmer); choose --preset")

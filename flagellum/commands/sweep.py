@@ -13,9 +13,9 @@ from pathlib import Path
 from typing import Any
 
 from flagellum.commands.common import UsageError, parse_overrides
-from flagellum.sweep import (RESULTS_FILE, SweepConfig, SweepConfigError, SweepError, SweepIncomplete,
+from batch.sweep import (RESULTS_FILE, SweepConfig, SweepConfigError, SweepError, SweepIncomplete,
                              SweepInterrupted, load_sweep_config, run_sweep)
-from flagellum.sweep_backends import default_workers
+from batch.backends import default_workers
 
 NAME = "sweep"
 HELP = "run a parameter sweep (YAML/TOML file) on all cores or a Dask cluster; resumable"

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-import flagellum.task_pool as task_pool
+import batch.pool as task_pool
 from agents.evaluation import evaluate, resolve_paths, results_markdown, summarise
 from agents.path_following import METRICS, EpisodeTrace, episode_metrics
 from flagellum.cli import main

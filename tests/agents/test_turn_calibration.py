@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-import flagellum.task_pool as task_pool
+import batch.pool as task_pool
 from agents.turn_calibration import calibrate_turns, calibration_tasks, runs_dir
 from agents.turn_map import TurnMap
 from physics.presets import apply_preset

@@ -1,6 +1,6 @@
 """Where sweep points run: a local process pool or a Dask distributed cluster.
 
-Both offer the same four calls, used by ``flagellum.sweep.run_sweep``: ``submit(task)`` ->
+Both offer the same four calls, used by ``batch.sweep.run_sweep``: ``submit(task)`` ->
 future, ``as_completed(futures)`` -> futures as they finish, ``abort(futures)`` (Ctrl-C:
 drop what has not finished) and ``close()``. Futures answer ``result()`` with a
 ``PointOutcome``, or raise when the infrastructure failed (a worker process died).
@@ -16,8 +16,8 @@ from collections.abc import Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any, Protocol
 
-from flagellum.sweep_store import SweepError
-from flagellum.sweep_worker import execute_task, init_worker
+from batch.store import SweepError
+from batch.worker import execute_task, init_worker
 
 
 class BackendError(SweepError):
