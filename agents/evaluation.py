@@ -18,6 +18,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from agents.assets import eval_paths_dir
 from agents.path_following import METRICS, EpisodeTask, controller_kind
 from batch.store import ResultsStore
 from batch.pool import pending, run_tasks
@@ -26,15 +27,19 @@ from flagellum_env.paths import WaypointPath, load_path, square_path
 AGGREGATED = ("waypoints_reached", "mean_cross_track_m", "max_cross_track_m", "max_out_of_plane_ratio", "time_s",
               "energy_J", "buckling_events", "wall_time_s")
 
+#: ``--paths eval``: the evaluation paths shipped with the package (``agents/eval_paths``).
+EVAL_PATHS = "eval"
+
 
 def resolve_paths(specs: Sequence[str]) -> list[WaypointPath]:
-    """Paths from ``square``, JSON path files and folders of them (sorted); ValueError naming a bad one."""
+    """Paths from ``square``, ``eval`` (the 20 evaluation paths shipped with the package), JSON path
+    files and folders of them (sorted); ValueError naming a bad one."""
     out: list[WaypointPath] = []
     for spec in specs:
         if spec == "square":
             out.append(square_path())
             continue
-        p = Path(spec)
+        p = eval_paths_dir() if spec == EVAL_PATHS else Path(spec)
         if p.is_dir():
             files = sorted(p.glob("*.json"))
             if not files:
@@ -43,7 +48,7 @@ def resolve_paths(specs: Sequence[str]) -> list[WaypointPath]:
         elif p.is_file():
             out.append(load_path(p))
         else:
-            raise ValueError(f"--paths {spec!r} is neither 'square', a path file (JSON) nor a folder of them")
+            raise ValueError(f"--paths {spec!r} is neither 'square', 'eval', a path file (JSON) nor a folder of them")
     names = [w.name for w in out]
     dupes = sorted({n for n in names if names.count(n) > 1})
     if dupes:

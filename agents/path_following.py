@@ -1,8 +1,8 @@
 """One evaluation loop for every controller: drive ``FlagellumSteer-v0`` along a path, measure it.
 
 Controllers are named by a spec string (``make_controller``): ``rule`` (the turn planner with
-the preset's committed turn map, ``data/turn_maps/<preset>.json``), ``rule:MAP.json`` (another
-map), ``ppo`` (the pretrained PPO agent, ``agents/pretrained/``) and ``ppo:DIR`` (an agent folder
+the preset's turn map, ``agents.assets.default_turn_map``), ``rule:MAP.json`` (another
+map), ``ppo`` (the PPO agent shipped in ``agents/pretrained/``) and ``ppo:DIR`` (an agent folder
 written by ``flagellum train``, or its ``model.zip``). Each has the stable-baselines3
 ``predict(obs, state, episode_start, deterministic)`` call, so the loop does not care which.
 
@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.assets import default_turn_map, missing_turn_map_message
 from batch.worker import PointOutcome
 from flagellum_env.paths import WaypointPath
 
@@ -58,13 +59,12 @@ def make_controller(spec: str, env, preset: str):
     kind = controller_kind(spec)
     arg = spec.split(":", 1)[1] if ":" in spec else None
     if kind == "rule":
-        from agents.turn_map import TurnMap, default_turn_map
+        from agents.turn_map import TurnMap
         from agents.turn_planner import RulePlanner
 
         path = Path(arg) if arg else default_turn_map(preset)
         if not path.is_file():
-            raise ValueError(f"no turn map at {str(path)!r}; make one with 'flagellum calibrate-turns --preset "
-                             f"{preset} --out {path}'")
+            raise ValueError(missing_turn_map_message(path, preset, given=arg is not None))
         return RulePlanner.for_env(env, TurnMap.load(path))
     from agents.ppo_policy import load_ppo_controller
 

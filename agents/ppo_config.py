@@ -18,7 +18,7 @@ hyperparameters (flat, as in rl-zoo3's ``hyperparams/ppo.yml``) and a ``task`` s
       policy_kwargs: {net_arch: [64, 64], log_std_init: -1.0}
       task:
         preset: fast
-        turn_map: null          # null: data/turn_maps/<preset>.json
+        turn_map: null          # null: the preset's turn map (agents.assets.default_turn_map)
         limits: {max_dtc_fraction: 0.05, max_dphase_deg: 15}
         action_cost: 5.0        # reward - action_cost |a|^2 per decision
         env_kwargs: {randomize: true, reward: {cross_track_per_cm_s: 0.05}}

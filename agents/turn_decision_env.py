@@ -30,7 +30,8 @@ from gymnasium import spaces
 
 from agents.path_following import CONTROLLER_ENV_DEFAULTS
 from agents.residual_planner import N_FEATURES, ResidualLimits, ResidualPlanner
-from agents.turn_map import TurnMap, default_turn_map
+from agents.assets import default_turn_map
+from agents.turn_map import TurnMap
 from flagellum_env.paths import RandomPathConfig, WaypointPath
 from flagellum_env.paths import random_path as draw_random_path
 from flagellum_env.steer_env import FlagellumSteerEnv

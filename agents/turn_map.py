@@ -45,14 +45,6 @@ class TurnMapMismatch(ValueError):
     """A turn map used for physical parameters or motor speeds other than its own."""
 
 
-TURN_MAP_DIR = Path(__file__).resolve().parent.parent / "data" / "turn_maps"
-
-
-def default_turn_map(preset: str) -> Path:
-    """The committed turn map of a preset (made by ``flagellum calibrate-turns``)."""
-    return TURN_MAP_DIR / f"{preset}.json"
-
-
 # --- the map --------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class TurnMap:

@@ -2,8 +2,8 @@
 
     python scripts/bench_node_convergence.py [--workers N] [--report-only]
 
-Resumable: finished runs are kept in data/bench/node_convergence.results.jsonl (committed). The reference is
-`paper`'s turn_tc40 from data/bench/fidelity_full.results.jsonl (scripts/bench_fidelity.py).
+Resumable: finished runs are kept in results/bench/node_convergence.results.jsonl (committed). The reference is
+`paper`'s turn_tc40 from results/bench/fidelity_full.results.jsonl (scripts/bench_fidelity.py).
 Outputs docs/node_convergence.md, docs/node_convergence.json and docs/figures/node_convergence.png.
 """
 
@@ -21,8 +21,8 @@ from flagellum.node_convergence import METRIC, markdown, plot, sweep_configs, sw
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--workers", type=int, default=None)
-    ap.add_argument("--results", default="data/bench/node_convergence.results.jsonl")
-    ap.add_argument("--reference", default="data/bench/fidelity_full.results.jsonl")
+    ap.add_argument("--results", default="results/bench/node_convergence.results.jsonl")
+    ap.add_argument("--reference", default="results/bench/fidelity_full.results.jsonl")
     ap.add_argument("--report-only", action="store_true", help="run nothing; rebuild the report from --results")
     ap.add_argument("--no-progress", action="store_true")
     args = ap.parse_args(argv)

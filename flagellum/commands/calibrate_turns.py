@@ -18,7 +18,9 @@ DESCRIPTION = ("From steady swimming at --omega-l, burst at --omega-h for each t
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", metavar="FILE", type=Path,
-                        help="turn map file (default: data/turn_maps/<preset>.json, 'custom' without --preset)")
+                        help="turn map file (default: <preset>.json, 'custom.json' without --preset, in the user's "
+                             "turn-map folder $FLAGELLUM_TURN_MAPS or ~/.local/share/flagellum/turn_maps, where "
+                             "--controller rule and ppo look for it first)")
     parser.add_argument("--omega-l", metavar="RPM", default="10", help="low (cruise) motor speed, rpm (default 10)")
     parser.add_argument("--omega-h", metavar="RPM", default=None,
                         help="burst motor speed, rpm (default 150: the paper's 60 rpm does not buckle this "
@@ -33,13 +35,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from agents.assets import user_turn_map_dir
     from agents.follow_plots import save, turn_map_figure
     from agents.turn_calibration import calibrate_turns
     from agents.turn_map import DEFAULT_PHASES_DEG, DEFAULT_T_C_S, PLANNER_OMEGA_H_RPM
     from batch.store import SweepError
 
     params, numerics = build_config(parse_overrides(args.set), args.preset)
-    out = args.out or Path("data/turn_maps") / f"{args.preset or 'custom'}.json"
+    out = args.out or user_turn_map_dir() / f"{args.preset or 'custom'}.json"
     wl = parse_number("--omega-l", args.omega_l, "a speed > 0 rpm", positive=True)
     wh = (PLANNER_OMEGA_H_RPM if args.omega_h is None
           else parse_number("--omega-h", args.omega_h, "a speed > --omega-l rpm", positive=True))

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from agents.path_following import make_controller, run_episode
-from agents.turn_map import TurnMap, TurnMapMismatch, default_turn_map
+from agents.assets import default_turn_map
+from agents.turn_map import TurnMap, TurnMapMismatch
 from agents.turn_planner import RulePlanner
 from flagellum_env.paths import path_from_waypoints
 from flagellum_env.steer_env import FlagellumSteerEnv
