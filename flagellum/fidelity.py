@@ -151,9 +151,12 @@ def run_metric(cfg: FidelityConfig, metric: str) -> dict[str, Any]:
     return out
 
 
-def _worker_init() -> None:
+def _worker_init(parent_pid: int) -> None:
+    from batch.worker import watch_parent
+
     os.environ["OPENBLAS_NUM_THREADS"] = "1"
     os.environ["OMP_NUM_THREADS"] = "1"
+    watch_parent(parent_pid)
 
 
 def _task(cfg: FidelityConfig, metric: str, commit: str | None = None) -> dict[str, Any]:
@@ -197,7 +200,8 @@ def run_fidelity(path: Path, configs=LADDER, metrics=FULL_METRICS, workers: int 
     from batch.provenance import git_commit
 
     commit = git_commit()
-    with ProcessPoolExecutor(max_workers=workers, initializer=_worker_init) as pool, open(path, "a") as fh:
+    with ProcessPoolExecutor(max_workers=workers, initializer=_worker_init, initargs=(os.getpid(),)) as pool, \
+            open(path, "a") as fh:
         futs = [pool.submit(_task, c, m, commit) for c, m in todo]
         for fut in tqdm(as_completed(futs), total=len(futs), disable=not progress, desc="fidelity", unit="task"):
             rec = fut.result()
