@@ -46,11 +46,9 @@ class FidelityConfig:
     numerics: dict[str, Any] = field(default_factory=dict)
 
     def build(self):
-        from physics.params import NumericsConfig, SwimmerParams
-        from physics.presets import apply_preset
+        from physics import configure
 
-        p, n = apply_preset(self.preset) if self.preset else (SwimmerParams(), NumericsConfig())
-        return p.replace(**self.params), n.replace(**self.numerics)
+        return configure(self.preset, {**self.params, **self.numerics})
 
     def setup(self) -> dict[str, Any]:
         """The resolved parameters and numerics (JSON types): a record measured with another setup
@@ -89,21 +87,23 @@ def _sim(cfg: FidelityConfig, **param_changes):
 
 
 def _steady(cfg: FidelityConfig):
+    from physics import advance
     from physics.params import RPM_TO_RAD_S
 
     sim = _sim(cfg)
     sim.set_motor_speed(10 * RPM_TO_RAD_S)
-    sim.advance(6.0)
+    advance(sim, 6.0)
     return sim
 
 
 def _lratio(cfg: FidelityConfig, rpm: float) -> tuple[float, float]:
+    from physics import advance
     from physics.params import RPM_TO_RAD_S
 
     sim = _sim(cfg)
     sim.set_motor_speed(rpm * RPM_TO_RAD_S)
     t0 = time.perf_counter()
-    sim.advance(100.0)
+    advance(sim, 100.0)
     return sim.end_to_end_ratio(), 100.0 / (time.perf_counter() - t0)
 
 
@@ -112,10 +112,12 @@ def run_metric(cfg: FidelityConfig, metric: str) -> dict[str, Any]:
     t_start = time.perf_counter()
     out: dict[str, Any] = {}
     if metric == "swim_per_turn_10rpm":
+        from physics import advance
+
         sim = _steady(cfg)
         x0 = sim.head_position
         t0 = time.perf_counter()
-        sim.advance(12.0)
+        advance(sim, 12.0)
         out["rtf"] = 12.0 / (time.perf_counter() - t0)
         out["swim_per_turn_10rpm"] = float(math.dist(sim.head_position, x0) / 2.0)
     elif metric == "lratio_100s":

@@ -20,6 +20,7 @@ import numpy as np
 
 from flagellum_env.turn_geometry import angle_between, azimuth, turn_angles, unit, wrap_angle
 from physics.params import RPM_TO_RAD_S
+from physics.run import advance
 
 #: Observation shape nodes of the default environment; the phase node is the second of them.
 DEFAULT_SHAPE_NODES = 8
@@ -51,7 +52,7 @@ def rotation_rate(sim: Any, phase_node: int, duration_s: float = 1.0) -> float:
     """Lab-frame rotation rate of the flagellum (rad/s, signed about the head's X_b); advances ``sim``."""
     axis = sim.head_orientation[:, 0]
     a0 = azimuth(sim.nodes[phase_node] - sim.head_position, axis)
-    sim.advance(duration_s)
+    advance(sim, duration_s)
     a1 = azimuth(sim.nodes[phase_node] - sim.head_position, axis)
     return wrap_angle(a1 - a0) / duration_s
 
@@ -59,7 +60,7 @@ def rotation_rate(sim: Any, phase_node: int, duration_s: float = 1.0) -> float:
 def heading(sim: Any, period_s: float) -> np.ndarray:
     """Advance one wobble period at the current motor speed; the unit head displacement (3,)."""
     x0 = sim.head_position
-    sim.advance(period_s)
+    advance(sim, period_s)
     return unit(sim.head_position - x0)
 
 
@@ -76,14 +77,14 @@ def measure_turn(sim: Any, omega_l_rpm: float, omega_h_rpm: float, t_c: float, p
     period = 2.0 * math.pi / abs(rate)
     d0 = heading(sim, period)
     if phase_deg % 360.0:
-        sim.advance(period * (phase_deg % 360.0) / 360.0)
+        advance(sim, period * (phase_deg % 360.0) / 360.0)
     frame = sim.head_orientation
     start = sim.head_position
     ref = sim.nodes[phase_node] - start
     ref_az = azimuth(ref, d0)
     if t_c > 0.0:
         sim.set_motor_speed(omega_h_rpm * RPM_TO_RAD_S)
-        sim.advance(t_c)
+        advance(sim, t_c)
         sim.set_motor_speed(omega_l_rpm * RPM_TO_RAD_S)
     t_relax0 = sim.time
     prev = heading(sim, period)

@@ -14,7 +14,7 @@ import math
 import signal
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from numbers import Real
@@ -193,6 +193,25 @@ def validate_run_arguments(numerics: NumericsConfig, duration_s: float, record_i
     return n_steps
 
 
+def advance(sim: Any, duration_s: float | None = None, *, steps: int | None = None,
+            on_step: Callable[[Any, int], bool | None] | None = None) -> int:
+    """The run loop: step ``sim`` for ``duration_s`` seconds (rounded to whole steps of ``sim.numerics.dt``,
+    as ``Simulator.advance``) or for ``steps`` steps, calling ``on_step(sim, k)`` after step k = 1, 2, ...
+
+    A callback that returns True ends the loop after its step. Returns the number of steps taken.
+    ``SimulationError`` and ``KeyboardInterrupt`` propagate (the steps before them are taken). With no
+    callback, ``advance(sim, T)`` takes exactly the steps of ``sim.advance(T)``.
+    """
+    if (duration_s is None) == (steps is None):
+        raise ValueError("give exactly one of duration_s and steps")
+    n = int(round(duration_s / sim.numerics.dt)) if steps is None else int(steps)
+    for k in range(1, n + 1):
+        sim.step()
+        if on_step is not None and on_step(sim, k):
+            return k
+    return n
+
+
 class StopRequest:
     """Set by Ctrl-C or SIGTERM while ``stop_requests`` is active; the run loop ends after the current step."""
 
@@ -258,11 +277,14 @@ def run_simulation(params: SwimmerParams, numerics: NumericsConfig, schedule: Mo
     wall0 = time.perf_counter()
     try:
         with stop_requests() as stop:
-            for step in range(1, n_steps + 1):
-                t_before = sim.time
-                omega = schedule.omega_rad_s_at(t_before - rec.t0 + 0.5 * dt)
-                sim.set_motor_speed(omega)
-                sim.step()
+            t_before = sim.time
+            omega = schedule.omega_rad_s_at(t_before - rec.t0 + 0.5 * dt)
+            sim.set_motor_speed(omega)
+
+            def on_step(sim: Any, step: int) -> None:
+                # record step ``step``, then set the motor speed of the next one (the schedule's value at
+                # its midpoint)
+                nonlocal t_before, omega
                 reynolds = float(sim.reynolds_number())
                 totals.add(sim, omega, sim.time - t_before, reynolds)
                 rec.sample(sim, step, omega, reynolds)
@@ -270,6 +292,12 @@ def run_simulation(params: SwimmerParams, numerics: NumericsConfig, schedule: Mo
                     bar.update(1)
                 if stop.requested:
                     raise KeyboardInterrupt
+                if step < n_steps:
+                    t_before = sim.time
+                    omega = schedule.omega_rad_s_at(t_before - rec.t0 + 0.5 * dt)
+                    sim.set_motor_speed(omega)
+
+            advance(sim, steps=n_steps, on_step=on_step)
     except KeyboardInterrupt:
         interrupted = True
     except SimulationError as exc:

@@ -7,8 +7,7 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
-from physics.params import NumericsConfig, SwimmerParams, apply_overrides
-from physics.presets import apply_preset, preset_names
+from physics import NumericsConfig, SwimmerParams, configure, preset_names
 
 
 class UsageError(Exception):
@@ -56,8 +55,7 @@ def parse_overrides(items: Sequence[str]) -> dict[str, str]:
 def build_config(overrides: dict[str, str], preset: str | None = None) -> tuple[SwimmerParams, NumericsConfig]:
     """Default parameters, then the preset (if any), then ``overrides``; UsageError names bad values."""
     try:
-        params, numerics = apply_preset(preset) if preset else (SwimmerParams(), NumericsConfig())
-        return apply_overrides(params, numerics, overrides)
+        return configure(preset, overrides)
     except (ValueError, TypeError) as exc:
         raise UsageError(str(exc)) from None
 
