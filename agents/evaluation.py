@@ -18,32 +18,38 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from agents.path_following import METRICS, EpisodeTask, controller_kind
-from flagellum.sweep_store import ResultsStore
-from flagellum.task_pool import pending, run_tasks
+from agents.assets import eval_paths_dir
+from agents.path_following import METRICS, EpisodeTask, controller_kind, env_settings, make_controller
+from batch.store import RESULTS_FILE, ResultsStore
+from batch.pool import pending, run_tasks
 from flagellum_env.paths import WaypointPath, load_path, square_path
 
 AGGREGATED = ("waypoints_reached", "mean_cross_track_m", "max_cross_track_m", "max_out_of_plane_ratio", "time_s",
               "energy_J", "buckling_events", "wall_time_s")
 
+#: ``--paths eval``: the evaluation paths shipped with the package (``agents/eval_paths``).
+EVAL_PATHS = "eval"
 
-def resolve_paths(specs: Sequence[str]) -> list[WaypointPath]:
-    """Paths from ``square``, JSON path files and folders of them (sorted); ValueError naming a bad one."""
+
+def resolve_paths(specs: Sequence[str], option: str = "--paths") -> list[WaypointPath]:
+    """Paths from ``square``, ``eval`` (the 20 evaluation paths shipped with the package), JSON path
+    files and folders of them (sorted); ValueError naming a bad one (as the value of ``option``)."""
     out: list[WaypointPath] = []
     for spec in specs:
         if spec == "square":
             out.append(square_path())
             continue
-        p = Path(spec)
+        p = eval_paths_dir() if spec == EVAL_PATHS else Path(spec)
         if p.is_dir():
-            files = sorted(p.glob("*.json"))
+            files = sorted(f for f in p.glob("*.json") if f.is_file())
             if not files:
-                raise ValueError(f"--paths {spec!r}: the folder holds no path files (*.json)")
-            out.extend(load_path(f) for f in files)
+                raise ValueError(f"{option} {spec!r}: the folder holds no path files (*.json)")
+            out.extend(_load(f, option) for f in files)
         elif p.is_file():
-            out.append(load_path(p))
+            out.append(_load(p, option))
         else:
-            raise ValueError(f"--paths {spec!r} is neither 'square', a path file (JSON) nor a folder of them")
+            raise ValueError(f"{option} {spec!r} is not allowed; allowed: 'square', 'eval', a path file (JSON) or a "
+                             "folder of them")
     names = [w.name for w in out]
     dupes = sorted({n for n in names if names.count(n) > 1})
     if dupes:
@@ -51,26 +57,57 @@ def resolve_paths(specs: Sequence[str]) -> list[WaypointPath]:
     return out
 
 
+def _load(file: Path, option: str) -> WaypointPath:
+    try:
+        return load_path(file)
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{option} {str(file)!r}: {exc}") from None
+
+
+def check_controllers(controllers: Sequence[str], paths: Sequence[WaypointPath], preset: str,
+                      env_overrides: dict[str, Any] | None = None) -> None:
+    """Build each controller once, as an episode would (env of the first path, the preset's turn map, the agent),
+    so a missing or bad turn map or agent is a ValueError before any episode runs."""
+    from flagellum_env.steer_env import FlagellumSteerEnv
+
+    for spec in controllers:
+        env = FlagellumSteerEnv(path=paths[0], **env_settings(spec, preset, env_overrides))
+        try:
+            make_controller(spec, env, preset)
+        except ValueError as exc:
+            raise ValueError(f"--controller {spec!r}: {exc}") from None
+        finally:
+            env.close()
+
+
 def evaluate(paths: Sequence[WaypointPath], controllers: Sequence[str], preset: str, out_dir: str | os.PathLike,
              workers: int | None = None, resume: bool = False, env_overrides: dict[str, Any] | None = None,
-             progress: bool = True, report_only: bool = False, seed_per_path: bool = False) -> dict[str, Any]:
+             progress: bool = True, report_only: bool = False, seed_per_path: bool = False,
+             scheduler: Any | None = None) -> dict[str, Any]:
     """Run every (controller, path) episode (parallel, resumable) and write the results files.
 
     ``report_only``: run nothing; write the results files from the episodes already in
     ``out_dir`` (the others are listed under ``missing``). ``seed_per_path``: the env is reset
     with seed k for the k-th path (every controller meets the same draws; with randomisation,
-    each path its own swimmer) instead of seed 0 for all.
+    each path its own swimmer) instead of seed 0 for all. ``scheduler``: a Dask scheduler (address or
+    cluster) instead of ``workers`` local processes (``batch.pool.run_tasks``).
     """
     for c in controllers:
         controller_kind(c)
+    out = Path(out_dir)
+    if report_only and not any(True for _ in _lines(out / RESULTS_FILE)):
+        raise ValueError(f"--report-only: {str(out)!r} holds no episodes ({RESULTS_FILE} is missing or empty); "
+                         "run the evaluation there first")
+    if not report_only:
+        check_controllers(controllers, paths, preset, env_overrides)
     env_kw = tuple(sorted((env_overrides or {}).items()))
     tasks = [EpisodeTask(c, p, preset, env_kw, seed=k if seed_per_path else 0)
              for c in controllers for k, p in enumerate(paths)]
-    out = Path(out_dir)
     with ResultsStore(out, resume or report_only) as store:
         if not report_only:
             todo = pending(tasks, store, retry_failed=False)
-            run_tasks(todo, store, workers=workers, progress=progress, total=len(tasks), desc="evaluate")
+            run_tasks(todo, store, workers=workers, scheduler=scheduler, progress=progress, total=len(tasks),
+                      desc="evaluate")
         records = [store.records.get(t.point_id) for t in tasks]
     results = summarise([r for r in records if r is not None], controllers)
     results["preset"] = preset
@@ -79,6 +116,13 @@ def evaluate(paths: Sequence[WaypointPath], controllers: Sequence[str], preset: 
     (out / "results.json").write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")
     (out / "results.md").write_text(results_markdown(results), encoding="utf-8")
     return results
+
+
+def _lines(file: Path) -> list[str]:
+    try:
+        return [line for line in file.read_text(encoding="utf-8").splitlines() if line.strip()]
+    except (OSError, UnicodeDecodeError):
+        return []
 
 
 def summarise(records: Sequence[dict[str, Any]], controllers: Sequence[str]) -> dict[str, Any]:

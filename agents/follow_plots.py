@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 
 from agents.path_following import EpisodeTrace
 from agents.turn_map import TurnMap
-from flagellum.plots import set_equal_3d
+from flagellum_env.render import set_equal_3d
 
 CM = 100.0
 

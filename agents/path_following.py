@@ -1,8 +1,8 @@
 """One evaluation loop for every controller: drive ``FlagellumSteer-v0`` along a path, measure it.
 
 Controllers are named by a spec string (``make_controller``): ``rule`` (the turn planner with
-the preset's committed turn map, ``data/turn_maps/<preset>.json``), ``rule:MAP.json`` (another
-map), ``ppo`` (the pretrained PPO agent, ``agents/pretrained/``) and ``ppo:DIR`` (an agent folder
+the preset's turn map, ``agents.assets.default_turn_map``), ``rule:MAP.json`` (another
+map), ``ppo`` (the PPO agent shipped in ``agents/pretrained/``) and ``ppo:DIR`` (an agent folder
 written by ``flagellum train``, or its ``model.zip``). Each has the stable-baselines3
 ``predict(obs, state, episode_start, deterministic)`` call, so the loop does not care which.
 
@@ -32,7 +32,8 @@ from typing import Any
 
 import numpy as np
 
-from flagellum.sweep_worker import PointOutcome
+from agents.assets import default_turn_map, missing_turn_map_message
+from batch.worker import PointOutcome
 from flagellum_env.paths import WaypointPath
 
 METRICS = ("success", "waypoints_reached", "mean_cross_track_m", "max_cross_track_m", "max_out_of_plane_ratio",
@@ -42,12 +43,6 @@ METRICS = ("success", "waypoints_reached", "mean_cross_track_m", "max_cross_trac
 #: grow by up to ~100 deg per second of burst (paper preset), so it steps every 0.1 s.
 #: The PPO agent corrects the planner's turns (agents.residual_planner), so it steps like the planner.
 CONTROLLER_ENV_DEFAULTS: dict[str, dict[str, Any]] = {"rule": {"control_dt": 0.1}, "ppo": {"control_dt": 0.1}}
-TURN_MAP_DIR = Path(__file__).resolve().parent.parent / "data" / "turn_maps"
-
-
-def default_turn_map(preset: str) -> Path:
-    """The committed turn map of a preset (made by ``flagellum calibrate-turns``)."""
-    return TURN_MAP_DIR / f"{preset}.json"
 
 
 def controller_kind(spec: str) -> str:
@@ -69,8 +64,7 @@ def make_controller(spec: str, env, preset: str):
 
         path = Path(arg) if arg else default_turn_map(preset)
         if not path.is_file():
-            raise ValueError(f"no turn map at {str(path)!r}; make one with 'flagellum calibrate-turns --preset "
-                             f"{preset} --out {path}'")
+            raise ValueError(missing_turn_map_message(path, preset, given=arg is not None))
         return RulePlanner.for_env(env, TurnMap.load(path))
     from agents.ppo_policy import load_ppo_controller
 

@@ -18,7 +18,7 @@ hyperparameters (flat, as in rl-zoo3's ``hyperparams/ppo.yml``) and a ``task`` s
       policy_kwargs: {net_arch: [64, 64], log_std_init: -1.0}
       task:
         preset: fast
-        turn_map: null          # null: data/turn_maps/<preset>.json
+        turn_map: null          # null: the preset's turn map (agents.assets.default_turn_map)
         limits: {max_dtc_fraction: 0.05, max_dphase_deg: 15}
         action_cost: 5.0        # reward - action_cost |a|^2 per decision
         env_kwargs: {randomize: true, reward: {cross_track_per_cm_s: 0.05}}
@@ -195,6 +195,9 @@ class TrainConfig:
         if policy != "MlpPolicy":
             raise ValueError(f"{where}: {name}.policy={policy!r} is not allowed; the turn features are a flat "
                              "vector: use MlpPolicy")
+        for key in PPO_KEYS:
+            if key in body:
+                _check_ppo_value(key, body[key], f"{where}: {name}.{key}")
         return cls(name=str(name), n_timesteps=n_timesteps, curriculum=tuple(curriculum), validation=validation,
                    policy=policy, n_envs=_int(body.get("n_envs", 2), f"{where}: {name}.n_envs", 1),
                    max_wall_time_s=None if wall is None else float(wall),
@@ -210,6 +213,37 @@ def _only(d: Mapping[str, Any], allowed: tuple[str, ...], where: str) -> None:
     unknown = sorted(set(d) - set(allowed))
     if unknown:
         raise ValueError(f"{where}: unknown key(s) {unknown}; allowed: {list(allowed)}")
+
+
+#: What each numeric PPO setting may be: (kind, lower bound, lower bound included, upper bound or None).
+_PPO_RANGES: dict[str, tuple[str, float, bool, float | None]] = {
+    "learning_rate": ("number", 0.0, True, None), "n_steps": ("integer", 1, True, None),
+    "batch_size": ("integer", 1, True, None), "n_epochs": ("integer", 1, True, None),
+    "gamma": ("number", 0.0, True, 1.0), "gae_lambda": ("number", 0.0, True, 1.0),
+    "clip_range": ("number", 0.0, False, None), "ent_coef": ("number", 0.0, True, None),
+    "vf_coef": ("number", 0.0, True, None), "max_grad_norm": ("number", 0.0, False, None),
+    "target_kl": ("number", 0.0, False, None)}
+
+
+def _check_ppo_value(key: str, v: Any, where: str) -> None:
+    """ValueError naming the file and key when a PPO setting is out of range (stable-baselines3 would fail later
+    with a message that names neither)."""
+    if key in ("normalize_advantage", "use_sde"):
+        if not isinstance(v, bool):
+            raise ValueError(f"{where}={v!r} is not allowed; allowed: true or false")
+        return
+    if key == "policy_kwargs":
+        if v is not None and not isinstance(v, Mapping):
+            raise ValueError(f"{where}={v!r} is not allowed; allowed: a mapping of policy arguments or null")
+        return
+    kind, lo, lo_ok, hi = _PPO_RANGES[key]
+    if key == "target_kl" and v is None:
+        return
+    ok_type = (isinstance(v, int) if kind == "integer" else isinstance(v, (int, float))) and not isinstance(v, bool)
+    if not ok_type or not math.isfinite(v) or (v < lo if lo_ok else v <= lo) or (hi is not None and v > hi):
+        bound = f"{'>=' if lo_ok else '>'} {lo:g}" + (f" and <= {hi:g}" if hi is not None else "")
+        raise ValueError(f"{where}={v!r} is not allowed; allowed: {'an integer' if kind == 'integer' else 'a number'} "
+                         f"{bound}")
 
 
 def _int(v: Any, where: str, lo: int) -> int:

@@ -2,7 +2,7 @@
 
 An agent is a folder written by ``flagellum train`` (``agents.ppo_training``): ``model.zip``,
 ``vecnormalize.pkl``, ``meta.json`` and ``config.yml``. ``PATH`` may be that folder or its
-``model.zip``; without it, the committed pretrained agent (``PRETRAINED_DIR``) is used.
+``model.zip``; without it, the pretrained agent shipped with the package (``PRETRAINED_DIR``) is used.
 
 The agent is residual (``meta["mode"] == "residual"``): a ``ResidualPlanner`` whose planned turns
 are corrected by the policy, with the turn map of the env's preset. Its corrections are on the
@@ -19,10 +19,12 @@ from typing import Any
 
 import numpy as np
 
+from agents.assets import default_turn_map, missing_turn_map_message, pretrained_dir
 from agents.residual_planner import N_FEATURES, ResidualLimits, ResidualPlanner
+from agents.turn_map import TurnMap
 
-#: The pretrained agent shipped with the package.
-PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained" / "ppo_residual_fast"
+#: The pretrained agent shipped with the package (package data, ``agents.assets``).
+PRETRAINED_DIR = pretrained_dir()
 
 
 @dataclass
@@ -94,14 +96,11 @@ class PPOController(ResidualPlanner):
 
 def load_ppo_controller(arg: str | None, env, preset: str) -> PPOController:
     """``--controller ppo[:PATH]`` for this env: the agent plus the turn map of ``preset``."""
-    from agents.path_following import default_turn_map
-    from agents.turn_map import TurnMap
-
     agent = load_agent(arg)
     tmap_file = default_turn_map(preset)
     if not tmap_file.is_file():
-        raise ValueError(f"the PPO agent corrects the turn planner, which needs a turn map for preset {preset!r}: "
-                         f"none at {str(tmap_file)!r}; make one with 'flagellum calibrate-turns --preset {preset}'")
+        raise ValueError("the PPO agent corrects the turn planner, which needs a turn map: "
+                         + missing_turn_map_message(tmap_file, preset))
     limits = ResidualLimits(**agent.meta.get("limits", {}))
     ctrl = PPOController.for_env(env, TurnMap.load(tmap_file), limits=limits)
     ctrl.agent = agent

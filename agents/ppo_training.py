@@ -37,7 +37,7 @@ import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 
 from agents.ppo_config import TrainConfig
-from agents.provenance import git_commit
+from batch.provenance import git_commit
 
 MODE = "residual"
 CHECKPOINT_PREFIX = "rl_model"

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agents.turn_geometry import angle_between, azimuth, wrap_angle
+from flagellum_env.turn_geometry import angle_between, azimuth, wrap_angle
 from agents.turn_map import TurnMap
 from agents.turn_planner import PlannerConfig, RulePlanner, _Episode
 

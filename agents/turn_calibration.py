@@ -1,8 +1,8 @@
 """``flagellum calibrate-turns``: measure the turn map (t_c x burst phase) in parallel, resumably.
 
-Every (t_c, phase) pair is one task of the shared task pool (``flagellum.task_pool``): it
+Every (t_c, phase) pair is one task of the shared task pool (``batch.pool``): it
 starts from the environment's steady start (``flagellum_env.steady_start``: 5 motor turns at
-omega_l from rest, cached), runs ``agents.turn_map.measure_turn`` and returns one JSON record.
+omega_l from rest, cached), runs ``flagellum_env.turn_measurement.measure_turn`` and returns one JSON record.
 Records go to ``<out>.runs/results.jsonl`` as they finish; running again with ``resume=True``
 measures only what is missing. When all are done, the map is written to ``<out>`` (JSON).
 """
@@ -20,14 +20,18 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from agents.provenance import git_commit
-from agents.turn_map import (DEFAULT_PHASES_DEG, DEFAULT_T_C_S, PAPER_OMEGA_L_RPM, PLANNER_OMEGA_H_RPM, TurnMap,
-                             TurnResult, phase_node_index)
-from flagellum.sweep_store import ResultsStore
-from flagellum.sweep_worker import PointOutcome
-from flagellum.task_pool import pending, run_tasks
+from batch.provenance import git_commit
+from agents.turn_map import DEFAULT_PHASES_DEG, DEFAULT_T_C_S, PAPER_OMEGA_L_RPM, PLANNER_OMEGA_H_RPM, TurnMap
+from batch.store import ResultsStore
+from batch.worker import PointOutcome
+from batch.pool import pending, run_tasks
+from flagellum_env.turn_measurement import TurnResult, phase_node_index
 from physics.geometry import layout_for
 from physics.params import RPM_TO_RAD_S, NumericsConfig, SwimmerParams
+
+class TurnsNotMeasured(RuntimeError):
+    """Some turns of the grid could not be measured (the message names the first and what to do)."""
+
 
 #: Steady start: motor turns at omega_l from rest (the environment's SETTLE_TURNS).
 SETTLE_TURNS = 5
@@ -56,7 +60,7 @@ class TurnTask:
         return f"t_c={self.t_c:g} s, phase={self.phase_deg:g} deg"
 
     def execute(self) -> PointOutcome:
-        from agents.turn_map import measure_turn
+        from flagellum_env.turn_measurement import measure_turn
         from flagellum_env.steady_start import get_steady_start
 
         t0 = time.perf_counter()
@@ -102,24 +106,31 @@ def calibrate_turns(params: SwimmerParams, numerics: NumericsConfig, out_file: s
                     preset: str | None = None, omega_l_rpm: float = PAPER_OMEGA_L_RPM,
                     omega_h_rpm: float = PLANNER_OMEGA_H_RPM, t_c_values: Sequence[float] = DEFAULT_T_C_S,
                     phases_deg: Sequence[float] = DEFAULT_PHASES_DEG, workers: int | None = None,
-                    resume: bool = False, progress: bool = True) -> TurnMap:
+                    resume: bool = False, progress: bool = True, scheduler: Any | None = None) -> TurnMap:
     """Measure every turn of the grid (parallel, resumable) and write the map to ``out_file``.
 
-    Raises RuntimeError naming the failed turns (their errors are in the runs folder) when a
+    Raises ``TurnsNotMeasured`` naming the failed turns (their errors are in the runs folder) when a
     turn could not be measured; the others stay saved for ``resume=True``.
     """
     tasks = calibration_tasks(params, numerics, omega_l_rpm, omega_h_rpm, t_c_values, phases_deg)
     t0 = time.perf_counter()
     with ResultsStore(runs_dir(out_file), resume) as store:
         todo = pending(tasks, store, retry_failed=True)
-        lost = run_tasks(todo, store, workers=workers, progress=progress, total=len(tasks), desc="calibrate-turns")
+        lost = run_tasks(todo, store, workers=workers, scheduler=scheduler, progress=progress, total=len(tasks),
+                         desc="calibrate-turns")
         records = [store.records.get(t.point_id) for t in tasks]
     bad = [(t, r) for t, r in zip(tasks, records, strict=True) if r is None or r["status"] != "ok"]
     if lost or bad:
         first = bad[0] if bad else (lost[0][0], {"error": lost[0][1]})
-        raise RuntimeError(f"{len(bad)} of {len(tasks)} turns were not measured (first: {first[0].label()}: "
-                           f"{(first[1] or {}).get('error')}); the others are saved in {runs_dir(out_file)}; "
-                           "run again with --resume")
+        error = " ".join(str((first[1] or {}).get("error") or "not run").split())
+        if len(error) > 300:
+            error = error[:300] + "..."
+        interrupted = not bad or all(r is None for _, r in bad)
+        advice = ("run again with --resume to measure the rest" if interrupted else
+                  "a turn whose simulation failed fails again on --resume: leave its burst length out of --t-c "
+                  "(or change --omega-h, --preset or --set); --resume keeps the measured ones")
+        raise TurnsNotMeasured(f"{len(bad)} of {len(tasks)} turns were not measured (first: {first[0].label()}: "
+                               f"{error}); the others are saved in {runs_dir(out_file)}; {advice}")
     points = tuple(TurnResult(**{**r["result"], "offset_m": tuple(r["result"]["offset_m"])}) for r in records)
     meta = {"created": datetime.now(timezone.utc).isoformat(timespec="seconds"), "commit": git_commit(),
             "wall_time_s_this_run": round(time.perf_counter() - t0, 1),

@@ -28,8 +28,9 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from agents.path_following import CONTROLLER_ENV_DEFAULTS, default_turn_map
+from agents.path_following import CONTROLLER_ENV_DEFAULTS
 from agents.residual_planner import N_FEATURES, ResidualLimits, ResidualPlanner
+from agents.assets import default_turn_map
 from agents.turn_map import TurnMap
 from flagellum_env.paths import RandomPathConfig, WaypointPath
 from flagellum_env.paths import random_path as draw_random_path

@@ -1,7 +1,7 @@
 """``flagellum`` command line: builds the parser from ``flagellum.commands`` and dispatches.
 
 Exit status: 0 success, 1 simulation error, 2 bad input (one line ``flagellum: error: ...``),
-130 interrupted by Ctrl-C.
+130 interrupted by Ctrl-C or SIGTERM.
 """
 
 from __future__ import annotations
@@ -9,13 +9,16 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
-from collections.abc import Sequence
+import threading
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from typing import NoReturn
 
 from flagellum import __version__
 from flagellum.commands import COMMANDS
-from flagellum.commands.common import UsageError, add_common_arguments
+from flagellum.commands.common import PARAMETER_DEFAULTS, UsageError, add_common_arguments
 
 PROG = "flagellum"
 
@@ -39,9 +42,28 @@ def build_parser() -> argparse.ArgumentParser:
         module = importlib.import_module(f"flagellum.commands.{name}")
         cmd = sub.add_parser(module.NAME, help=module.HELP, description=module.DESCRIPTION)
         module.add_arguments(cmd)
-        add_common_arguments(cmd)
+        add_common_arguments(cmd, accepts_set=getattr(module, "ACCEPTS_SET", True),
+                             preset=getattr(module, "PRESET", (None, PARAMETER_DEFAULTS)))
         cmd.set_defaults(_run=module.run, _parser=cmd)
     return parser
+
+
+@contextmanager
+def sigterm_as_interrupt() -> Iterator[None]:
+    """Treat SIGTERM (kill, job schedulers) like Ctrl-C while a command runs: what was computed is written,
+    worker processes are stopped, the exit status is 130."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -54,7 +76,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return int(args._run(args))
+        with sigterm_as_interrupt():
+            return int(args._run(args))
     except UsageError as exc:
         args._parser.error(str(exc))
     except KeyboardInterrupt:

@@ -46,11 +46,9 @@ class FidelityConfig:
     numerics: dict[str, Any] = field(default_factory=dict)
 
     def build(self):
-        from physics.params import NumericsConfig, SwimmerParams
-        from physics.presets import apply_preset
+        from physics import configure
 
-        p, n = apply_preset(self.preset) if self.preset else (SwimmerParams(), NumericsConfig())
-        return p.replace(**self.params), n.replace(**self.numerics)
+        return configure(self.preset, {**self.params, **self.numerics})
 
     def setup(self) -> dict[str, Any]:
         """The resolved parameters and numerics (JSON types): a record measured with another setup
@@ -89,21 +87,23 @@ def _sim(cfg: FidelityConfig, **param_changes):
 
 
 def _steady(cfg: FidelityConfig):
+    from physics import advance
     from physics.params import RPM_TO_RAD_S
 
     sim = _sim(cfg)
     sim.set_motor_speed(10 * RPM_TO_RAD_S)
-    sim.advance(6.0)
+    advance(sim, 6.0)
     return sim
 
 
 def _lratio(cfg: FidelityConfig, rpm: float) -> tuple[float, float]:
+    from physics import advance
     from physics.params import RPM_TO_RAD_S
 
     sim = _sim(cfg)
     sim.set_motor_speed(rpm * RPM_TO_RAD_S)
     t0 = time.perf_counter()
-    sim.advance(100.0)
+    advance(sim, 100.0)
     return sim.end_to_end_ratio(), 100.0 / (time.perf_counter() - t0)
 
 
@@ -112,17 +112,19 @@ def run_metric(cfg: FidelityConfig, metric: str) -> dict[str, Any]:
     t_start = time.perf_counter()
     out: dict[str, Any] = {}
     if metric == "swim_per_turn_10rpm":
+        from physics import advance
+
         sim = _steady(cfg)
         x0 = sim.head_position
         t0 = time.perf_counter()
-        sim.advance(12.0)
+        advance(sim, 12.0)
         out["rtf"] = 12.0 / (time.perf_counter() - t0)
         out["swim_per_turn_10rpm"] = float(math.dist(sim.head_position, x0) / 2.0)
     elif metric == "lratio_100s":
         ratio, rtf = _lratio(cfg, OMEGA_HIGH_RPM)
         out["lratio_100s"], out["rtf"] = ratio, rtf
     elif metric.startswith("turn_tc"):
-        from agents.turn_map import measure_turn
+        from flagellum_env.turn_measurement import measure_turn
 
         tc = float(metric[len("turn_tc"):])
         sim = _steady(cfg)
@@ -151,9 +153,12 @@ def run_metric(cfg: FidelityConfig, metric: str) -> dict[str, Any]:
     return out
 
 
-def _worker_init() -> None:
+def _worker_init(parent_pid: int) -> None:
+    from batch.worker import watch_parent
+
     os.environ["OPENBLAS_NUM_THREADS"] = "1"
     os.environ["OMP_NUM_THREADS"] = "1"
+    watch_parent(parent_pid)
 
 
 def _task(cfg: FidelityConfig, metric: str, commit: str | None = None) -> dict[str, Any]:
@@ -194,10 +199,11 @@ def run_fidelity(path: Path, configs=LADDER, metrics=FULL_METRICS, workers: int 
     # cheap metrics of every configuration first, so a partial run still compares all of them
     todo = [(c, m) for m in metrics for c in configs if (c.name, m) not in done]
     workers = workers or os.cpu_count() or 1
-    from agents.provenance import git_commit
+    from batch.provenance import git_commit
 
     commit = git_commit()
-    with ProcessPoolExecutor(max_workers=workers, initializer=_worker_init) as pool, open(path, "a") as fh:
+    with ProcessPoolExecutor(max_workers=workers, initializer=_worker_init, initargs=(os.getpid(),)) as pool, \
+            open(path, "a") as fh:
         futs = [pool.submit(_task, c, m, commit) for c, m in todo]
         for fut in tqdm(as_completed(futs), total=len(futs), disable=not progress, desc="fidelity", unit="task"):
             rec = fut.result()

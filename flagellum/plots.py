@@ -8,20 +8,10 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from flagellum_env.render import set_equal_3d
 from physics.run import Trajectory
 
 M_TO_CM = 100.0
-
-
-def set_equal_3d(ax, points_cm: np.ndarray) -> None:
-    """Equal scaling on x, y, z: a cube around all points (cm)."""
-    lo, hi = points_cm.min(axis=0), points_cm.max(axis=0)
-    centre = (lo + hi) / 2.0
-    half = max(float((hi - lo).max()) / 2.0, 1e-3) * 1.05
-    ax.set_xlim(centre[0] - half, centre[0] + half)
-    ax.set_ylim(centre[1] - half, centre[1] + half)
-    ax.set_zlim(centre[2] - half, centre[2] + half)
-    ax.set_box_aspect((1.0, 1.0, 1.0))
 
 
 def trajectory_figure(traj: Trajectory, head_radius_m: float = 0.0, title: str | None = None) -> Figure:

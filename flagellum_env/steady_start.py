@@ -31,6 +31,7 @@ import numpy as np
 
 import physics
 from physics.params import NumericsConfig, SwimmerParams
+from physics.run import advance
 from physics.simulator import Simulator
 
 #: Bump when the meaning of a cached steady state changes.
@@ -104,10 +105,14 @@ def compute_steady_start(params: SwimmerParams, numerics: NumericsConfig, omega_
     n_steps = max(1, round(settle_time_s / numerics.dt))
     turn_steps = min(n_steps, max(1, round(2.0 * math.pi / abs(omega_rad_s) / numerics.dt)))
     x_mark = sim.head_position
-    for k in range(n_steps):
-        if k == n_steps - turn_steps:
+    mark_after = n_steps - turn_steps  # steps after which the last turn starts
+
+    def mark(sim: Simulator, k: int) -> None:
+        nonlocal x_mark
+        if k == mark_after:
             x_mark = sim.head_position
-        sim.step()
+
+    advance(sim, steps=n_steps, on_step=mark)
     speed = float(np.linalg.norm(sim.head_position - x_mark) / (turn_steps * numerics.dt))
     return SteadyStart(params=params, numerics=numerics, omega_rad_s=float(omega_rad_s),
                        settle_time_s=float(settle_time_s), state=sim.get_state(), speed_m_s=speed,

@@ -20,6 +20,7 @@ from flagellum_env.tracking import BucklingMonitor, PathTracker
 from physics.errors import SimulationError
 from physics.geometry import layout_for
 from physics.params import RPM_TO_RAD_S, SwimmerParams
+from physics.run import advance
 from physics.simulator import Simulator
 
 #: Motor turns at the low speed that make the steady start (when ``settle_time_s`` is None).
@@ -264,22 +265,24 @@ class FlagellumSteerEnv(gym.Env):
         sim.set_motor_speed(omega_rpm * RPM_TO_RAD_S)
         self.motor_speed_rpm, self.previous_action = omega_rpm, scaled
         energy, reached, n_done, error = 0.0, 0, 0, None
-        for _ in range(self.n_substeps):
-            try:
-                sim.step()
-            except (SimulationError, np.linalg.LinAlgError) as exc:
-                error = exc
-                break
+
+        def on_step(sim: Simulator, k: int) -> bool:
+            # after each physics step: energy, waypoints, buckling; stop at a non-finite head or the path's end
+            nonlocal energy, reached, n_done, error
             n_done += 1
             energy += abs(sim.motor_power) * dt
             head = self._head_start()
             if not np.all(np.isfinite(head)):
                 error = SimulationError("non-finite head position", sim.step_count, sim.time, "positions")
-                break
+                return True
             reached += tracker.update(head)
             self.buckling.update(sim.end_to_end_ratio())
-            if tracker.done:
-                break
+            return tracker.done
+
+        try:
+            advance(sim, steps=self.n_substeps, on_step=on_step)
+        except (SimulationError, np.linalg.LinAlgError) as exc:
+            error = exc
         self.steps += 1
         self.physics_steps += n_done
         duration = n_done * dt

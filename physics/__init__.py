@@ -1,6 +1,25 @@
 """Physics core of the uniflagellar swimmer (Huang & Jawed, Soft Matter 2020).
 
-Plain NumPy/SciPy with Numba kernels; imports nothing from the layers above it.
+Plain NumPy/SciPy with Numba kernels; imports nothing from the layers above it. The public API::
+
+    from physics import Simulator, advance, configure
+    from physics.params import RPM_TO_RAD_S
+
+    params, numerics = configure("fast", {"head_radius": 0.01})  # preset, then overrides
+    sim = Simulator(params, numerics)
+    sim.set_motor_speed(10 * RPM_TO_RAD_S)
+    advance(sim, 5.0, on_step=lambda sim, k: print(k, sim.time) if k % 100 == 0 else None)
+
+- ``Simulator`` (``physics.simulator``): the swimmer; ``step()``, ``advance(T)``, state and observables.
+- ``SwimmerParams``, ``NumericsConfig`` (``physics.params``): the physical and numerical parameters.
+- ``configure(preset, overrides)`` (``physics.presets``): the defaults, a preset, then overrides;
+  ``preset_names()``.
+- ``MotorSchedule`` (``physics.schedule``): piecewise-constant motor speed.
+- ``advance(sim, T, on_step=...)`` (``physics.run``): the run loop with a callback after each step;
+  ``run_simulation`` records a trajectory and a summary on top of it.
+- ``SimulationError`` (``physics.errors``): a step that cannot be taken.
+
+The names load on first use, so ``import physics`` stays light (no NumPy, no Numba).
 """
 
 import os as _os
@@ -11,3 +30,22 @@ import os as _os
 _os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 _os.environ.setdefault("OMP_NUM_THREADS", "1")
 _os.environ.setdefault("MKL_NUM_THREADS", "1")
+
+#: Public name -> module that defines it (imported on first access, PEP 562).
+_API = {"Simulator": "physics.simulator", "SwimmerParams": "physics.params", "NumericsConfig": "physics.params",
+        "configure": "physics.presets", "preset_names": "physics.presets", "MotorSchedule": "physics.schedule",
+        "advance": "physics.run", "run_simulation": "physics.run", "RunResult": "physics.run",
+        "SimulationError": "physics.errors"}
+__all__ = sorted(_API)
+
+
+def __getattr__(name: str):
+    if name in _API:
+        import importlib
+
+        return getattr(importlib.import_module(_API[name]), name)
+    raise AttributeError(f"module 'physics' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(list(globals()) + __all__)

@@ -13,9 +13,11 @@ docs/fidelity.md (scripts/bench_fidelity.py).
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Mapping
 from typing import Any
 
-from physics.params import NumericsConfig, SwimmerParams
+from physics.params import NumericsConfig, SwimmerParams, apply_overrides
 
 PRESETS: dict[str, dict[str, dict[str, Any]]] = {
     "paper": {"params": {"n_nodes": 122},
@@ -33,6 +35,29 @@ PRESETS: dict[str, dict[str, dict[str, Any]]] = {
 
 def preset_names() -> list[str]:
     return list(PRESETS)
+
+
+def configure(preset: str | None = None,
+              overrides: Mapping[str, Any] | None = None) -> tuple[SwimmerParams, NumericsConfig]:
+    """The parameters and numerics of a run: the defaults (the paper's model at h = 1 ms), then ``preset``
+    (None: none), then ``overrides``.
+
+    ``overrides`` maps any ``SwimmerParams`` or ``NumericsConfig`` field name to a value; a string is parsed
+    as on the command line (``"0.01"``, ``"true"``, see ``apply_overrides``), anything else is used as it
+    is. ValueError names an unknown name or a value out of range.
+    """
+    p, n = apply_preset(preset) if preset else (SwimmerParams(), NumericsConfig())
+    if not overrides:
+        return p, n
+    p, n = apply_overrides(p, n, {k: v for k, v in overrides.items() if isinstance(v, str)})
+    typed = {k: v for k, v in overrides.items() if not isinstance(v, str)}
+    p_names = {f.name for f in dataclasses.fields(SwimmerParams)}
+    n_names = {f.name for f in dataclasses.fields(NumericsConfig)}
+    unknown = sorted(set(typed) - p_names - n_names)
+    if unknown:
+        raise ValueError(f"unknown parameter {unknown[0]!r}; known parameters: {', '.join(sorted(p_names | n_names))}")
+    return (p.replace(**{k: v for k, v in typed.items() if k in p_names}),
+            n.replace(**{k: v for k, v in typed.items() if k in n_names}))
 
 
 def apply_preset(name: str, params: SwimmerParams | None = None,

@@ -11,7 +11,11 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import signal
+import threading
 import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from numbers import Real
 from pathlib import Path
@@ -25,6 +29,9 @@ from physics.schedule import MotorSchedule
 
 DEFAULT_RECORD_INTERVAL_S = 0.01
 DEFAULT_NODE_RECORD_INTERVAL_S = 0.1
+#: Longest run, s of simulated time (about 11.6 days: far beyond any run of the paper; a larger value is a typo
+#: that would otherwise run for ever).
+MAX_DURATION_S = 1e6
 
 
 class SimulatorLike(Protocol):
@@ -177,11 +184,67 @@ def validate_run_arguments(numerics: NumericsConfig, duration_s: float, record_i
                         ("node_record_interval_s", node_record_interval_s)):
         if isinstance(value, bool) or not isinstance(value, Real) or not math.isfinite(value) or value <= 0:
             raise ValueError(f"{name}={value!r} is not allowed; allowed: a finite time > 0 s")
+    if duration_s > MAX_DURATION_S:
+        raise ValueError(f"duration_s={duration_s!r} is not allowed; allowed: a time > 0 and <= {MAX_DURATION_S:g} s")
     n_steps = int(round(duration_s / numerics.dt))
     if n_steps < 1:
         raise ValueError(f"duration_s={duration_s!r} is shorter than one time step; "
                          f"allowed: >= dt = {numerics.dt:g} s")
     return n_steps
+
+
+def advance(sim: Any, duration_s: float | None = None, *, steps: int | None = None,
+            on_step: Callable[[Any, int], bool | None] | None = None) -> int:
+    """The run loop: step ``sim`` for ``duration_s`` seconds (rounded to whole steps of ``sim.numerics.dt``,
+    as ``Simulator.advance``) or for ``steps`` steps, calling ``on_step(sim, k)`` after step k = 1, 2, ...
+
+    A callback that returns True ends the loop after its step. Returns the number of steps taken.
+    ``SimulationError`` and ``KeyboardInterrupt`` propagate (the steps before them are taken). With no
+    callback, ``advance(sim, T)`` takes exactly the steps of ``sim.advance(T)``.
+    """
+    if (duration_s is None) == (steps is None):
+        raise ValueError("give exactly one of duration_s and steps")
+    n = int(round(duration_s / sim.numerics.dt)) if steps is None else int(steps)
+    for k in range(1, n + 1):
+        sim.step()
+        if on_step is not None and on_step(sim, k):
+            return k
+    return n
+
+
+class StopRequest:
+    """Set by Ctrl-C or SIGTERM while ``stop_requests`` is active; the run loop ends after the current step."""
+
+    def __init__(self) -> None:
+        self.requested = False
+
+
+@contextmanager
+def stop_requests() -> Iterator[StopRequest]:
+    """Ctrl-C (SIGINT) and SIGTERM ask the run loop to stop after the current step (a second signal stops at
+    once). A flag, not an exception raised wherever the signal lands: raised inside a compiled (Numba) kernel,
+    KeyboardInterrupt surfaces as a SystemError. Only signals that already interrupt (a Python handler such as
+    Ctrl-C's, or the command line's SIGTERM handler) are taken over: ignored or default ones (worker processes)
+    stay as they are; outside the main thread nothing changes."""
+    stop = StopRequest()
+    if threading.current_thread() is not threading.main_thread():
+        yield stop
+        return
+
+    def handler(signum: int, frame: object) -> None:
+        if stop.requested:
+            raise KeyboardInterrupt
+        stop.requested = True
+
+    previous = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        if callable(signal.getsignal(sig)):
+            previous[sig] = signal.signal(sig, handler)
+    try:
+        yield stop
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
 
 
 def run_simulation(params: SwimmerParams, numerics: NumericsConfig, schedule: MotorSchedule, duration_s: float,
@@ -194,8 +257,8 @@ def run_simulation(params: SwimmerParams, numerics: NumericsConfig, schedule: Mo
     same ``numerics.dt`` (tests pass a fake). Samples every ``record_interval_s`` and node
     snapshots every ``node_record_interval_s`` (both s, rounded to whole steps, at least one
     step). A tqdm bar in simulated seconds is shown on stderr when ``progress`` is true.
-    Ctrl-C and ``SimulationError`` end the run early; the result keeps what was computed and
-    says why in ``interrupted`` / ``error``.
+    Ctrl-C, SIGTERM and ``SimulationError`` end the run early (a signal after the current step,
+    ``stop_requests``); the result keeps what was computed and says why in ``interrupted`` / ``error``.
     """
     n_steps = validate_run_arguments(numerics, duration_s, record_interval_s, node_record_interval_s)
     dt = numerics.dt
@@ -213,16 +276,28 @@ def run_simulation(params: SwimmerParams, numerics: NumericsConfig, schedule: Mo
     bar = _progress_bar(n_steps, dt) if progress else None
     wall0 = time.perf_counter()
     try:
-        for step in range(1, n_steps + 1):
+        with stop_requests() as stop:
             t_before = sim.time
             omega = schedule.omega_rad_s_at(t_before - rec.t0 + 0.5 * dt)
             sim.set_motor_speed(omega)
-            sim.step()
-            reynolds = float(sim.reynolds_number())
-            totals.add(sim, omega, sim.time - t_before, reynolds)
-            rec.sample(sim, step, omega, reynolds)
-            if bar is not None:
-                bar.update(1)
+
+            def on_step(sim: Any, step: int) -> None:
+                # record step ``step``, then set the motor speed of the next one (the schedule's value at
+                # its midpoint)
+                nonlocal t_before, omega
+                reynolds = float(sim.reynolds_number())
+                totals.add(sim, omega, sim.time - t_before, reynolds)
+                rec.sample(sim, step, omega, reynolds)
+                if bar is not None:
+                    bar.update(1)
+                if stop.requested:
+                    raise KeyboardInterrupt
+                if step < n_steps:
+                    t_before = sim.time
+                    omega = schedule.omega_rad_s_at(t_before - rec.t0 + 0.5 * dt)
+                    sim.set_motor_speed(omega)
+
+            advance(sim, steps=n_steps, on_step=on_step)
     except KeyboardInterrupt:
         interrupted = True
     except SimulationError as exc:

@@ -3,14 +3,15 @@
     python scripts/agents_report.py [--agent agents/pretrained/ppo_residual_fast]
 
 Inputs (each made by a committed command):
-- AGENT/meta.json, episodes.csv, eval/evaluations.npz, config.yml
+- AGENT/meta.json, config.yml, and episodes.csv, eval/evaluations.npz in AGENT or (for the shipped agent)
+  in results/agents/<name>/
       flagellum train --config agents/configs/ppo_residual_fast.yml --out AGENT
-- data/eval/<preset>/results.json for preset fast and paper, holding both controllers
-      flagellum evaluate --paths data/paths/eval --controller rule --controller ppo --preset <preset>
-                         --out data/eval/<preset> --resume
-- data/eval/fast_randomized/results.json (model error: each path's swimmer off the map by up to 5 %)
-      flagellum evaluate --paths data/paths/eval --controller rule --controller ppo --preset fast
-                         --randomize 0.05 --out data/eval/fast_randomized
+- results/eval/<preset>/results.json for preset fast and paper, holding both controllers
+      flagellum evaluate --paths eval --controller rule --controller ppo --preset <preset>
+                         --out results/eval/<preset> --resume
+- results/eval/fast_randomized/results.json (model error: each path's swimmer off the map by up to 5 %)
+      flagellum evaluate --paths eval --controller rule --controller ppo --preset fast
+                         --randomize 0.05 --out results/eval/fast_randomized
   (held-out paths: seeds 1000-1009; training drew its paths from other seeds, validation used 900-903).
 Missing inputs are reported as not measured.
 """
@@ -28,6 +29,8 @@ from agents.ppo_config import TrainConfig
 from agents.training_plots import read_episodes, training_figure
 
 DOCS = Path("docs")
+#: training logs of the shipped agent and the earlier agents (moved out of the package)
+RESULT_AGENTS = Path("results/agents")
 PRESETS = ("fast", "paper")
 ROWS = (("success rate (%)", "success_rate", 100, 0), ("waypoints reached (mean)", "waypoints_reached", 1, 2),
         ("mean cross-track (cm)", "mean_cross_track_m", 100, 2), ("max cross-track (cm)", "max_cross_track_m", 100, 2),
@@ -40,6 +43,12 @@ def _fmt(v: Any, scale: float, digits: int) -> str:
     return "-" if v is None else f"{float(v) * scale:.{digits}f}"
 
 
+def logs_dir(agent: Path) -> Path:
+    """The folder with an agent's training logs (episodes.csv, eval/): its own, or for the shipped agent (whose
+    package folder holds only what ``--controller ppo`` loads) ``results/agents/<name>``."""
+    return agent if (agent / "episodes.csv").is_file() else RESULT_AGENTS / agent.name
+
+
 def training_section(agent: Path, lines: list[str], heading: str = "## Training",
                      figure: str = "ppo_training.png") -> None:
     meta_file = agent / "meta.json"
@@ -47,10 +56,11 @@ def training_section(agent: Path, lines: list[str], heading: str = "## Training"
         lines += [heading, "", f"Not measured: no trained agent in `{agent}`.", ""]
         return
     meta = json.loads(meta_file.read_text(encoding="utf-8"))
-    fig = save(training_figure(agent, f"PPO residual agent {meta['name']}: training on the {meta['preset']} preset"),
+    logs = logs_dir(agent)
+    fig = save(training_figure(logs, f"PPO residual agent {meta['name']}: training on the {meta['preset']} preset"),
                DOCS / "figures" / figure)
-    ep = read_episodes(agent / "episodes.csv")
-    stages = _stages(agent / "episodes.csv")
+    ep = read_episodes(logs / "episodes.csv")
+    stages = _stages(logs / "episodes.csv")
     rnd = meta.get("env_kwargs", {}).get("randomize")
     rnd_text = (", ".join(f"{k} ±{100 * v:g} %" for k, v in rnd.items() if v) if isinstance(rnd, dict)
                 else str(rnd)) if rnd else "none"
@@ -60,8 +70,8 @@ def training_section(agent: Path, lines: list[str], heading: str = "## Training"
               f"{meta['wall_time_s'] / 60:.0f} min** of wall time on this 2-core machine ({meta.get('n_envs')} env "
               f"workers, PyTorch on the CPU), {len(ep['decisions'])} training episodes.{budget} Trained from commit "
               f"`{meta['commit']}` (`-dirty`: result files being written, not code) with stable-baselines3 "
-              f"{meta['versions']['stable_baselines3']}, torch {meta['versions']['torch']}; the shipped files are in "
-              f"`{agent}`.", "",
+              f"{meta['versions']['stable_baselines3']}, torch {meta['versions']['torch']}; its files are in "
+              f"`{agent}`" + (f" (training logs in `{logs}`)" if logs != agent else "") + ".", "",
               f"![PPO training curve](figures/{fig.name})", "",
               "*Training episodes (dots; rolling mean, line) and the deterministic policy on the validation "
               "paths with the nominal swimmer (squares), against the number of decisions. Training episodes use "
@@ -113,7 +123,7 @@ def policy_probe(agent: Path) -> list[str]:
 
 def validation_lines(agent: Path, meta: dict[str, Any]) -> list[str]:
     """The EvalCallback's validation results (deterministic policy, nominal swimmer)."""
-    f = agent / "eval" / "evaluations.npz"
+    f = logs_dir(agent) / "eval" / "evaluations.npz"
     if not f.is_file():
         return ["No validation log."]
     import numpy as np
@@ -142,12 +152,15 @@ def _validation_every(agent: Path) -> int | None:
 
 
 #: the fine-tuned agents (``init_from`` the shipped one, on `balanced`): (folder, label, training figure)
-FINE_TUNES = ((Path("agents/pretrained/ppo_residual_balanced_ft"), "PPO, fine-tuned on balanced",
+FINE_TUNES = ((Path("results/agents/ppo_residual_balanced_ft"), "PPO, fine-tuned on balanced",
                "ppo_training_balanced_ft.png"),
-              (Path("agents/pretrained/ppo_residual_balanced_ft_long"),
+              (Path("results/agents/ppo_residual_balanced_ft_long"),
                "PPO, fine-tuned on balanced up to the 2-h budget", "ppo_training_balanced_ft_long.png"))
 FT_AGENT = FINE_TUNES[0][0]
-FT_KEYS = tuple(f"ppo:{agent}" for agent, _, _ in FINE_TUNES)
+#: their controller specs as recorded in results/eval (they were run from agents/pretrained/ then)
+FT_KEYS = tuple(f"ppo:agents/pretrained/{agent.name}" for agent, _, _ in FINE_TUNES)
+#: the same agents' controller specs today
+CURRENT_SPEC = {key: f"ppo:{agent}" for key, (agent, _, _) in zip(FT_KEYS, FINE_TUNES)}
 #: the PPO controllers an evaluation folder may hold: (results key, label)
 PPO_CONTROLLERS = (("ppo", "PPO, trained on fast (shipped default)"),
                    *((key, label) for key, (_, label, _) in zip(FT_KEYS, FINE_TUNES)))
@@ -177,14 +190,14 @@ def comparison_lines(res: dict[str, Any], ppo: str = "ppo") -> list[str]:
 
 
 def first_design_section(lines: list[str]) -> None:
-    agent = Path("agents/pretrained/ppo_residual_fast_randomized")
+    agent = Path("results/agents/ppo_residual_fast_randomized")
     lines += ["## The first design (kept for the record)", "",
               "Trained with a randomised swimmer (E, μ, b ±5 %, helix ±2 %), corrections of up to 20 % of the "
               "burst and 30° of phase, and no price on a correction. Its files and config are in "
               f"`{agent}` (the config was then named `ppo_residual_fast.yml`; it is now "
               "`agents/configs/ppo_residual_fast_randomized.yml`).", ""]
     training_section(agent, lines, "### Its training", "ppo_training_randomized.png")
-    f = Path("data/eval/ppo_randomized_fast/results.json")
+    f = Path("results/eval/ppo_randomized_fast/results.json")
     if f.is_file():
         lines += ["### On the 20 held-out paths, `fast` preset", "",
                   *comparison_lines(json.loads(f.read_text(encoding="utf-8"))), ""]
@@ -215,7 +228,7 @@ def fine_tune_section(lines: list[str]) -> None:
 
 def evaluation_section(lines: list[str]) -> dict[str, Any]:
     lines += ["## Held-out paths: PPO against the rule planner", "",
-              "20 paths (`data/paths/eval`: 10 planar, 10 3-D, three segments of 12-20 cm, turns of 30°-150°, seeds "
+              "20 paths (`agents/eval_paths`, `--paths eval`: 10 planar, 10 3-D, three segments of 12-20 cm, turns of 30°-150°, seeds "
               "1000-1009, which training never drew), one episode per controller and path, "
               "`flagellum evaluate ... --controller rule --controller ppo`. Means over the paths run. Wall "
               "times compare only episodes run together: at `paper` the rule planner's episodes ran in an "
@@ -224,7 +237,7 @@ def evaluation_section(lines: list[str]) -> dict[str, Any]:
     found: dict[str, Any] = {}
     for folder, title in [(p, f"`{p}` preset") for p in PRESETS] + [
             ("fast_randomized", "`fast` preset, swimmer parameters off the turn map's (`--randomize 0.05`)")]:
-        f = Path("data/eval") / folder / "results.json"
+        f = Path("results/eval") / folder / "results.json"
         res = json.loads(f.read_text(encoding="utf-8")) if f.is_file() else None
         agg = (res or {}).get("aggregate", {})
         if "rule" not in agg or "ppo" not in agg:
@@ -234,7 +247,7 @@ def evaluation_section(lines: list[str]) -> dict[str, Any]:
         lines += [f"### {title}", ""]
         for key, label in PPO_CONTROLLERS:
             if key in agg:
-                lines += ([f"**{label}** (`--controller {key}`)", ""]
+                lines += ([f"**{label}** (`--controller {CURRENT_SPEC.get(key, key)}`)", ""]
                           if key != "ppo" or any(k in agg for k in FT_KEYS) else []) + [
                     *comparison_lines(res, key), ""]
     return found
@@ -244,7 +257,7 @@ def verdict_section(found: dict[str, Any], agent: Path, lines: list[str]) -> Non
     """The issue's targets, checked against the measured files, and what was tried."""
     lines += ["## Against the targets", ""]
     minutes = []
-    for a in (agent, Path("agents/pretrained/ppo_residual_fast_randomized")):
+    for a in (agent, Path("results/agents/ppo_residual_fast_randomized")):
         f = a / "meta.json"
         if f.is_file():
             minutes.append(json.loads(f.read_text(encoding="utf-8"))["wall_time_s"] / 60)

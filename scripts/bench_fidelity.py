@@ -2,7 +2,7 @@
 
     python scripts/bench_fidelity.py [--metrics quick|full|M1,M2] [--config NAME ...] [--workers N] [--report-only]
 
-Resumable: finished tasks are kept in data/bench/fidelity_full.results.jsonl (committed); re-running skips them.
+Resumable: finished tasks are kept in results/bench/fidelity_full.results.jsonl (committed); re-running skips them.
 Outputs docs/fidelity.json, docs/fidelity.md and docs/figures/fidelity_pareto.png.
 """
 
@@ -24,7 +24,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--config", action="append", default=None, metavar="NAME",
                     help="a ladder configuration to run (repeatable; default: all; 'paper' is always included)")
     ap.add_argument("--workers", type=int, default=None)
-    ap.add_argument("--results", default="data/bench/fidelity_full.results.jsonl")
+    ap.add_argument("--results", default="results/bench/fidelity_full.results.jsonl")
     ap.add_argument("--report-only", action="store_true", help="run nothing; rebuild the report from --results")
     args = ap.parse_args(argv)
     metrics = {"full": FULL_METRICS, "quick": QUICK_METRICS}.get(args.metrics) or tuple(args.metrics.split(","))

@@ -2,8 +2,8 @@
 
     python scripts/bench_node_convergence.py [--workers N] [--report-only]
 
-Resumable: finished runs are kept in data/bench/node_convergence.results.jsonl (committed). The reference is
-`paper`'s turn_tc40 from data/bench/fidelity_full.results.jsonl (scripts/bench_fidelity.py).
+Resumable: finished runs are kept in results/bench/node_convergence.results.jsonl (committed). The reference is
+`paper`'s turn_tc40 from results/bench/fidelity_full.results.jsonl (scripts/bench_fidelity.py).
 Outputs docs/node_convergence.md, docs/node_convergence.json and docs/figures/node_convergence.png.
 """
 
@@ -21,8 +21,8 @@ from flagellum.node_convergence import METRIC, markdown, plot, sweep_configs, sw
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--workers", type=int, default=None)
-    ap.add_argument("--results", default="data/bench/node_convergence.results.jsonl")
-    ap.add_argument("--reference", default="data/bench/fidelity_full.results.jsonl")
+    ap.add_argument("--results", default="results/bench/node_convergence.results.jsonl")
+    ap.add_argument("--reference", default="results/bench/fidelity_full.results.jsonl")
     ap.add_argument("--report-only", action="store_true", help="run nothing; rebuild the report from --results")
     ap.add_argument("--no-progress", action="store_true")
     args = ap.parse_args(argv)
@@ -40,7 +40,7 @@ def main(argv: list[str] | None = None) -> int:
               f"(this call: {(time.perf_counter() - t0) / 60:.0f} min wall; runs measured "
               + (f"{dates[0]} to {dates[-1]}" if dates else "-") + "; one core per run, two at a time). "
               "Each run: steady 10 rpm swimming, a 40 s burst at 90 rpm, back to 10 rpm until the heading "
-              "settles (`agents.turn_map.measure_turn`); θ is the turn. All runs use `fast`'s Newton tolerance "
+              "settles (`flagellum_env.turn_measurement.measure_turn`); θ is the turn. All runs use `fast`'s Newton tolerance "
               "(1e-5); N, h and the resistance-refresh tolerance vary. θ error = |θ - θ_paper| / θ_paper.")
     Path("docs").mkdir(exist_ok=True)
     Path("docs/node_convergence.json").write_text(json.dumps({"reference": reference, "rows": rows}, indent=2) + "\n")

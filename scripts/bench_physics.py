@@ -19,8 +19,8 @@ from dataclasses import asdict, dataclass
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # one core per simulation, as in sweeps
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-from physics.params import RPM_TO_RAD_S, NumericsConfig, SwimmerParams  # noqa: E402
-from physics.simulator import Simulator  # noqa: E402
+from physics import Simulator, advance, configure  # noqa: E402
+from physics.params import RPM_TO_RAD_S  # noqa: E402
 
 
 @dataclass(frozen=True)
@@ -42,15 +42,14 @@ CASES = (
 
 
 def measure(case: Case, steps: int, repeats: int) -> dict:
-    sim = Simulator(SwimmerParams(head_rotation=case.head_rotation), NumericsConfig(dt=case.dt))
+    sim = Simulator(*configure(None, {"head_rotation": case.head_rotation, "dt": case.dt}))
     sim.set_motor_speed(case.omega_rpm * RPM_TO_RAD_S)
-    sim.advance(case.warmup_s)
+    advance(sim, case.warmup_s)
     per_step, parts = [], []
     for _ in range(repeats):
         s0 = asdict(sim.stats)
         t0 = time.perf_counter()
-        for _ in range(steps):
-            sim.step()
+        advance(sim, steps=steps)
         wall = time.perf_counter() - t0
         s1 = asdict(sim.stats)
         d = {k: s1[k] - s0[k] for k in s1}

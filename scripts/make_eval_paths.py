@@ -1,6 +1,6 @@
 """Write the seeded random evaluation paths (planar and 3-D, turns 30-150 deg) as path files.
 
-    python scripts/make_eval_paths.py [--out data/paths/eval] [--count 10] [--seed0 1000]
+    python scripts/make_eval_paths.py [--out agents/eval_paths] [--count 10] [--seed0 1000]
 
 Seeds seed0 .. seed0 + count - 1 give the planar paths and the same seeds the 3-D ones (other
 draws). Training (issue #7) must use seeds below 1000 so that these stay held out.
@@ -21,7 +21,7 @@ EVAL_PATHS = RandomPathConfig(n_waypoints=3, segment_length_m=(0.12, 0.2), min_t
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=Path("data/paths/eval"))
+    ap.add_argument("--out", type=Path, default=Path("agents/eval_paths"))
     ap.add_argument("--count", type=int, default=10, help="paths of each kind (planar, 3-D)")
     ap.add_argument("--seed0", type=int, default=1000)
     args = ap.parse_args()

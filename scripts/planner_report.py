@@ -3,10 +3,10 @@
     python scripts/planner_report.py
 
 Inputs (each made by a committed command, listed in the report):
-- data/turn_maps/<preset>.json       flagellum calibrate-turns --preset <preset> [...]
-- data/turn_maps/r9_*.json           the paper's protocol (omega_h = 60 rpm), R9
+- agents/turn_maps/<preset>.json     flagellum calibrate-turns --preset <preset> --out agents/turn_maps/<preset>.json
+- results/turn_maps/r9_*.json        the paper's protocol (omega_h = 60 rpm), R9
 - docs/square/<preset>/summary.json  flagellum follow --path square --preset <preset> --out docs/square/<preset>
-- data/eval/<preset>/results.json    flagellum evaluate --paths data/paths/eval --controller rule --preset <preset>
+- results/eval/<preset>/results.json flagellum evaluate --paths eval --controller rule --preset <preset>
 Missing inputs are reported as not measured.
 """
 
@@ -26,7 +26,7 @@ PRESETS = ("paper", "balanced", "fast")
 def turn_map_section(lines: list[str]) -> None:
     lines += ["## Turn maps (Fig. 5d)", ""]
     for preset in PRESETS:
-        f = Path("data/turn_maps") / f"{preset}.json"
+        f = Path("agents/turn_maps") / f"{preset}.json"
         if not f.is_file():
             lines += [f"- `{preset}`: not calibrated.", ""]
             continue
@@ -49,22 +49,22 @@ def turn_map_section(lines: list[str]) -> None:
             lines.append(f"| {row[0]:g} | {row[0] / m.params.viscous_time:.3f} | {row[1]:.1f} | {row[2]:.1f} | "
                          f"{row[3]:.1f} | {row[4]:.1f} |")
         lines.append("")
-    ref = next((Path("data/turn_maps") / f"{p}.json" for p in PRESETS
-                if (Path("data/turn_maps") / f"{p}.json").is_file()), None)
+    ref = next((Path("agents/turn_maps") / f"{p}.json" for p in PRESETS
+                if (Path("agents/turn_maps") / f"{p}.json").is_file()), None)
     if ref is not None:
         shutil.copyfile(DOCS / "figures" / f"turn_map_{ref.stem}.png", DOCS / "figures" / "fig5d_turn_map.png")
         lines += [f"`docs/figures/fig5d_turn_map.png` is the `{ref.stem}` map.", ""]
 
 
 def phase_check_section(lines: list[str]) -> None:
-    """Phase independence at the paper preset (data/turn_maps/paper_phases.json, if measured)."""
-    f = Path("data/turn_maps/paper_phases.json")
+    """Phase independence at the paper preset (results/turn_maps/paper_phases.json, if measured)."""
+    f = Path("results/turn_maps/paper_phases.json")
     if not f.is_file():
         return
     m = TurnMap.load(f)
     lines += ["### Phase check at the `paper` preset", "",
               "`flagellum calibrate-turns --preset paper --t-c 7 7.5 --phases 0 90 180 270 --out "
-              "data/turn_maps/paper_phases.json`:", "",
+              "results/turn_maps/paper_phases.json`:", "",
               "| t_c (s) | phase (°) | θ (°) | φ (°) | ψ (°) |", "|---|---|---|---|---|"]
     for p in sorted(m.points, key=lambda p: (p.t_c, p.phase_deg)):
         lines.append(f"| {p.t_c:g} | {p.phase_deg:g} | {p.theta_deg:.1f} | {p.phi_deg:.1f} | {p.psi_deg:.1f} |")
@@ -73,7 +73,7 @@ def phase_check_section(lines: list[str]) -> None:
 
 def r9_section(lines: list[str]) -> None:
     lines += ["## The paper's protocol: ω_h = 60 rpm (R9)", ""]
-    files = sorted(Path("data/turn_maps").glob("r9_*.json"))
+    files = sorted(Path("results/turn_maps").glob("r9_*.json"))
     if not files:
         lines += ["Not measured.", ""]
         return
@@ -110,12 +110,12 @@ def square_section(lines: list[str]) -> None:
 def evaluation_section(lines: list[str]) -> None:
     lines += ["## Random paths (20 seeded: 10 planar, 10 3-D; turns 30°-150°)", ""]
     for preset in PRESETS:
-        f = Path("data/eval") / preset / "results.json"
+        f = Path("results/eval") / preset / "results.json"
         if not f.is_file():
             lines += [f"- `{preset}`: not run.", ""]
             continue
         lines += [f"### `{preset}` preset", ""]
-        lines += (Path("data/eval") / preset / "results.md").read_text().splitlines()[2:]
+        lines += (Path("results/eval") / preset / "results.md").read_text().splitlines()[2:]
         lines.append("")
 
 

@@ -20,3 +20,17 @@ def steady_start_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str
         os.environ.pop("FLAGELLUM_CACHE_DIR", None)
     else:
         os.environ["FLAGELLUM_CACHE_DIR"] = old
+
+
+@pytest.fixture(scope="session", autouse=True)
+def user_turn_maps(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    """An empty user turn-map folder (``agents.assets.user_turn_map_dir``) for the whole session, so tests use
+    the shipped maps and never read or write the user's."""
+    folder = str(tmp_path_factory.mktemp("turn_maps"))
+    old = os.environ.get("FLAGELLUM_TURN_MAPS")
+    os.environ["FLAGELLUM_TURN_MAPS"] = folder
+    yield folder
+    if old is None:
+        os.environ.pop("FLAGELLUM_TURN_MAPS", None)
+    else:
+        os.environ["FLAGELLUM_TURN_MAPS"] = old

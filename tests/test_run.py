@@ -158,6 +158,33 @@ def test_keyboard_interrupt_stops_cleanly_and_keeps_the_data():
     assert tr.node_times[-1] == pytest.approx(0.03)
 
 
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_a_signal_during_a_step_ends_the_run_after_that_step(sig):
+    """Ctrl-C or SIGTERM (when the command line turns it into an interrupt) arriving inside a step lets the
+    step finish, then the run ends as interrupted: no exception is raised inside the step."""
+    import os
+    import signal
+
+    signum = getattr(signal, sig)
+    previous = signal.signal(signal.SIGTERM, lambda s, f: (_ for _ in ()).throw(KeyboardInterrupt))
+    sim = FakeSimulator(DT)
+    plain_step = sim.step
+
+    def step() -> None:
+        if sim.step_count + 1 == 7:
+            os.kill(os.getpid(), signum)  # the handler runs here, in the middle of the step
+        plain_step()
+
+    sim.step = step
+    try:
+        res = run_simulation(PARAMS, NUMERICS, MotorSchedule.constant(60.0), 1.0, simulator=sim, progress=False)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert res.interrupted and res.error is None
+    assert res.summary["steps"] == 7 and sim.step_count == 7
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
 def test_simulation_error_keeps_the_data_and_the_message():
     res, sim = _run(MotorSchedule.constant(60.0), 1.0, fail_at=26)
     assert not res.interrupted and not res.completed

@@ -14,13 +14,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import flagellum.task_pool as task_pool
+import batch.pool as task_pool
 from flagellum.cli import main
-from flagellum.sweep import (SweepConfig, SweepConfigError, SweepError, SweepIncomplete, SweepInterrupted,
+from batch.sweep import (SweepConfig, SweepConfigError, SweepError, SweepIncomplete, SweepInterrupted,
                              load_results, load_sweep_config, run_sweep)
-from flagellum.sweep_backends import BackendError, DaskBackend
-from flagellum.sweep_store import ResultsStore, read_results
-from flagellum.sweep_worker import PointOutcome, PointTask, run_point
+from batch.backends import BackendError, DaskBackend
+from batch.store import ResultsStore, read_results
+from batch.sweep_task import PointTask, run_point
+from batch.worker import PointOutcome
 from physics.params import NumericsConfig, SwimmerParams
 from physics.run import Trajectory
 

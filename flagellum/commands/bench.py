@@ -6,21 +6,28 @@ import argparse
 import time
 from pathlib import Path
 
+from flagellum.commands.common import UsageError, ensure_dir, parse_int
+
 NAME = "bench"
 HELP = "measure speed and accuracy of the fidelity configurations against the paper preset"
 DESCRIPTION = ("Runs every configuration of the fidelity ladder on the same tasks (swim speed at 10 rpm, "
                "L'/L after 100 s at 90 rpm; with --full also turning angles and the buckling threshold), "
-               "in parallel and resumably, and reports real-time factors and relative errors against 'paper'.")
+               "in parallel and resumably, and reports real-time factors and relative errors against 'paper'. "
+               "The ladder fixes every configuration, so bench takes neither --set nor --preset.")
+ACCEPTS_SET = False
+PRESET = None
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true", help="only the swim-speed metric (minutes, not hours)")
     parser.add_argument("--full", action="store_true", help="all metrics (turning angles, omega_b): hours")
-    parser.add_argument("--json", default="out/bench/fidelity.json", help="where to write the JSON report")
+    parser.add_argument("--json", default="out/bench/fidelity.json",
+                        help="where to write the JSON report (default out/bench/fidelity.json; the .md and .png "
+                             "reports go beside it)")
     parser.add_argument("--results", default=None,
                         help="task results file (JSONL, resumable); default: next to --json")
-    parser.add_argument("--workers", type=int, default=None, help="parallel processes (default: all cores)")
-    parser.add_argument("--no-progress", action="store_true")
+    parser.add_argument("--workers", metavar="N", help="parallel processes (default: all cores)")
+    parser.add_argument("--no-progress", action="store_true", help="do not show the progress bar")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -28,11 +35,17 @@ def run(args: argparse.Namespace) -> int:
                                     rows_from, run_fidelity)
     from flagellum.fidelity_report import write_report
 
+    workers = None if args.workers is None else parse_int("--workers", args.workers, 1)
     metrics = ("swim_per_turn_10rpm",) if args.quick else (FULL_METRICS if args.full else QUICK_METRICS)
     out = Path(args.json)
     results = Path(args.results) if args.results else out.with_suffix(".results.jsonl")
+    ensure_dir("--json", out.parent)
+    ensure_dir("--results", results.parent)
+    for option, f in (("--json", out), ("--results", results)):
+        if f.is_dir():
+            raise UsageError(f"{option} {str(f)!r} is a directory; allowed: a file path")
     t0 = time.perf_counter()
-    done = run_fidelity(results, LADDER, metrics, workers=args.workers, progress=not args.no_progress)
+    done = run_fidelity(results, LADDER, metrics, workers=workers, progress=not args.no_progress)
     rows = rows_from(done)
     write_report(rows, out, out.with_suffix(".md"), out.with_suffix(".png"),
                  "flagellum bench " + ("--quick" if args.quick else "--full" if args.full else ""),

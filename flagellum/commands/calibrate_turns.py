@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from flagellum.commands.common import UsageError, build_config, parse_number, parse_overrides
+from flagellum.commands.common import (SCHEDULER_HELP, UsageError, build_config, ensure_dir, parse_number,
+                                       parse_overrides, parse_workers)
 
 NAME = "calibrate-turns"
 HELP = "measure turning angle vs burst length (the planner's turn map, Fig. 5d); parallel, resumable"
@@ -18,7 +19,9 @@ DESCRIPTION = ("From steady swimming at --omega-l, burst at --omega-h for each t
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", metavar="FILE", type=Path,
-                        help="turn map file (default: data/turn_maps/<preset>.json, 'custom' without --preset)")
+                        help="turn map file (default: <preset>.json, 'custom.json' without --preset, in the user's "
+                             "turn-map folder $FLAGELLUM_TURN_MAPS or ~/.local/share/flagellum/turn_maps, where "
+                             "--controller rule and ppo look for it first)")
     parser.add_argument("--omega-l", metavar="RPM", default="10", help="low (cruise) motor speed, rpm (default 10)")
     parser.add_argument("--omega-h", metavar="RPM", default=None,
                         help="burst motor speed, rpm (default 150: the paper's 60 rpm does not buckle this "
@@ -27,19 +30,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="burst lengths, s (default 1-13 in steps of 1, 15, 20, 25, 30, 40)")
     parser.add_argument("--phases", metavar="DEG", nargs="+",
                         help="hover before the burst, degrees of one flagellum rotation (default 0 90 180 270)")
-    parser.add_argument("--workers", metavar="N", help="worker processes (default: one per core)")
+    parser.add_argument("--workers", metavar="N", help="local worker processes (default: one per core)")
+    parser.add_argument("--scheduler", metavar="ADDR", help=SCHEDULER_HELP)
     parser.add_argument("--resume", action="store_true", help="keep the turns already measured for FILE")
     parser.add_argument("--no-progress", action="store_true", help="do not show the progress bar")
 
 
 def run(args: argparse.Namespace) -> int:
+    from agents.assets import user_turn_map_dir
     from agents.follow_plots import save, turn_map_figure
-    from agents.turn_calibration import calibrate_turns
+    from agents.turn_calibration import TurnsNotMeasured, calibrate_turns
     from agents.turn_map import DEFAULT_PHASES_DEG, DEFAULT_T_C_S, PLANNER_OMEGA_H_RPM
-    from flagellum.sweep_store import SweepError
+    from batch.store import SweepError
 
     params, numerics = build_config(parse_overrides(args.set), args.preset)
-    out = args.out or Path("data/turn_maps") / f"{args.preset or 'custom'}.json"
+    out = args.out or user_turn_map_dir() / f"{args.preset or 'custom'}.json"
     wl = parse_number("--omega-l", args.omega_l, "a speed > 0 rpm", positive=True)
     wh = (PLANNER_OMEGA_H_RPM if args.omega_h is None
           else parse_number("--omega-h", args.omega_h, "a speed > --omega-l rpm", positive=True))
@@ -47,13 +52,13 @@ def run(args: argparse.Namespace) -> int:
            if args.t_c else list(DEFAULT_T_C_S))
     phases = ([parse_number("--phases", v, "angles in [0, 360) deg") for v in args.phases]
               if args.phases else list(DEFAULT_PHASES_DEG))
-    workers = None if args.workers is None else int(parse_number("--workers", args.workers, "an integer >= 1",
-                                                                 positive=True))
+    workers, scheduler = parse_workers(args)
+    ensure_dir("--out", out.parent)
     try:
         tmap = calibrate_turns(params, numerics, out, preset=args.preset, omega_l_rpm=wl, omega_h_rpm=wh,
                                t_c_values=tcs, phases_deg=phases, workers=workers, resume=args.resume,
-                               progress=not args.no_progress)
-    except (ValueError, SweepError) as exc:
+                               progress=not args.no_progress, scheduler=scheduler)
+    except (ValueError, SweepError, TurnsNotMeasured) as exc:
         raise UsageError(str(exc)) from None
     fig = save(turn_map_figure(tmap, f"turn map, {args.preset or 'custom'} preset, ω_l = {wl:g} rpm, "
                                      f"ω_h = {wh:g} rpm"), out.with_suffix(".png"))

@@ -5,23 +5,37 @@ from __future__ import annotations
 import argparse
 import math
 from collections.abc import Sequence
+from pathlib import Path
 
-from physics.params import NumericsConfig, SwimmerParams, apply_overrides
-from physics.presets import apply_preset, preset_names
+from physics import NumericsConfig, SwimmerParams, configure, preset_names
 
 
 class UsageError(Exception):
     """Bad command-line input; the CLI prints it on one line and exits with status 2."""
 
 
-def add_common_arguments(parser: argparse.ArgumentParser) -> None:
-    """Options every subcommand accepts."""
-    parser.add_argument("--set", metavar="NAME=VALUE", action="append", default=[], dest="set",
-                        help="override a physical or numerical parameter (repeatable; "
-                             "see 'flagellum params' for names, units and ranges)")
-    parser.add_argument("--preset", choices=preset_names(), default=None,
-                        help="speed/accuracy preset applied before --set (paper = the reference; "
-                             "see docs/fidelity.md); default: the parameter defaults (paper's model, h = 1 ms)")
+#: ``--preset`` help when a command's default is the parameter defaults.
+PARAMETER_DEFAULTS = "the parameter defaults: the paper's model at h = 1 ms, as 'paper'"
+
+
+def add_common_arguments(parser: argparse.ArgumentParser, accepts_set: bool = True,
+                         preset: tuple[str | None, str] | None = (None, PARAMETER_DEFAULTS)) -> None:
+    """The options a subcommand shares: ``--set`` (if ``accepts_set``) and ``--preset`` (unless ``preset`` is
+    None; else ``(default, what the default means)``). A command without them gets ``set=[]`` and
+    ``preset=None``, so its help lists only what it uses."""
+    if accepts_set:
+        parser.add_argument("--set", metavar="NAME=VALUE", action="append", default=[], dest="set",
+                            help="override a physical or numerical parameter (repeatable; "
+                                 "see 'flagellum params' for names, units and ranges)")
+    else:
+        parser.set_defaults(set=[])
+    if preset is None:
+        parser.set_defaults(preset=None)
+        return
+    default, meaning = preset
+    parser.add_argument("--preset", choices=preset_names(), default=default,
+                        help="speed/accuracy preset" + (", applied before --set" if accepts_set else "")
+                             + f" (paper = the reference; see docs/fidelity.md); default: {meaning}")
 
 
 def parse_overrides(items: Sequence[str]) -> dict[str, str]:
@@ -41,10 +55,51 @@ def parse_overrides(items: Sequence[str]) -> dict[str, str]:
 def build_config(overrides: dict[str, str], preset: str | None = None) -> tuple[SwimmerParams, NumericsConfig]:
     """Default parameters, then the preset (if any), then ``overrides``; UsageError names bad values."""
     try:
-        params, numerics = apply_preset(preset) if preset else (SwimmerParams(), NumericsConfig())
-        return apply_overrides(params, numerics, overrides)
+        return configure(preset, overrides)
     except (ValueError, TypeError) as exc:
         raise UsageError(str(exc)) from None
+
+
+def parse_int(option: str, raw: str, minimum: int) -> int:
+    """Parse a whole number >= ``minimum`` given to ``option`` ("1.5" and "-1" are refused, not rounded)."""
+    try:
+        value = int(str(raw).strip(), 10)
+    except ValueError:
+        value = None
+    if value is None or value < minimum:
+        raise UsageError(f"{option} {raw!r} is not allowed; allowed: an integer >= {minimum}")
+    return value
+
+
+SCHEDULER_HELP = ("run the tasks on the Dask cluster at ADDR (tcp://HOST:PORT) instead of local processes; "
+                  "needs pip install 'dask[distributed]'")
+
+
+def parse_workers(args: argparse.Namespace) -> tuple[int | None, str | None]:
+    """``(--workers, --scheduler)``: an integer >= 1 or None, and a well-formed Dask address or None."""
+    from batch.backends import BackendError, check_scheduler_address
+
+    scheduler = getattr(args, "scheduler", None)
+    if args.workers is not None and scheduler is not None:
+        raise UsageError("--workers and --scheduler both given; --workers counts local processes, "
+                         "a cluster uses its own workers")
+    workers = None if args.workers is None else parse_int("--workers", args.workers, 1)
+    if scheduler is not None:
+        try:
+            check_scheduler_address(scheduler)
+        except BackendError as exc:
+            raise UsageError(str(exc)) from None
+    return workers, scheduler
+
+
+def ensure_dir(option: str, path: Path) -> Path:
+    """Create the output folder ``path`` given to ``option`` (and its parents); UsageError if it cannot be."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"{option} {str(path)!r}: cannot create the directory ({exc.strerror or exc}); allowed: a "
+                         "folder that exists or can be created") from None
+    return path
 
 
 def parse_number(option: str, raw: str, allowed: str, positive: bool = False) -> float:

@@ -5,21 +5,27 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from flagellum.commands.common import UsageError, parse_number
+from flagellum.commands.common import SCHEDULER_HELP, UsageError, parse_number, parse_workers
 
 NAME = "evaluate"
 HELP = "run each controller on each path (parallel, resumable); write results.json and results.md"
 DESCRIPTION = ("Every --controller on every path of --paths ('square', path files or folders of them), one "
                "episode each, saved as it finishes (DIR/results.jsonl; --resume runs only the missing ones). "
-               "Writes DIR/results.json (per_path and aggregate) and DIR/results.md.")
+               "Writes DIR/results.json (per_path and aggregate) and DIR/results.md. Each controller is built once "
+               "before any episode runs, so a missing or bad turn map or agent stops the command at once.")
+ACCEPTS_SET = False  # the turn map fixes the swimmer: choose --preset
+PRESET = ("fast", "fast")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--paths", nargs="+", required=True, help="'square', path files (JSON) or folders of them")
+    parser.add_argument("--paths", nargs="+", required=True,
+                        help="'square', 'eval' (the 20 evaluation paths shipped with the package), path files (JSON) "
+                             "or folders of them")
     parser.add_argument("--controller", action="append", required=True,
                         help="rule | rule:MAP.json | ppo | ppo:AGENT_DIR (repeatable)")
     parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/evaluate"), help="default out/evaluate")
-    parser.add_argument("--workers", metavar="N", help="worker processes (default: one per core)")
+    parser.add_argument("--workers", metavar="N", help="local worker processes (default: one per core)")
+    parser.add_argument("--scheduler", metavar="ADDR", help=SCHEDULER_HELP)
     parser.add_argument("--resume", action="store_true", help="keep the episodes already in DIR")
     parser.add_argument("--report-only", action="store_true",
                         help="run nothing: write results.json/.md from the episodes already in DIR")
@@ -32,16 +38,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from agents.evaluation import evaluate, resolve_paths
-    from flagellum.sweep_store import SweepError
+    from batch.store import SweepError
 
-    if args.set:
-        raise UsageError("--set is not used by evaluate (the turn map fixes the swimmer); choose --preset")
     try:
         paths = resolve_paths(args.paths)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
-    workers = None if args.workers is None else int(parse_number("--workers", args.workers, "an integer >= 1",
-                                                                 positive=True))
+    workers, scheduler = parse_workers(args)
     overrides = None
     if args.randomize is not None:
         f = parse_number("--randomize", args.randomize, "a fraction in (0, 0.5]", positive=True)
@@ -50,12 +53,13 @@ def run(args: argparse.Namespace) -> int:
         overrides = {"randomize": {"youngs_modulus": f, "viscosity": f, "head_radius": f, "geometry": 0.4 * f,
                                    "obs_noise_std": 0.0}}
     try:
-        results = evaluate(paths, args.controller, args.preset or "fast", args.out, workers=workers,
+        results = evaluate(paths, args.controller, args.preset, args.out, workers=workers, scheduler=scheduler,
                            resume=args.resume, progress=not args.no_progress, report_only=args.report_only,
                            env_overrides=overrides, seed_per_path=overrides is not None)
     except (ValueError, SweepError) as exc:  # a bad controller name, a locked or used DIR
         raise UsageError(str(exc)) from None
     print((args.out / "results.md").read_text(encoding="utf-8"))
     for c, agg in results["aggregate"].items():
-        print(f"{c}: success rate {agg['success_rate']:.0%} over {agg['episodes']} paths")
+        rate = "n/a" if agg["success_rate"] is None else f"{agg['success_rate']:.0%}"
+        print(f"{c}: success rate {rate} over {agg['episodes']} paths")
     return 0

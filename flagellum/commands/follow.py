@@ -4,16 +4,20 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 from pathlib import Path
 
-from flagellum.commands.common import UsageError, parse_number
+from flagellum.commands.common import UsageError, ensure_dir, parse_int, parse_number
 
 NAME = "follow"
 HELP = "drive FlagellumSteer-v0 along a path with a controller; write summary.json and plots (Fig. 6)"
 DESCRIPTION = ("Follow --path (square = the paper's 0.25 m square, or a path file) with --controller (rule = the "
                "turn planner with the preset's turn map; rule:MAP.json; ppo / ppo:AGENT_DIR) and write "
                "DIR/summary.json, DIR/path.png (target vs achieved, x-y and 3-D), DIR/omega.png (ω(t), L'/L) "
-               "and DIR/trace.npz.")
+               "and the per-step trace: DIR/trace.npz for one controller, DIR/trace_<controller>.npz (each "
+               "controller's spec with other characters than letters, digits, '-' and '_' as '_') for several.")
+ACCEPTS_SET = False  # the turn map fixes the swimmer: choose --preset
+PRESET = ("fast", "fast")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -22,8 +26,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="rule | rule:MAP.json | ppo | ppo:AGENT_DIR (repeat to compare on one plot; default rule)")
     parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/follow"), help="default out/follow")
     parser.add_argument("--reach-radius", metavar="M", help="waypoint reach radius, m (default: the path's or 0.015)")
-    parser.add_argument("--seed", default="0", help="env seed (default 0)")
+    parser.add_argument("--seed", default="0", help="env seed, an integer >= 0 (default 0)")
     parser.add_argument("--no-progress", action="store_true", help="do not show the progress bar")
+
+
+def trace_name(spec: str, n_controllers: int) -> str:
+    """``trace.npz`` for one controller, ``trace_<spec>.npz`` (spec made file-name safe) for several."""
+    return "trace.npz" if n_controllers == 1 else f"trace_{re.sub(r'[^A-Za-z0-9_-]', '_', spec)}.npz"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -32,21 +41,20 @@ def run(args: argparse.Namespace) -> int:
     from agents.path_following import env_settings, make_controller, run_episode
     from flagellum_env.steer_env import FlagellumSteerEnv
 
-    if args.set:
-        raise UsageError("--set is not used by follow (the turn map fixes the swimmer); choose --preset")
-    preset = args.preset or "fast"
+    preset = args.preset
     try:
-        path = resolve_paths([args.path])[0]
+        path = resolve_paths([args.path], option="--path")[0]
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     overrides = {}
     if args.reach_radius is not None:
         overrides["reach_radius_m"] = parse_number("--reach-radius", args.reach_radius, "a radius > 0 m",
                                                    positive=True)
-    seed = int(parse_number("--seed", args.seed, "an integer"))
-    args.out.mkdir(parents=True, exist_ok=True)
+    seed = parse_int("--seed", args.seed, 0)
+    specs = args.controller or ["rule"]
+    ensure_dir("--out", args.out)
     traces, summary = {}, {"path": path.to_dict(), "preset": preset, "controllers": {}}
-    for spec in args.controller or ["rule"]:
+    for spec in specs:
         try:
             env = FlagellumSteerEnv(path=path, **env_settings(spec, preset, overrides))
             controller = make_controller(spec, env, preset)
@@ -57,8 +65,7 @@ def run(args: argparse.Namespace) -> int:
             metrics["turns"] = controller.turns
         traces[spec] = trace
         summary["controllers"][spec] = metrics
-        trace.save_npz(args.out / (f"trace_{spec.split(':')[0]}.npz" if len(args.controller or []) > 1
-                                   else "trace.npz"))
+        trace.save_npz(args.out / trace_name(spec, len(specs)))
         print(f"{spec}: success {metrics['success']}, waypoints {metrics['waypoints_reached']}/"
               f"{metrics['n_waypoints']}, mean cross-track {metrics['mean_cross_track_m'] * 100:.2f} cm, "
               f"max {metrics['max_cross_track_m'] * 100:.2f} cm, "

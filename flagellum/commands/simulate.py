@@ -7,8 +7,8 @@ import sys
 from pathlib import Path
 
 from flagellum.commands.common import UsageError, build_config, parse_number, parse_overrides
-from physics.run import (DEFAULT_NODE_RECORD_INTERVAL_S, DEFAULT_RECORD_INTERVAL_S, RunResult, run_simulation,
-                         validate_run_arguments)
+from physics.run import (DEFAULT_NODE_RECORD_INTERVAL_S, DEFAULT_RECORD_INTERVAL_S, MAX_DURATION_S, RunResult,
+                         run_simulation, validate_run_arguments)
 from physics.schedule import MAX_RPM, MotorSchedule
 
 NAME = "simulate"
@@ -22,7 +22,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     speed.add_argument("--omega-rpm", metavar="W", help=f"constant motor speed, rpm (0 to {MAX_RPM:g})")
     speed.add_argument("--schedule", metavar="FILE", type=Path,
                        help="piecewise-constant speed: CSV 'time_s,omega_rpm' rows or JSON [[t, w], ...]")
-    parser.add_argument("--duration", metavar="T", required=True, help="simulated time, s")
+    parser.add_argument("--duration", metavar="T", required=True, help=f"simulated time, s (> 0, <= {MAX_DURATION_S:g})")
     parser.add_argument("--head-radius", metavar="B",
                         help="head radius, m (0 = no head; same as --set head_radius=B)")
     parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/simulate"),
@@ -53,7 +53,9 @@ def run(args: argparse.Namespace) -> int:
         overrides["head_radius"] = args.head_radius
     params, numerics = build_config(overrides, getattr(args, 'preset', None))
     schedule = _schedule(args)
-    duration = parse_number("--duration", args.duration, "a finite time > 0 s", positive=True)
+    duration = parse_number("--duration", args.duration, f"a time > 0 and <= {MAX_DURATION_S:g} s", positive=True)
+    if duration > MAX_DURATION_S:
+        raise UsageError(f"--duration {args.duration!r} is not allowed; allowed: a time > 0 and <= {MAX_DURATION_S:g} s")
     record = parse_number("--record-interval", args.record_interval, "a finite time > 0 s", positive=True)
     node_record = parse_number("--node-record-interval", args.node_record_interval, "a finite time > 0 s",
                                positive=True)

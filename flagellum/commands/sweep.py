@@ -4,18 +4,14 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import signal
 import sys
-import threading
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from flagellum.commands.common import UsageError, parse_overrides
-from flagellum.sweep import (RESULTS_FILE, SweepConfig, SweepConfigError, SweepError, SweepIncomplete,
+from flagellum.commands.common import SCHEDULER_HELP, UsageError, parse_overrides, parse_workers
+from batch.sweep import (RESULTS_FILE, SweepConfig, SweepConfigError, SweepError, SweepIncomplete,
                              SweepInterrupted, load_sweep_config, run_sweep)
-from flagellum.sweep_backends import default_workers
+from batch.backends import default_workers
 
 NAME = "sweep"
 HELP = "run a parameter sweep (YAML/TOML file) on all cores or a Dask cluster; resumable"
@@ -41,9 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="keep the results already in DIR and run only the missing points")
     parser.add_argument("--retry-failed", action="store_true",
                         help="with --resume, also run again the points that ended in an error")
-    parser.add_argument("--scheduler", metavar="ADDR",
-                        help="run the points on the Dask cluster at ADDR (tcp://HOST:PORT) instead of local "
-                             "processes; needs pip install 'dask[distributed]'")
+    parser.add_argument("--scheduler", metavar="ADDR", help=SCHEDULER_HELP)
     parser.add_argument("--no-progress", action="store_true", help="do not show the progress bar")
 
 
@@ -68,33 +62,17 @@ def _load(args: argparse.Namespace) -> SweepConfig:
         raise UsageError(f"--set: {exc}") from None
 
 
-def _workers(args: argparse.Namespace) -> int | None:
-    if args.workers is None:
-        return None
-    if args.scheduler is not None:
-        raise UsageError("--workers and --scheduler both given; --workers counts local processes, "
-                         "a cluster uses its own workers")
-    try:
-        n = int(args.workers)
-    except ValueError:
-        n = 0
-    if n < 1:
-        raise UsageError(f"--workers {args.workers!r} is not allowed; allowed: an integer >= 1")
-    return n
-
-
 def run(args: argparse.Namespace) -> int:
     config = _load(args)
-    workers = _workers(args)
+    workers, _ = parse_workers(args)
     if args.retry_failed and not args.resume:
         raise UsageError("--retry-failed needs --resume")
     out: Path = args.out if args.out is not None else Path("out/sweep") / args.config.stem
     print(f"sweep: {len(config)} points ({config.mode} over {', '.join(config.sweep)}), "
           f"{config.duration_s:g} s each -> {out}")
     try:
-        with _sigterm_as_interrupt():
-            records = run_sweep(config, out, workers=workers, resume=args.resume, progress=not args.no_progress,
-                                scheduler=args.scheduler, retry_failed=args.retry_failed)
+        records = run_sweep(config, out, workers=workers, resume=args.resume, progress=not args.no_progress,
+                            scheduler=args.scheduler, retry_failed=args.retry_failed)
     except SweepInterrupted as exc:
         print(f"flagellum: interrupted; {len(exc.results)} of {exc.total} points are saved in "
               f"{out / RESULTS_FILE}; run again with --resume to finish", file=sys.stderr)
@@ -133,20 +111,3 @@ def _cell(value: Any, spec: str) -> str:
     if value is None:
         return "n/a"
     return format(value, spec) if isinstance(value, (int, float)) and not isinstance(value, bool) else str(value)
-
-
-@contextmanager
-def _sigterm_as_interrupt() -> Iterator[None]:
-    """Treat SIGTERM (kill, job schedulers) like Ctrl-C while the sweep runs, so it ends cleanly."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def handler(signum: int, frame: object) -> None:
-        raise KeyboardInterrupt
-
-    previous = signal.signal(signal.SIGTERM, handler)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from flagellum.commands.common import UsageError
+from flagellum.commands.common import UsageError, ensure_dir
 
 NAME = "train"
 HELP = "train the PPO agent that corrects the turn planner (stable-baselines3, CPU); resumable"
@@ -13,11 +13,14 @@ DESCRIPTION = ("Train PPO from --config (rl-zoo3-style YAML, default agents/conf
                "--out: model.zip, vecnormalize.pkl, meta.json, config.yml, episodes.csv, eval/, checkpoints/, tb/ "
                "(tensorboard). --resume continues from the newest checkpoint. Use the result with "
                "--controller ppo:DIR.")
-DEFAULT_CONFIG = Path(__file__).resolve().parents[2] / "agents" / "configs" / "ppo_residual_fast.yml"
+ACCEPTS_SET = False  # the turn map fixes the swimmer: edit the config's task
+PRESET = (None, "the config's task.preset (an other value is refused)")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--config", metavar="FILE", type=Path, default=DEFAULT_CONFIG,
+    from agents.assets import package_file
+
+    parser.add_argument("--config", metavar="FILE", type=Path, default=package_file("configs", "ppo_residual_fast.yml"),
                         help="training config (YAML; default agents/configs/ppo_residual_fast.yml)")
     parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/train"), help="default out/train")
     parser.add_argument("--resume", action="store_true", help="continue the run in DIR from its newest checkpoint")
@@ -28,8 +31,6 @@ def run(args: argparse.Namespace) -> int:
     from agents.ppo_config import TrainConfig
     from agents.ppo_training import train
 
-    if args.set:
-        raise UsageError("--set is not used by train (the turn map fixes the swimmer); edit the config's task")
     try:
         config = TrainConfig.from_yaml(args.config)
     except ValueError as exc:
@@ -37,6 +38,7 @@ def run(args: argparse.Namespace) -> int:
     if args.preset is not None and args.preset != config.preset:
         raise UsageError(f"--preset {args.preset} differs from the config's task.preset {config.preset!r}; "
                          "edit the config (the turn map and the agent belong to one preset)")
+    ensure_dir("--out", args.out)
     try:
         result = train(config, args.out, resume=args.resume, progress=not args.no_progress,
                        config_text=args.config.read_text(encoding="utf-8"))

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-import flagellum.task_pool as task_pool
+import batch.pool as task_pool
 from agents.evaluation import evaluate, resolve_paths, results_markdown, summarise
 from agents.path_following import METRICS, EpisodeTrace, episode_metrics
 from flagellum.cli import main
@@ -74,7 +74,7 @@ def test_summary_and_table_with_two_controllers():
 
 
 def test_resolve_paths_errors_and_folders(tmp_path):
-    with pytest.raises(ValueError, match="neither 'square'"):
+    with pytest.raises(ValueError, match="allowed: 'square'"):
         resolve_paths([str(tmp_path / "missing.json")])
     with pytest.raises(ValueError, match="no path files"):
         resolve_paths([str(tmp_path)])
@@ -86,7 +86,7 @@ def test_resolve_paths_errors_and_folders(tmp_path):
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["evaluate", "--paths", "nowhere.json", "--controller", "rule"], "neither 'square'"),
+    (["evaluate", "--paths", "nowhere.json", "--controller", "rule"], "allowed: 'square', 'eval'"),
     (["evaluate", "--paths", "square", "--controller", "magic"], "controller 'magic' is not allowed"),
     (["follow", "--path", "square", "--controller", "ppo:no_agent_here"], "no trained PPO agent"),
     (["follow", "--path", "square", "--controller", "rule:nomap.json"], "no turn map at 'nomap.json'"),

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-import flagellum.task_pool as task_pool
+import batch.pool as task_pool
 from agents.turn_calibration import calibrate_turns, calibration_tasks, runs_dir
 from agents.turn_map import TurnMap
 from physics.presets import apply_preset
@@ -48,3 +48,22 @@ def test_bad_grid_is_rejected_naming_the_values():
         calibration_tasks(p, n, omega_l_rpm=20.0, omega_h_rpm=10.0)
     with pytest.raises(ValueError, match="phases"):
         calibration_tasks(p, n, phases_deg=[400.0])
+
+
+def test_a_turn_measured_on_a_dask_cluster_equals_the_local_one(calibrated, tmp_path):
+    """``scheduler=``: the same task pool on a Dask LocalCluster (resume the run with one turn missing)."""
+    import shutil
+
+    distributed = pytest.importorskip("distributed")
+    out, tmap = calibrated
+    dask_out = tmp_path / "fast.json"
+    shutil.copytree(runs_dir(out), runs_dir(dask_out))
+    records = runs_dir(dask_out) / "results.jsonl"
+    records.write_text(records.read_text().splitlines(keepends=True)[0])
+    p, n = apply_preset("fast")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        again = calibrate_turns(p, n, dask_out, preset="fast", t_c_values=[10.0], phases_deg=[0.0, 90.0],
+                                resume=True, progress=False, scheduler=cluster.scheduler_address)
+    assert len(records.read_text().splitlines()) == 2
+    assert again.points == tmap.points

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from agents.path_following import default_turn_map, make_controller, run_episode
+from agents.path_following import make_controller, run_episode
+from agents.assets import default_turn_map
 from agents.turn_map import TurnMap, TurnMapMismatch
 from agents.turn_planner import RulePlanner
 from flagellum_env.paths import path_from_waypoints

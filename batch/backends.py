@@ -1,6 +1,6 @@
 """Where sweep points run: a local process pool or a Dask distributed cluster.
 
-Both offer the same four calls, used by ``flagellum.sweep.run_sweep``: ``submit(task)`` ->
+Both offer the same four calls, used by ``batch.sweep.run_sweep``: ``submit(task)`` ->
 future, ``as_completed(futures)`` -> futures as they finish, ``abort(futures)`` (Ctrl-C:
 drop what has not finished) and ``close()``. Futures answer ``result()`` with a
 ``PointOutcome``, or raise when the infrastructure failed (a worker process died).
@@ -11,17 +11,45 @@ from __future__ import annotations
 import concurrent.futures
 import multiprocessing
 import os
+import re
+import socket
 import uuid
 from collections.abc import Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any, Protocol
 
-from flagellum.sweep_store import SweepError
-from flagellum.sweep_worker import execute_task, init_worker
+from batch.store import SweepError
+from batch.worker import execute_task, init_worker
 
 
 class BackendError(SweepError):
     """The backend cannot be used (Dask missing, scheduler unreachable)."""
+
+
+#: Seconds to wait for a Dask scheduler that accepts the connection but does not answer.
+SCHEDULER_TIMEOUT_S = 10
+_ADDRESS = re.compile(r"^(?:(?P<proto>[a-z][a-z0-9+]*)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[^\s:/\[\]]+):(?P<port>\d{1,5})$")
+
+
+def check_scheduler_address(address: str) -> tuple[str, str, int]:
+    """``(protocol, host, port)`` of a Dask scheduler address ``[PROTOCOL://]HOST:PORT``; BackendError if malformed."""
+    m = _ADDRESS.match(address.strip()) if isinstance(address, str) else None
+    if m is None or not 0 < int(m["port"]) < 65536:
+        raise BackendError(f"--scheduler {address!r} is not allowed; allowed: a Dask scheduler address "
+                           "tcp://HOST:PORT (e.g. tcp://127.0.0.1:8786)")
+    return m["proto"] or "tcp", m["host"].strip("[]"), int(m["port"])
+
+
+def _probe(address: str) -> None:
+    """Fail at once (not after Dask's 30 s of retries) when nothing listens at a TCP address."""
+    proto, host, port = check_scheduler_address(address)
+    if proto != "tcp":
+        return
+    try:
+        socket.create_connection((host, port), timeout=SCHEDULER_TIMEOUT_S).close()
+    except OSError as exc:
+        raise BackendError(f"cannot connect to the Dask scheduler {address!r}: {exc.strerror or exc}; start one "
+                           "(dask scheduler) or check the address") from None
 
 
 class Backend(Protocol):
@@ -47,7 +75,7 @@ class LocalBackend:
     def __init__(self, workers: int) -> None:
         # spawn, not fork: a forked child inherits the parent's BLAS thread pool and threads
         self._pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
-                                         initializer=init_worker)
+                                         initializer=init_worker, initargs=(os.getpid(),))
         self.description = f"{workers} local worker process{'es' if workers != 1 else ''}"
 
     def submit(self, task: Any) -> concurrent.futures.Future:
@@ -94,8 +122,9 @@ class DaskBackend:
             if not isinstance(address, str):
                 raise BackendError(f"scheduler={scheduler!r} is not allowed; allowed: an address 'tcp://HOST:PORT', "
                                    "a cluster object or a distributed.Client")
+            _probe(address)
             try:
-                self.client = distributed.Client(address)
+                self.client = distributed.Client(address, timeout=SCHEDULER_TIMEOUT_S)
             except Exception as exc:  # OSError, TimeoutError, ValueError for a malformed address
                 raise BackendError(f"cannot connect to the Dask scheduler {address!r}: {exc}") from None
         else:

@@ -14,8 +14,8 @@ import asyncio
 from collections.abc import Sequence
 from typing import Any
 
-from flagellum.sweep_backends import default_workers, make_backend
-from flagellum.sweep_store import ResultsStore
+from batch.backends import default_workers, make_backend
+from batch.store import ResultsStore
 
 
 class TasksInterrupted(KeyboardInterrupt):

@@ -1,6 +1,6 @@
 """Sweep configuration: which parameters vary, over which values, and the points that makes.
 
-The runner is ``flagellum.sweep.run_sweep``. A sweep file (YAML or TOML) names the parameters
+The runner is ``batch.sweep.run_sweep``. A sweep file (YAML or TOML) names the parameters
 to vary and their values::
 
     sweep:                      # parameter -> list of values

@@ -1,33 +1,19 @@
-"""What a sweep worker runs: the one-thread set-up and the simulation of one point.
-
-Importing this module loads no NumPy, so ``init_worker`` (the process pool's initializer)
-sets the BLAS/OpenMP thread limits before the first point imports the physics.
-"""
+"""One point of a parameter sweep: the task a worker runs (``batch.sweep``)."""
 
 from __future__ import annotations
 
 import os
 import re
-import signal
 import socket
 import time
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from typing import Any
 
+from batch.worker import PointOutcome
 from physics.params import NumericsConfig, SwimmerParams
 
-THREAD_LIMITS = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-                 "VECLIB_MAXIMUM_THREADS": "1", "NUMEXPR_NUM_THREADS": "1"}
-"""Environment of a worker process: one thread per simulation; the pool supplies the parallelism."""
-
 _ANSI = re.compile(r"\x1b\[[0-9;]*m")  # colour codes in some library errors (Numba)
-
-
-def init_worker() -> None:
-    """Process-pool initializer: one BLAS thread, and leave Ctrl-C to the parent process."""
-    os.environ.update(THREAD_LIMITS)
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 @dataclass(frozen=True)
@@ -49,24 +35,9 @@ class PointTask:
         return run_point(self)
 
     def label(self) -> str:
-        from flagellum.sweep_config import format_values
+        from batch.sweep_config import format_values
 
         return format_values(self.values)
-
-
-@dataclass
-class PointOutcome:
-    """A worker's answer: the JSON-ready record, the trajectory (or None) and whether Ctrl-C cut it short."""
-
-    record: dict[str, Any]
-    trajectory: Any | None
-    interrupted: bool = False
-
-
-def execute_task(task: Any) -> PointOutcome:
-    """What a worker process runs for any task with an ``execute() -> PointOutcome`` method
-    (sweep points, turn calibrations, path-following episodes)."""
-    return task.execute()
 
 
 def run_point(task: PointTask) -> PointOutcome:

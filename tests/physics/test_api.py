@@ -1,0 +1,80 @@
+"""The public API of ``physics`` (its ``__init__``): the names, ``configure`` and the run loop ``advance``."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import physics
+from physics import NumericsConfig, Simulator, SwimmerParams, advance, configure
+from physics.params import RPM_TO_RAD_S, apply_overrides
+from physics.presets import apply_preset, preset_names
+
+
+def test_every_public_name_resolves():
+    for name in physics.__all__:
+        assert getattr(physics, name) is not None
+    with pytest.raises(AttributeError):
+        physics.no_such_name  # noqa: B018
+
+
+def test_configure_is_defaults_then_preset_then_overrides():
+    assert configure() == (SwimmerParams(), NumericsConfig())
+    for name in preset_names():
+        assert configure(name) == apply_preset(name)
+    p, n = configure("fast", {"head_radius": "0.01", "dt": 0.005, "head_rotation": "fixed"})
+    p2, n2 = apply_overrides(*apply_preset("fast"), {"head_radius": "0.01", "dt": "0.005", "head_rotation": "fixed"})
+    assert (p, n) == (p2, n2) and p.head_radius == 0.01 and n.dt == 0.005
+
+
+def test_configure_routes_every_field_by_name():
+    """No list of names is written down: every field of both dataclasses can be set."""
+    base_p, base_n = SwimmerParams(), NumericsConfig()
+    for cls, base in ((SwimmerParams, base_p), (NumericsConfig, base_n)):
+        for f in dataclasses.fields(cls):
+            p, n = configure(None, {f.name: getattr(base, f.name)})
+            assert getattr(p if cls is SwimmerParams else n, f.name) == getattr(base, f.name)
+
+
+@pytest.mark.parametrize("overrides, fragment", [({"no_such": 1}, "'no_such'"), ({"no_such": "1"}, "'no_such'"),
+                                                 ({"viscosity": -1.0}, "viscosity")])
+def test_configure_names_what_is_wrong(overrides, fragment):
+    with pytest.raises(ValueError, match=fragment):
+        configure("fast", overrides)
+
+
+@pytest.fixture(scope="module")
+def small():
+    return configure("fast", {"n_nodes": 25})
+
+
+def _state(sim: Simulator) -> dict:
+    return sim.get_state()
+
+
+def test_advance_takes_the_steps_of_simulator_advance(small):
+    a, b = Simulator(*small), Simulator(*small)
+    for sim in (a, b):
+        sim.set_motor_speed(30 * RPM_TO_RAD_S)
+    a.advance(0.1)
+    assert advance(b, 0.1) == round(0.1 / small[1].dt)
+    sa, sb = _state(a), _state(b)
+    for k, v in sa.items():
+        assert np.array_equal(np.asarray(v), np.asarray(sb[k])), k
+
+
+def test_advance_calls_back_after_each_step_and_stops_when_asked(small):
+    sim = Simulator(*small)
+    sim.set_motor_speed(30 * RPM_TO_RAD_S)
+    seen = []
+
+    def on_step(s, k):
+        seen.append((k, s.step_count))
+        return k == 3
+
+    assert advance(sim, steps=10, on_step=on_step) == 3
+    assert seen == [(1, 1), (2, 2), (3, 3)]
+    with pytest.raises(ValueError, match="exactly one"):
+        advance(sim, 1.0, steps=2)

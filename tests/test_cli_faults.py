@@ -1,0 +1,296 @@
+"""Faults and bad input of the command line (issue 16): each is one line ``flagellum: error: ...`` naming the value
+and what is allowed, exit status 2, before anything runs; SIGTERM is Ctrl-C; workers die with their parent."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+import agents.evaluation as evaluation
+import agents.turn_calibration as turn_calibration
+from agents.assets import packaged_turn_map
+from flagellum.cli import main
+
+pytest.importorskip("psutil")
+import psutil  # noqa: E402  (a dependency of dask.distributed, in the test extra)
+
+ONE_TURN = {"name": "one_turn", "waypoints": [[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]], "reach_radius_m": 0.015}
+
+
+def _usage_error(capsys, argv: list[str]) -> str:
+    """Run ``argv`` expecting exit status 2; return the single stderr line."""
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("flagellum: error: ") and "Traceback" not in err
+    return lines[0]
+
+
+@pytest.fixture
+def a_file(tmp_path) -> Path:
+    f = tmp_path / "FILE"
+    f.write_text("not a folder")
+    return f
+
+
+@pytest.fixture
+def one_turn(tmp_path) -> Path:
+    f = tmp_path / "one_turn.json"
+    f.write_text(json.dumps(ONE_TURN))
+    return f
+
+
+def test_output_folders_that_cannot_be_made_are_named(capsys, a_file, one_turn):
+    line = _usage_error(capsys, ["follow", "--path", str(one_turn), "--out", str(a_file / "sub")])
+    assert "--out" in line and str(a_file / "sub") in line and "cannot create" in line
+    line = _usage_error(capsys, ["train", "--out", str(a_file / "sub")])
+    assert "--out" in line and str(a_file / "sub") in line
+    line = _usage_error(capsys, ["bench", "--quick", "--json", str(a_file / "sub" / "x.json")])
+    assert "--json" in line and str(a_file / "sub") in line
+
+
+@pytest.mark.parametrize("command", [["bench", "--quick"], ["evaluate", "--paths", "square", "--controller", "rule"],
+                                     ["calibrate-turns", "--preset", "fast"]])
+@pytest.mark.parametrize("value", ["-1", "0", "1.5", "many"])
+def test_workers_must_be_a_whole_number_of_at_least_one(capsys, tmp_path, command, value):
+    line = _usage_error(capsys, command + ["--workers", value, "--out" if command[0] != "bench" else "--json",
+                                           str(tmp_path / "o")])
+    assert f"--workers {value!r}" in line and "an integer >= 1" in line
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("value", ["-1", "1.5", "x"])
+def test_follow_seed_must_be_a_whole_number_of_at_least_zero(capsys, tmp_path, one_turn, value):
+    line = _usage_error(capsys, ["follow", "--path", str(one_turn), "--seed", value, "--out", str(tmp_path / "o")])
+    assert f"--seed {value!r}" in line and "an integer >= 0" in line
+
+
+def test_a_duration_beyond_the_longest_run_is_refused(capsys, tmp_path):
+    line = _usage_error(capsys, ["simulate", "--omega-rpm", "10", "--duration", "1e300", "--out", str(tmp_path)])
+    assert "--duration '1e300'" in line and "<= 1e+06 s" in line
+
+
+def test_follow_names_its_own_option_for_a_missing_path(capsys, tmp_path):
+    line = _usage_error(capsys, ["follow", "--path", "nope.json", "--out", str(tmp_path / "o")])
+    assert "--path 'nope.json'" in line and "--paths" not in line and "'square'" in line
+
+
+def test_a_folder_of_paths_that_holds_a_directory_named_json(capsys, tmp_path, one_turn):
+    folder = tmp_path / "paths"
+    (folder / "x.json").mkdir(parents=True)
+    line = _usage_error(capsys, ["evaluate", "--paths", str(folder), "--controller", "rule", "--out",
+                                 str(tmp_path / "o")])
+    assert str(folder) in line and "no path files" in line
+    (folder / "one_turn.json").write_text(one_turn.read_text())
+    assert [p.name for p in evaluation.resolve_paths([str(folder)])] == ["one_turn"]
+
+
+def test_report_only_on_a_folder_without_episodes(capsys, tmp_path):
+    (tmp_path / "empty").mkdir()
+    line = _usage_error(capsys, ["evaluate", "--paths", "square", "--controller", "rule", "--report-only", "--out",
+                                 str(tmp_path / "empty")])
+    assert "--report-only" in line and "no episodes" in line
+
+
+@pytest.mark.parametrize("controller, fragments", [
+    ("rule:nope.json", ["rule:nope.json", "no turn map at 'nope.json'"]),
+    ("rule:{bad}", ["is not a turn map"]),
+    ("ppo:nope_agent", ["ppo:nope_agent", "no trained PPO agent"]),
+])
+def test_evaluate_refuses_a_controller_it_cannot_build_before_any_episode(capsys, tmp_path, one_turn, controller,
+                                                                         fragments, monkeypatch):
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"what": 1}')
+    monkeypatch.setattr(evaluation, "run_tasks", lambda *a, **k: pytest.fail("an episode ran"))
+    out = tmp_path / "o"
+    line = _usage_error(capsys, ["evaluate", "--paths", str(one_turn), "--controller", "rule",
+                                 "--controller", controller.format(bad=bad), "--out", str(out)])
+    for fragment in fragments:
+        assert fragment in line, line
+    assert not (out / "results.jsonl").exists()
+
+
+def test_a_failing_turn_in_calibrate_turns_is_one_line_with_advice_that_does_not_repeat_it(capsys, tmp_path,
+                                                                                          monkeypatch):
+    def all_fail(todo, store, **kwargs):
+        for t in todo:
+            store.append({"point_id": t.point_id, "status": "error", "error": "SimulationError: Newton failed\nat t=3",
+                          "result": None})
+        return []
+
+    monkeypatch.setattr(turn_calibration, "run_tasks", all_fail)
+    line = _usage_error(capsys, ["calibrate-turns", "--preset", "fast", "--t-c", "5", "--phases", "0", "--out",
+                                 str(tmp_path / "m.json"), "--no-progress"])
+    assert "1 of 1 turns were not measured" in line and "t_c=5 s" in line and "Newton failed at t=3" in line
+    assert "leave its burst length out of --t-c" in line
+
+
+def test_a_bad_training_setting_names_the_file_and_the_key(capsys, tmp_path):
+    import yaml
+
+    from agents.assets import package_file
+
+    doc = yaml.safe_load(package_file("configs", "ppo_residual_fast.yml").read_text())
+    doc[next(iter(doc))]["learning_rate"] = -1
+    cfg = tmp_path / "cfg.yml"
+    cfg.write_text(yaml.safe_dump(doc))
+    line = _usage_error(capsys, ["train", "--config", str(cfg), "--out", str(tmp_path / "o")])
+    assert str(cfg) in line and "learning_rate=-1" in line and ">= 0" in line
+
+
+@pytest.mark.parametrize("command", [["sweep", "--config", "examples/sweep_small.yaml"],
+                                     ["evaluate", "--paths", "square", "--controller", "rule"],
+                                     ["calibrate-turns", "--preset", "fast"]])
+@pytest.mark.parametrize("address, fragments", [
+    ("nope", ["--scheduler 'nope'", "tcp://HOST:PORT"]),
+    ("tcp://127.0.0.1:99999", ["'tcp://127.0.0.1:99999'", "tcp://HOST:PORT"]),
+])
+def test_a_malformed_scheduler_address_is_refused_before_anything_runs(capsys, tmp_path, command, address,
+                                                                       fragments):
+    line = _usage_error(capsys, command + ["--scheduler", address, "--out", str(tmp_path / "o")])
+    for fragment in fragments:
+        assert fragment in line, line
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_scheduler_nobody_listens_at_fails_at_once_with_its_address(capsys, tmp_path):
+    import socket
+
+    with socket.socket() as s:  # a free port, then closed: nothing listens there
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    line = _usage_error(capsys, ["sweep", "--config", "examples/sweep_small.yaml", "--scheduler",
+                                 f"tcp://127.0.0.1:{port}", "--out", str(tmp_path / "o")])
+    assert f"tcp://127.0.0.1:{port}" in line and "cannot connect" in line
+
+
+@pytest.mark.parametrize("command, module", [(["evaluate", "--paths", "square", "--controller", "rule"], evaluation),
+                                             (["calibrate-turns", "--preset", "fast"], turn_calibration)])
+def test_evaluate_and_calibrate_turns_pass_the_scheduler_to_the_task_pool(tmp_path, command, module, monkeypatch):
+    import batch.backends as backends
+
+    seen = {}
+
+    def fake_run_tasks(todo, store, workers=None, scheduler=None, **kwargs):
+        seen["scheduler"] = scheduler
+        raise KeyboardInterrupt  # stop here: the point is what reached the pool
+
+    monkeypatch.setattr(module, "run_tasks", fake_run_tasks)
+    monkeypatch.setattr(evaluation, "check_controllers", lambda *a, **k: None)
+    monkeypatch.setattr(backends, "_probe", lambda address: None)
+    assert main(command + ["--scheduler", "tcp://10.1.2.3:8786", "--out", str(tmp_path / "o.json"),
+                           "--no-progress"]) == 130
+    assert seen["scheduler"] == "tcp://10.1.2.3:8786"
+
+
+def _help(capsys, command: str) -> str:
+    with pytest.raises(SystemExit) as info:
+        main([command, "--help"])
+    assert info.value.code == 0
+    return " ".join(capsys.readouterr().out.split())
+
+
+@pytest.mark.parametrize("command", [["follow"], ["evaluate", "--paths", "square", "--controller", "rule"], ["train"],
+                                     ["bench"]])
+def test_set_is_neither_advertised_nor_accepted_where_it_is_not_used(capsys, command):
+    assert "--set NAME=VALUE" not in _help(capsys, command[0])
+    line = _usage_error(capsys, command + ["--set", "dt=0.01"])
+    assert "unrecognized arguments: --set dt=0.01" in line
+
+
+@pytest.mark.parametrize("command, default", [("follow", "default: fast"), ("evaluate", "default: fast"),
+                                              ("simulate", "h = 1 ms"), ("sweep", "h = 1 ms"),
+                                              ("calibrate-turns", "h = 1 ms"), ("params", "h = 1 ms"),
+                                              ("train", "the config's task.preset")])
+def test_every_help_text_states_the_real_default_preset(capsys, command, default):
+    assert default in _help(capsys, command)
+
+
+def test_bench_takes_no_preset(capsys):
+    assert "--preset {" not in _help(capsys, "bench")
+
+
+# --- signals and worker processes (real processes) --------------------------------------------------------
+def _cli(args: list[str], cwd: Path, **kwargs) -> subprocess.Popen:
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
+    return subprocess.Popen([sys.executable, "-m", "flagellum.cli", *args], cwd=cwd, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, **kwargs)
+
+
+def _wait_for_workers(proc: subprocess.Popen, n: int, deadline_s: float = 120.0) -> list[psutil.Process]:
+    """All child processes of ``proc`` (its workers and multiprocessing's resource tracker) once ``n`` workers
+    are up."""
+    end = time.monotonic() + deadline_s
+    while time.monotonic() < end:
+        kids = psutil.Process(proc.pid).children()
+        if sum("resource_tracker" not in " ".join(k.cmdline()) for k in kids) >= n:
+            return kids
+        assert proc.poll() is None, proc.communicate()
+        time.sleep(0.2)
+    pytest.fail("the workers did not start")
+
+
+def test_sigterm_stops_simulate_like_ctrl_c_and_writes_what_was_computed(tmp_path):
+    proc = _cli(["simulate", "--omega-rpm", "10", "--duration", "5000", "--preset", "fast", "--out",
+                 str(tmp_path / "o")], tmp_path)
+    seen = b""
+    while b"%|" not in seen:  # the progress bar is up: the simulation runs
+        chunk = os.read(proc.stderr.fileno(), 256)
+        assert chunk, (seen, proc.communicate())
+        seen += chunk
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, seen + err
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["interrupted"] is True and 0 < summary["sim_time_s"] < 5000
+    assert b"Traceback" not in err
+
+
+def test_sigterm_stops_evaluate_and_its_workers(tmp_path, one_turn):
+    proc = _cli(["evaluate", "--paths", str(one_turn), "--controller", "rule", "--workers", "1", "--no-progress",
+                 "--out", str(tmp_path / "o")], tmp_path)
+    workers = _wait_for_workers(proc, 1)
+    try:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=120)
+        gone, alive = psutil.wait_procs(workers, timeout=30)
+    finally:  # never leave a process of this test behind
+        for p in [*workers, psutil.Process(proc.pid)] if proc.poll() is None else workers:
+            try:
+                p.kill()
+            except psutil.NoSuchProcess:
+                pass
+    assert proc.returncode == 130, err
+    assert b"Traceback" not in err
+    assert not alive
+
+
+def test_workers_exit_when_their_parent_is_killed(tmp_path):
+    cfg = tmp_path / "long.yaml"
+    cfg.write_text("preset: fast\nsweep: {omega_rpm: [10, 20]}\nduration_s: 5000\n")
+    proc = _cli(["sweep", "--config", str(cfg), "--workers", "2", "--no-progress", "--out", str(tmp_path / "o")],
+                tmp_path, start_new_session=True)
+    workers = _wait_for_workers(proc, 2)
+    try:
+        proc.kill()
+        gone, alive = psutil.wait_procs(workers, timeout=30)
+        pids = [p.pid for p in alive]
+    finally:  # never leave a process of this test behind
+        for p in workers:
+            try:
+                p.kill()
+            except psutil.NoSuchProcess:
+                pass
+        proc.communicate(timeout=30)
+    assert not pids, f"processes {pids} outlived their killed parent"
