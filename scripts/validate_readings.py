@@ -92,7 +92,7 @@ def run_point(reading: str, b: float, rpm: float, dt: float) -> dict:
 
 def run_turn(reading: str, t_c: float, dt: float) -> dict:
     """R9, the paper's protocol: steady at 10 rpm, t_c at 60 rpm, back to 10 rpm; theta, phi."""
-    from agents.turn_map import measure_turn
+    from flagellum_env.turn_measurement import measure_turn
     from physics.errors import SimulationError
     from physics.params import RPM_TO_RAD_S
     from physics.presets import apply_preset
