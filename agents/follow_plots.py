@@ -27,10 +27,15 @@ def path_figure(traces: Mapping[str, EpisodeTrace], title: str = "") -> Figure:
     ax.plot(target[:, 0], target[:, 1], "k--", lw=1.2, label="target")
     ax.scatter(target[1:, 0], target[1:, 1], c="k", s=14)
     ax3.plot(target[:, 0], target[:, 1], target[:, 2], "k--", lw=1.0)
+    drawn: list[tuple[str, np.ndarray]] = []
     for name, tr in traces.items():
         h = tr.head * CM
-        ax.plot(h[:, 0], h[:, 1], lw=1.6, label=name)
-        ax3.plot(h[:, 0], h[:, 1], h[:, 2], lw=1.4)
+        same = next((other for other, oh in drawn if oh.shape == h.shape and np.array_equal(oh, h)), None)
+        # a run identical to an earlier one would hide under it: draw it dotted and say so
+        style = {"ls": ":", "lw": 2.4} if same else {"lw": 1.6}
+        ax.plot(h[:, 0], h[:, 1], label=name if same is None else f"{name} (same path as {same})", **style)
+        ax3.plot(h[:, 0], h[:, 1], h[:, 2], **style)
+        drawn.append((name, h))
     ax.set_aspect("equal")
     ax.set_xlabel("x (cm)")
     ax.set_ylabel("y (cm)")

@@ -17,7 +17,8 @@ M_TO_CM = 100.0
 def trajectory_figure(traj: Trajectory, head_radius_m: float = 0.0, title: str | None = None) -> Figure:
     """3-D head path and the final flagellum shape, in cm, equal axis scaling.
 
-    ``head_radius_m`` > 0 draws the head as a sphere around the first node (the head centre).
+    ``head_radius_m`` > 0 draws the head as a wire sphere around the first node (the head centre), so
+    the head path inside it stays visible.
     """
     fig = Figure(figsize=(7.0, 6.0))
     FigureCanvasAgg(fig)
@@ -34,8 +35,9 @@ def trajectory_figure(traj: Trajectory, head_radius_m: float = 0.0, title: str |
         b = head_radius_m * M_TO_CM
         u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 24), np.linspace(0, np.pi, 12))
         c = final[0]
-        ax.plot_surface(c[0] + b * np.cos(u) * np.sin(v), c[1] + b * np.sin(u) * np.sin(v), c[2] + b * np.cos(v),
-                        color="tab:gray", alpha=0.2, linewidth=0)
+        ax.plot_wireframe(c[0] + b * np.cos(u) * np.sin(v), c[1] + b * np.sin(u) * np.sin(v),
+                          c[2] + b * np.cos(v), color="tab:gray", alpha=0.35, linewidth=0.4)
+        ax.scatter(*path[-1], color="tab:blue", s=20, label="head centre at the end")
         points.append(np.array([c - b, c + b]))
     set_equal_3d(ax, np.vstack(points))
     ax.set_xlabel("x (cm)")

@@ -61,7 +61,7 @@ class Renderer:
         self.figure.suptitle(f"{scene.path_name}: t = {scene.time_s:.1f} s, motor {scene.motor_speed_rpm:.0f} rpm, "
                              f"L'/L = {scene.end_to_end_ratio:.2f} ({state}), "
                              f"waypoints {scene.n_reached}/{len(scene.vertices) - 1}", fontsize=9)
-        self.figure.subplots_adjust(left=0.08, right=0.98, bottom=0.1, top=0.86, wspace=0.3)
+        self.figure.subplots_adjust(left=0.1, right=0.98, bottom=0.1, top=0.86, wspace=0.35)
         self.canvas.draw()
         rgba = np.asarray(self.canvas.buffer_rgba())
         return np.ascontiguousarray(rgba[..., :3])

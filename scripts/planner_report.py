@@ -12,6 +12,7 @@ Missing inputs are reported as not measured.
 
 from __future__ import annotations
 
+import argparse
 import json
 import shutil
 from pathlib import Path
@@ -148,6 +149,7 @@ FINDINGS = """## What we found
 
 
 def main() -> None:
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()  # --help, and no stray arguments
     lines = ["# The rule-based turn planner: turn maps, the square path, random paths", "",
              "Produced by `python scripts/planner_report.py` from the files listed in its docstring. "
              "Background and the rules: `agents/turn_planner.py`; commands: `flagellum calibrate-turns`, "

@@ -1,36 +1,53 @@
-"""Fixtures of the whole suite: one steady-start disk cache per session (also seen by subprocesses),
-so tests never read or write the user's cache."""
+"""Fixtures of the whole suite: one steady-start disk cache and one (empty) user turn-map folder per
+session (also seen by subprocesses), so tests never read or write the user's; and ``usage_error``."""
 
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import pytest
+
+
+def _session_folder(tmp_path_factory: pytest.TempPathFactory, variable: str, name: str) -> Iterator[str]:
+    """A fresh folder named by the environment variable ``variable`` for the session, then the old value back."""
+    folder = str(tmp_path_factory.mktemp(name))
+    old = os.environ.get(variable)
+    os.environ[variable] = folder
+    yield folder
+    if old is None:
+        os.environ.pop(variable, None)
+    else:
+        os.environ[variable] = old
 
 
 @pytest.fixture(scope="session", autouse=True)
 def steady_start_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     """One steady-start disk cache for the whole session (also seen by subprocesses)."""
-    folder = str(tmp_path_factory.mktemp("flagellum_cache"))
-    old = os.environ.get("FLAGELLUM_CACHE_DIR")
-    os.environ["FLAGELLUM_CACHE_DIR"] = folder
-    yield folder
-    if old is None:
-        os.environ.pop("FLAGELLUM_CACHE_DIR", None)
-    else:
-        os.environ["FLAGELLUM_CACHE_DIR"] = old
+    yield from _session_folder(tmp_path_factory, "FLAGELLUM_CACHE_DIR", "flagellum_cache")
 
 
 @pytest.fixture(scope="session", autouse=True)
 def user_turn_maps(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     """An empty user turn-map folder (``agents.assets.user_turn_map_dir``) for the whole session, so tests use
     the shipped maps and never read or write the user's."""
-    folder = str(tmp_path_factory.mktemp("turn_maps"))
-    old = os.environ.get("FLAGELLUM_TURN_MAPS")
-    os.environ["FLAGELLUM_TURN_MAPS"] = folder
-    yield folder
-    if old is None:
-        os.environ.pop("FLAGELLUM_TURN_MAPS", None)
-    else:
-        os.environ["FLAGELLUM_TURN_MAPS"] = old
+    yield from _session_folder(tmp_path_factory, "FLAGELLUM_TURN_MAPS", "turn_maps")
+
+
+@pytest.fixture
+def usage_error(capsys) -> Callable[[list[str]], str]:
+    """``usage_error(argv)`` runs ``flagellum argv`` in-process expecting exit status 2 and one line
+    ``flagellum: error: ...`` on stderr (no traceback); returns that line."""
+    from flagellum.cli import main
+
+    def run(argv: list[str]) -> str:
+        with pytest.raises(SystemExit) as info:
+            main(argv)
+        assert info.value.code == 2
+        err = capsys.readouterr().err
+        lines = err.strip().splitlines()
+        assert len(lines) == 1, err
+        assert lines[0].startswith("flagellum: error: ") and "Traceback" not in err
+        return lines[0]
+
+    return run

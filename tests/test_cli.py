@@ -12,19 +12,6 @@ from physics.errors import SimulationError
 from physics.params import parameter_table
 
 
-def _usage_error(capsys, argv: list[str]) -> str:
-    """Run ``argv`` expecting exit status 2; return the single stderr line."""
-    with pytest.raises(SystemExit) as info:
-        main(argv)
-    assert info.value.code == 2
-    err = capsys.readouterr().err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert lines[0].startswith("flagellum: error: ")
-    assert "Traceback" not in err
-    return lines[0]
-
-
 def test_params_table_lists_every_parameter_with_unit_and_range(capsys):
     assert main(["params"]) == 0
     out = capsys.readouterr().out
@@ -74,17 +61,17 @@ SIM = ["simulate", "--duration", "0.01"]
     (["params", "--set", "dt=0"], ["dt=0.0", "> 0"]),
     (["fly"], ["'fly'", "simulate"]),
 ])
-def test_bad_input_gives_one_line_error_and_status_2(capsys, tmp_path, argv, fragments):
-    line = _usage_error(capsys, argv + (["--out", str(tmp_path / "o")] if argv[0] == "simulate" else []))
+def test_bad_input_gives_one_line_error_and_status_2(usage_error, tmp_path, argv, fragments):
+    line = usage_error(argv + (["--out", str(tmp_path / "o")] if argv[0] == "simulate" else []))
     for frag in fragments:
         assert frag in line, line
     assert not (tmp_path / "o" / "summary.json").exists()
 
 
-def test_bad_schedule_file_error_names_file_and_row(capsys, tmp_path):
+def test_bad_schedule_file_error_names_file_and_row(usage_error, tmp_path):
     f = tmp_path / "s.csv"
     f.write_text("time_s,omega_rpm\n0,10\n5,-60\n")
-    line = _usage_error(capsys, SIM + ["--schedule", str(f), "--out", str(tmp_path / "o")])
+    line = usage_error(SIM + ["--schedule", str(f), "--out", str(tmp_path / "o")])
     assert str(f) in line and "row 3" in line and "-60" in line
 
 

@@ -24,18 +24,6 @@ import psutil  # noqa: E402  (a dependency of dask.distributed, in the test extr
 ONE_TURN = {"name": "one_turn", "waypoints": [[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]], "reach_radius_m": 0.015}
 
 
-def _usage_error(capsys, argv: list[str]) -> str:
-    """Run ``argv`` expecting exit status 2; return the single stderr line."""
-    with pytest.raises(SystemExit) as info:
-        main(argv)
-    assert info.value.code == 2
-    err = capsys.readouterr().err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert lines[0].startswith("flagellum: error: ") and "Traceback" not in err
-    return lines[0]
-
-
 @pytest.fixture
 def a_file(tmp_path) -> Path:
     f = tmp_path / "FILE"
@@ -50,54 +38,54 @@ def one_turn(tmp_path) -> Path:
     return f
 
 
-def test_output_folders_that_cannot_be_made_are_named(capsys, a_file, one_turn):
-    line = _usage_error(capsys, ["follow", "--path", str(one_turn), "--out", str(a_file / "sub")])
+def test_output_folders_that_cannot_be_made_are_named(usage_error, a_file, one_turn):
+    line = usage_error(["follow", "--path", str(one_turn), "--out", str(a_file / "sub")])
     assert "--out" in line and str(a_file / "sub") in line and "cannot create" in line
-    line = _usage_error(capsys, ["train", "--out", str(a_file / "sub")])
+    line = usage_error(["train", "--out", str(a_file / "sub")])
     assert "--out" in line and str(a_file / "sub") in line
-    line = _usage_error(capsys, ["bench", "--quick", "--json", str(a_file / "sub" / "x.json")])
+    line = usage_error(["bench", "--quick", "--json", str(a_file / "sub" / "x.json")])
     assert "--json" in line and str(a_file / "sub") in line
 
 
 @pytest.mark.parametrize("command", [["bench", "--quick"], ["evaluate", "--paths", "square", "--controller", "rule"],
                                      ["calibrate-turns", "--preset", "fast"]])
 @pytest.mark.parametrize("value", ["-1", "0", "1.5", "many"])
-def test_workers_must_be_a_whole_number_of_at_least_one(capsys, tmp_path, command, value):
-    line = _usage_error(capsys, command + ["--workers", value, "--out" if command[0] != "bench" else "--json",
+def test_workers_must_be_a_whole_number_of_at_least_one(usage_error, tmp_path, command, value):
+    line = usage_error(command + ["--workers", value, "--out" if command[0] != "bench" else "--json",
                                            str(tmp_path / "o")])
     assert f"--workers {value!r}" in line and "an integer >= 1" in line
     assert not (tmp_path / "o").exists()
 
 
 @pytest.mark.parametrize("value", ["-1", "1.5", "x"])
-def test_follow_seed_must_be_a_whole_number_of_at_least_zero(capsys, tmp_path, one_turn, value):
-    line = _usage_error(capsys, ["follow", "--path", str(one_turn), "--seed", value, "--out", str(tmp_path / "o")])
+def test_follow_seed_must_be_a_whole_number_of_at_least_zero(usage_error, tmp_path, one_turn, value):
+    line = usage_error(["follow", "--path", str(one_turn), "--seed", value, "--out", str(tmp_path / "o")])
     assert f"--seed {value!r}" in line and "an integer >= 0" in line
 
 
-def test_a_duration_beyond_the_longest_run_is_refused(capsys, tmp_path):
-    line = _usage_error(capsys, ["simulate", "--omega-rpm", "10", "--duration", "1e300", "--out", str(tmp_path)])
+def test_a_duration_beyond_the_longest_run_is_refused(usage_error, tmp_path):
+    line = usage_error(["simulate", "--omega-rpm", "10", "--duration", "1e300", "--out", str(tmp_path)])
     assert "--duration '1e300'" in line and "<= 1e+06 s" in line
 
 
-def test_follow_names_its_own_option_for_a_missing_path(capsys, tmp_path):
-    line = _usage_error(capsys, ["follow", "--path", "nope.json", "--out", str(tmp_path / "o")])
+def test_follow_names_its_own_option_for_a_missing_path(usage_error, tmp_path):
+    line = usage_error(["follow", "--path", "nope.json", "--out", str(tmp_path / "o")])
     assert "--path 'nope.json'" in line and "--paths" not in line and "'square'" in line
 
 
-def test_a_folder_of_paths_that_holds_a_directory_named_json(capsys, tmp_path, one_turn):
+def test_a_folder_of_paths_that_holds_a_directory_named_json(usage_error, tmp_path, one_turn):
     folder = tmp_path / "paths"
     (folder / "x.json").mkdir(parents=True)
-    line = _usage_error(capsys, ["evaluate", "--paths", str(folder), "--controller", "rule", "--out",
+    line = usage_error(["evaluate", "--paths", str(folder), "--controller", "rule", "--out",
                                  str(tmp_path / "o")])
     assert str(folder) in line and "no path files" in line
     (folder / "one_turn.json").write_text(one_turn.read_text())
     assert [p.name for p in evaluation.resolve_paths([str(folder)])] == ["one_turn"]
 
 
-def test_report_only_on_a_folder_without_episodes(capsys, tmp_path):
+def test_report_only_on_a_folder_without_episodes(usage_error, tmp_path):
     (tmp_path / "empty").mkdir()
-    line = _usage_error(capsys, ["evaluate", "--paths", "square", "--controller", "rule", "--report-only", "--out",
+    line = usage_error(["evaluate", "--paths", "square", "--controller", "rule", "--report-only", "--out",
                                  str(tmp_path / "empty")])
     assert "--report-only" in line and "no episodes" in line
 
@@ -107,20 +95,20 @@ def test_report_only_on_a_folder_without_episodes(capsys, tmp_path):
     ("rule:{bad}", ["is not a turn map"]),
     ("ppo:nope_agent", ["ppo:nope_agent", "no trained PPO agent"]),
 ])
-def test_evaluate_refuses_a_controller_it_cannot_build_before_any_episode(capsys, tmp_path, one_turn, controller,
+def test_evaluate_refuses_a_controller_it_cannot_build_before_any_episode(usage_error, tmp_path, one_turn, controller,
                                                                          fragments, monkeypatch):
     bad = tmp_path / "bad.json"
     bad.write_text('{"what": 1}')
     monkeypatch.setattr(evaluation, "run_tasks", lambda *a, **k: pytest.fail("an episode ran"))
     out = tmp_path / "o"
-    line = _usage_error(capsys, ["evaluate", "--paths", str(one_turn), "--controller", "rule",
+    line = usage_error(["evaluate", "--paths", str(one_turn), "--controller", "rule",
                                  "--controller", controller.format(bad=bad), "--out", str(out)])
     for fragment in fragments:
         assert fragment in line, line
     assert not (out / "results.jsonl").exists()
 
 
-def test_a_failing_turn_in_calibrate_turns_is_one_line_with_advice_that_does_not_repeat_it(capsys, tmp_path,
+def test_a_failing_turn_in_calibrate_turns_is_one_line_with_advice_that_does_not_repeat_it(usage_error, tmp_path,
                                                                                           monkeypatch):
     def all_fail(todo, store, **kwargs):
         for t in todo:
@@ -129,13 +117,13 @@ def test_a_failing_turn_in_calibrate_turns_is_one_line_with_advice_that_does_not
         return []
 
     monkeypatch.setattr(turn_calibration, "run_tasks", all_fail)
-    line = _usage_error(capsys, ["calibrate-turns", "--preset", "fast", "--t-c", "5", "--phases", "0", "--out",
+    line = usage_error(["calibrate-turns", "--preset", "fast", "--t-c", "5", "--phases", "0", "--out",
                                  str(tmp_path / "m.json"), "--no-progress"])
     assert "1 of 1 turns were not measured" in line and "t_c=5 s" in line and "Newton failed at t=3" in line
     assert "leave its burst length out of --t-c" in line
 
 
-def test_a_bad_training_setting_names_the_file_and_the_key(capsys, tmp_path):
+def test_a_bad_training_setting_names_the_file_and_the_key(usage_error, tmp_path):
     import yaml
 
     from agents.assets import package_file
@@ -144,7 +132,7 @@ def test_a_bad_training_setting_names_the_file_and_the_key(capsys, tmp_path):
     doc[next(iter(doc))]["learning_rate"] = -1
     cfg = tmp_path / "cfg.yml"
     cfg.write_text(yaml.safe_dump(doc))
-    line = _usage_error(capsys, ["train", "--config", str(cfg), "--out", str(tmp_path / "o")])
+    line = usage_error(["train", "--config", str(cfg), "--out", str(tmp_path / "o")])
     assert str(cfg) in line and "learning_rate=-1" in line and ">= 0" in line
 
 
@@ -155,21 +143,21 @@ def test_a_bad_training_setting_names_the_file_and_the_key(capsys, tmp_path):
     ("nope", ["--scheduler 'nope'", "tcp://HOST:PORT"]),
     ("tcp://127.0.0.1:99999", ["'tcp://127.0.0.1:99999'", "tcp://HOST:PORT"]),
 ])
-def test_a_malformed_scheduler_address_is_refused_before_anything_runs(capsys, tmp_path, command, address,
+def test_a_malformed_scheduler_address_is_refused_before_anything_runs(usage_error, tmp_path, command, address,
                                                                        fragments):
-    line = _usage_error(capsys, command + ["--scheduler", address, "--out", str(tmp_path / "o")])
+    line = usage_error(command + ["--scheduler", address, "--out", str(tmp_path / "o")])
     for fragment in fragments:
         assert fragment in line, line
     assert not (tmp_path / "o").exists()
 
 
-def test_a_scheduler_nobody_listens_at_fails_at_once_with_its_address(capsys, tmp_path):
+def test_a_scheduler_nobody_listens_at_fails_at_once_with_its_address(usage_error, tmp_path):
     import socket
 
     with socket.socket() as s:  # a free port, then closed: nothing listens there
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    line = _usage_error(capsys, ["sweep", "--config", "examples/sweep_small.yaml", "--scheduler",
+    line = usage_error(["sweep", "--config", "examples/sweep_small.yaml", "--scheduler",
                                  f"tcp://127.0.0.1:{port}", "--out", str(tmp_path / "o")])
     assert f"tcp://127.0.0.1:{port}" in line and "cannot connect" in line
 
@@ -202,9 +190,9 @@ def _help(capsys, command: str) -> str:
 
 @pytest.mark.parametrize("command", [["follow"], ["evaluate", "--paths", "square", "--controller", "rule"], ["train"],
                                      ["bench"]])
-def test_set_is_neither_advertised_nor_accepted_where_it_is_not_used(capsys, command):
+def test_set_is_neither_advertised_nor_accepted_where_it_is_not_used(usage_error, capsys, command):
     assert "--set NAME=VALUE" not in _help(capsys, command[0])
-    line = _usage_error(capsys, command + ["--set", "dt=0.01"])
+    line = usage_error(command + ["--set", "dt=0.01"])
     assert "unrecognized arguments: --set dt=0.01" in line
 
 

@@ -166,6 +166,8 @@ def test_a_signal_during_a_step_ends_the_run_after_that_step(sig):
     import signal
 
     signum = getattr(signal, sig)
+    # as in an interactive run (a process started in the background inherits SIGINT ignored)
+    previous_int = signal.signal(signal.SIGINT, signal.default_int_handler)
     previous = signal.signal(signal.SIGTERM, lambda s, f: (_ for _ in ()).throw(KeyboardInterrupt))
     sim = FakeSimulator(DT)
     plain_step = sim.step
@@ -178,11 +180,13 @@ def test_a_signal_during_a_step_ends_the_run_after_that_step(sig):
     sim.step = step
     try:
         res = run_simulation(PARAMS, NUMERICS, MotorSchedule.constant(60.0), 1.0, simulator=sim, progress=False)
+        restored = signal.getsignal(signal.SIGINT)
     finally:
         signal.signal(signal.SIGTERM, previous)
+        signal.signal(signal.SIGINT, previous_int)
     assert res.interrupted and res.error is None
     assert res.summary["steps"] == 7 and sim.step_count == 7
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert restored is signal.default_int_handler
 
 
 def test_simulation_error_keeps_the_data_and_the_message():

@@ -330,10 +330,15 @@ def test_ctrl_c_keeps_finished_points_and_resume_runs_the_rest(tmp_path):
                 return
             time.sleep(0.005)
 
+    # Ctrl-C as in an interactive run (a process started in the background inherits SIGINT ignored)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     watcher = threading.Thread(target=press_ctrl_c_after_first_point, daemon=True)
     watcher.start()
-    with pytest.raises(SweepInterrupted) as info:
-        run_sweep(config, out, workers=1, progress=False)
+    try:
+        with pytest.raises(SweepInterrupted) as info:
+            run_sweep(config, out, workers=1, progress=False)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     watcher.join()
     assert 1 <= len(info.value.results) < 3 and info.value.total == 3
     kept = lines(out)

@@ -12,43 +12,25 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from physics.elastic.bend import bend_energy_grad_hess, material_curvatures
-from physics.elastic.rod_energy import rod_frames
-from physics.frames import reference_twist, tangents
+from physics.frames import tangents
+from tests.physics.der_helpers import RandomEdgePair, fd_jacobian, holonomy, to_q
 
 L_VOR = 1.1
 EI = 2.0
 SEEDS = range(6)
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v)
-
-
-def _to_q(p: np.ndarray) -> np.ndarray:
-    """Local element DOFs ``[x0, x1, x2, theta_e, theta_f]`` -> 3-node rod DOFs (11,)."""
-    return np.concatenate([p[0:3], [p[9]], p[3:6], [p[10]], p[6:9]])
-
-
-class EdgePair:
-    """A random bent edge pair with arbitrary reference frames; frames of nearby
-    configurations follow by time-parallel transport from these."""
+class EdgePair(RandomEdgePair):
+    """A random bent edge pair (``RandomEdgePair``) with a random rest curvature."""
 
     def __init__(self, seed: int) -> None:
         rng = np.random.default_rng(seed)
-        te = _unit(rng.normal(size=3))
-        tf = _unit(te + 0.9 * rng.normal(size=3))
-        x0 = rng.normal(size=3)
-        x1 = x0 + rng.uniform(0.6, 1.4) * te
-        x2 = x1 + rng.uniform(0.6, 1.4) * tf
-        self.p0 = np.concatenate([x0, x1, x2, rng.uniform(-np.pi, np.pi, 2)])
-        self.t0 = np.stack([te, tf])
-        self.d1_0 = np.stack([_unit(np.cross(t, rng.normal(size=3))) for t in (te, tf)])
-        self.ref0 = reference_twist(self.d1_0, self.t0, np.zeros(1))
+        super().__init__(rng)
         self.kappa_bar = rng.normal(size=2) * 0.4
 
     def frames(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(m1, m2, ref_twist)`` of configuration ``p`` (11,)."""
-        _, _, _, ref, m1, m2 = rod_frames(_to_q(p), self.d1_0, self.t0, self.ref0)
+        _, _, _, ref, m1, m2 = self.rod_frames(p)
         return m1, m2, ref
 
     def evaluate(self, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
@@ -56,34 +38,6 @@ class EdgePair:
         return bend_energy_grad_hess(
             p[0:3], p[3:6], p[6:9], m1[0], m2[0], m1[1], m2[1], self.kappa_bar, L_VOR, EI
         )
-
-
-def _fd_jacobian(f, p: np.ndarray, h: float) -> np.ndarray:
-    cols = [(f(p + h * ei) - f(p - h * ei)) / (2 * h) for ei in np.eye(p.size)]
-    return np.array(cols).T
-
-
-def _holonomy(p: np.ndarray, g: np.ndarray) -> np.ndarray:
-    """``C[a, b] = sum_edges dE/dtheta * 0.5 (dt/dp_a x dt/dp_b) . t`` (11, 11): the part of
-    the gradient's Jacobian that comes from parallel transport not commuting."""
-    x = p[:9].reshape(3, 3)
-    C = np.zeros((11, 11))
-    for k, gth in ((0, g[9]), (1, g[10])):
-        e = x[k + 1] - x[k]
-        le = np.linalg.norm(e)
-        t = e / le
-        D = np.zeros((3, 11))
-        D[:, 3 * k:3 * k + 3] = -np.eye(3)
-        D[:, 3 * k + 3:3 * k + 6] = np.eye(3)
-        Dt = (np.eye(3) - np.outer(t, t)) @ D / le
-        C += 0.5 * gth * np.einsum("ia,jb,k,ijk->ab", Dt, Dt, t, _LEVI_CIVITA)
-    return C
-
-
-_LEVI_CIVITA = np.zeros((3, 3, 3))
-for _i, _j, _k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
-    _LEVI_CIVITA[_i, _j, _k] = 1.0
-    _LEVI_CIVITA[_i, _k, _j] = -1.0
 
 
 def test_material_curvatures_match_eqns_2_and_3() -> None:
@@ -134,7 +88,7 @@ def test_bend_theta_gradient_matches_der_formulas() -> None:
 @pytest.mark.parametrize("seed", SEEDS)
 def test_bend_gradient_matches_finite_differences(seed: int) -> None:
     pair = EdgePair(seed)
-    fd = _fd_jacobian(lambda p: np.array([pair.evaluate(p)[0]]), pair.p0, 1e-6)[0]
+    fd = fd_jacobian(lambda p: np.array([pair.evaluate(p)[0]]), pair.p0, 1e-6)[0]
     g = pair.evaluate(pair.p0)[1]
     assert np.abs(g - fd).max() <= 1e-6 * np.abs(g).max()
 
@@ -143,19 +97,19 @@ def test_bend_gradient_matches_finite_differences(seed: int) -> None:
 def test_bend_hessian_is_symmetric_part_of_gradient_finite_differences(seed: int) -> None:
     pair = EdgePair(seed)
     H = pair.evaluate(pair.p0)[2]
-    J = _fd_jacobian(lambda p: pair.evaluate(p)[1], pair.p0, 1e-6)
+    J = fd_jacobian(lambda p: pair.evaluate(p)[1], pair.p0, 1e-6)
     np.testing.assert_array_equal(H, H.T)
     assert np.abs(H - 0.5 * (J + J.T)).max() <= 1e-5 * np.abs(H).max()
 
 
 @pytest.mark.parametrize("seed", SEEDS)
-def test_bend_gradient_jacobian_antisymmetric_part_is_transport_holonomy(seed: int) -> None:
+def test_bend_gradient_jacobian_antisymmetric_part_is_transportholonomy(seed: int) -> None:
     """Why the Hessian is the symmetric part: the rest of the FD Jacobian of the gradient
     is -C, the non-commutativity of parallel transport weighted by dE/dtheta."""
     pair = EdgePair(seed)
     _, g, _ = pair.evaluate(pair.p0)
-    J = _fd_jacobian(lambda p: pair.evaluate(p)[1], pair.p0, 1e-6)
-    C = _holonomy(pair.p0, g)
+    J = fd_jacobian(lambda p: pair.evaluate(p)[1], pair.p0, 1e-6)
+    C = holonomy(pair.p0, g)
     scale = np.abs(J).max()
     assert np.abs(0.5 * (J - J.T) + C).max() <= 1e-5 * scale
 
@@ -197,6 +151,6 @@ def test_edge_pair_helper_uses_time_parallel_frames() -> None:
     pair = EdgePair(5)
     p = pair.p0 + 1e-2 * np.random.default_rng(0).normal(size=11)
     m1, m2, _ = pair.frames(p)
-    t = tangents(_to_q(p))
+    t = tangents(to_q(p))
     np.testing.assert_allclose(np.einsum("ij,ij->i", m1, t), 0.0, atol=1e-13)
     np.testing.assert_allclose(np.cross(m1, m2), t, atol=1e-13)

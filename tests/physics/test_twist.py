@@ -11,52 +11,30 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from physics.elastic.rod_energy import rod_frames
 from physics.elastic.twist import twist_energy_grad_hess
 from physics.frames import reference_twist
+from tests.physics.der_helpers import RandomEdgePair, fd_jacobian, holonomy
 
 L_VOR = 0.9
 GJ = 1.5
 SEEDS = range(6)
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v)
-
-
-def _to_q(p: np.ndarray) -> np.ndarray:
-    """Local element DOFs ``[x0, x1, x2, theta_e, theta_f]`` -> 3-node rod DOFs (11,)."""
-    return np.concatenate([p[0:3], [p[9]], p[3:6], [p[10]], p[6:9]])
-
-
-class EdgePair:
-    """A random bent edge pair with arbitrary reference frames and rest twist."""
+class EdgePair(RandomEdgePair):
+    """A random bent edge pair (``RandomEdgePair``) with a random rest twist."""
 
     def __init__(self, seed: int) -> None:
         rng = np.random.default_rng(100 + seed)
-        te = _unit(rng.normal(size=3))
-        tf = _unit(te + 0.9 * rng.normal(size=3))
-        x0 = rng.normal(size=3)
-        x1 = x0 + rng.uniform(0.6, 1.4) * te
-        x2 = x1 + rng.uniform(0.6, 1.4) * tf
-        self.p0 = np.concatenate([x0, x1, x2, rng.uniform(-np.pi, np.pi, 2)])
-        self.t0 = np.stack([te, tf])
-        self.d1_0 = np.stack([_unit(np.cross(t, rng.normal(size=3))) for t in (te, tf)])
-        self.ref0 = reference_twist(self.d1_0, self.t0, np.zeros(1))
+        super().__init__(rng)
         self.twist_bar = rng.normal() * 0.5
 
     def ref_twist(self, p: np.ndarray) -> float:
-        return rod_frames(_to_q(p), self.d1_0, self.t0, self.ref0)[3][0]
+        return self.rod_frames(p)[3][0]
 
     def evaluate(self, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         return twist_energy_grad_hess(
             p[0:3], p[3:6], p[6:9], p[9], p[10], self.ref_twist(p), self.twist_bar, L_VOR, GJ
         )
-
-
-def _fd_jacobian(f, p: np.ndarray, h: float) -> np.ndarray:
-    cols = [(f(p + h * ei) - f(p - h * ei)) / (2 * h) for ei in np.eye(p.size)]
-    return np.array(cols).T
 
 
 def _kb(p: np.ndarray) -> np.ndarray:
@@ -82,7 +60,7 @@ def test_reference_twist_gradient_matches_der_formula() -> None:
         kb / (2 * np.linalg.norm(e)) - kb / (2 * np.linalg.norm(f)),
         kb / (2 * np.linalg.norm(f)),
     ])
-    fd = _fd_jacobian(lambda q: np.array([pair.ref_twist(q)]), p, 1e-6)[0][:9]
+    fd = fd_jacobian(lambda q: np.array([pair.ref_twist(q)]), p, 1e-6)[0][:9]
     np.testing.assert_allclose(fd, expected, atol=1e-8)
     E, g, _ = pair.evaluate(p)
     tau = p[10] - p[9] + pair.ref_twist(p)
@@ -104,7 +82,7 @@ def test_twist_energy_and_gradient_vanish_at_rest_twist() -> None:
 @pytest.mark.parametrize("seed", SEEDS)
 def test_twist_gradient_matches_finite_differences(seed: int) -> None:
     pair = EdgePair(seed)
-    fd = _fd_jacobian(lambda p: np.array([pair.evaluate(p)[0]]), pair.p0, 1e-6)[0]
+    fd = fd_jacobian(lambda p: np.array([pair.evaluate(p)[0]]), pair.p0, 1e-6)[0]
     g = pair.evaluate(pair.p0)[1]
     assert np.abs(g - fd).max() <= 1e-6 * np.abs(g).max()
 
@@ -113,7 +91,7 @@ def test_twist_gradient_matches_finite_differences(seed: int) -> None:
 def test_twist_hessian_is_symmetric_part_of_gradient_finite_differences(seed: int) -> None:
     pair = EdgePair(seed)
     H = pair.evaluate(pair.p0)[2]
-    J = _fd_jacobian(lambda p: pair.evaluate(p)[1], pair.p0, 1e-6)
+    J = fd_jacobian(lambda p: pair.evaluate(p)[1], pair.p0, 1e-6)
     np.testing.assert_array_equal(H, H.T)
     assert np.abs(H - 0.5 * (J + J.T)).max() <= 1e-5 * np.abs(H).max()
     # the theta rows/columns have no transport ambiguity: there J itself must match
@@ -144,19 +122,8 @@ def test_twist_gradient_jacobian_antisymmetric_part_is_transport_holonomy(seed: 
     pair = EdgePair(seed)
     p = pair.p0
     _, g, _ = pair.evaluate(p)
-    J = _fd_jacobian(lambda q: pair.evaluate(q)[1], p, 1e-6)
-    x = p[:9].reshape(3, 3)
-    C = np.zeros((11, 11))
-    for k, gth in ((0, g[9]), (1, g[10])):
-        e = x[k + 1] - x[k]
-        t = e / np.linalg.norm(e)
-        D = np.zeros((3, 11))
-        D[:, 3 * k:3 * k + 3] = -np.eye(3)
-        D[:, 3 * k + 3:3 * k + 6] = np.eye(3)
-        Dt = (np.eye(3) - np.outer(t, t)) @ D / np.linalg.norm(e)
-        for a in range(11):
-            for b in range(11):
-                C[a, b] += 0.5 * gth * np.cross(Dt[:, a], Dt[:, b]).dot(t)
+    J = fd_jacobian(lambda q: pair.evaluate(q)[1], p, 1e-6)
+    C = holonomy(p, g)
     assert np.abs(0.5 * (J - J.T) + C).max() <= 1e-5 * np.abs(J).max()
 
 
