@@ -124,6 +124,8 @@ class Plan:
         return self.done.get(_key("point", reading, b, rpm))
 
     def bracket(self, reading: str, b: float) -> tuple[float | None, float | None]:
+        if b == 0.0:
+            reading = "torque_free"  # no head: both readings are the same swimmer (one bisection serves both)
         pts = [r for r in self.done.values() if r["kind"] == "point" and r["reading"] == reading
                and abs(r["head_radius"] - b) < 1e-9]
         below = [r["omega_rpm"] for r in pts if r["error"] is None and r["end_to_end_ratio"] >= BUCKLED_RATIO]
@@ -141,6 +143,8 @@ class Plan:
                 for rpm in LOW_RPM:
                     if self._point(reading, b, rpm) is None:
                         low.append(("point", reading, b, rpm))
+                if b == 0.0 and reading != "torque_free":
+                    continue  # the headless swimmer's bisection runs once (see ``bracket``)
                 lo, hi = self.bracket(reading, b)
                 if lo is None:
                     continue  # the low speeds are still running
