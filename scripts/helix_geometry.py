@@ -95,6 +95,31 @@ def per_turn(x: np.ndarray, b: float, reading: str) -> float:
     return float(abs(U) * 2 * math.pi / omega)
 
 
+def rigid_drops() -> dict[str, list[float]]:
+    """Drop of the rigid swimmer's distance per turn against b = 0 for b = 0.4, 0.8, 1.2 cm (%), head
+    not spinning, for three head models: the printed forms (the paper's reading), the reciprocal forms,
+    and the head's own Stokes drag with no head-flagellum flow coupling."""
+    from physics.hydrodynamics import ResistanceOperator
+
+    def speed(b: float, printed: bool, coupling: bool) -> float:
+        x = nodes(119, b)
+        R = ResistanceOperator(x, P.viscosity, P.cutoff_length, b, False, NM.lsbt_smoothing,
+                               head_coupling=coupling, printed_head=printed and b > 0).dense()
+        n, ex = len(x), np.array([1.0, 0.0, 0.0])
+        V_u, V_f = np.zeros(R.shape[0]), np.zeros(R.shape[0])
+        V_u[:3 * n] = np.tile(ex, n)
+        V_f[3:3 * n] = np.cross(ex, x[1:]).ravel()
+        f_u, f_f = (-(R @ V)[:3 * n].reshape(-1, 3)[:, 0].sum() for V in (V_u, V_f))
+        return abs(f_f / f_u)
+
+    base = speed(0.0, False, True)
+    out = {}
+    for name, printed, coupling in (("printed forms (paper's reading)", True, True),
+                                    ("reciprocal forms", False, True), ("Stokes drag only, no coupling", False, False)):
+        out[name] = [100 * (1 - speed(b, printed, coupling) / base) for b in (0.004, 0.008, 0.012)]
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="docs/geometry.json")
@@ -132,7 +157,15 @@ def main(argv: list[str] | None = None) -> int:
         md.append(f"| {r['variant']} | {r['helix_nodes']} | {r['axial_length_cm']:.2f} | {r['contour_length_cm']:.2f} | "
                   f"{r['turns']:.2f} | {1e6 * r['thrust_N_per_rad_s']:.1f} | {1e6 * r['thrust_raw_eqn8_N_per_rad_s']:.1f} | "
                   f"{r['per_turn_cm_torque_free']:.3f} | {r['per_turn_cm_paper']:.3f} |")
+    drops = rigid_drops()
+    md += ["", "## Rigid estimate of R4: drop of the distance per turn against b = 0 (head not spinning)", "",
+           "| head model | b = 0.4 cm | 0.8 cm | 1.2 cm |", "|---|---|---|---|",
+           "| paper (Fig. 4d) | 16 | 32 | 43 |"]
+    md += [f"| {k} | " + " | ".join(f"{v:.1f}" for v in vals) + " |" for k, vals in drops.items()]
+    Path(args.out).write_text(json.dumps({"variants": rows, "rigid_drops_pct": drops}, indent=1))
     Path(args.out).with_suffix(".md").write_text("# Geometry of the helix\n\n" + "\n".join(md) + "\n")
+    for k, vals in drops.items():
+        print(f"rigid drops, {k}: " + ", ".join(f"{v:.1f} %" for v in vals))
     print(f"{'variant':62s} {'L_ax cm':>7s} {'turns':>5s} {'B uN/(rad/s)':>12s} {'B raw':>8s} "
           f"{'cm/turn TF':>10s} {'cm/turn paper':>13s}")
     for r in rows:

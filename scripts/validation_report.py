@@ -35,6 +35,16 @@ head forms). Reasons, in order:
    function; the reciprocal (Faxén) forms are the exact Stokes results for a translating sphere.
 3. **The paper's reading is not a full match either**: the table above lists the rows it misses.
 
+**The paper's reading misses R2 and R4 at b = 1.2 cm only** (R4: drop 50.5 % vs 43 %; R2: ω_b
+reduction 45.9 % vs 40 %; the 0.4 and 0.8 cm heads are within tolerance). Measured cause: the rigid
+swimmer gives the same drops (13.2 / 33.8 / 50.9 % with the printed forms,
+[geometry.md](geometry.md), `python scripts/helix_geometry.py`), so neither flexibility nor contact
+causes it; with the head's own Stokes drag and no head-flagellum flow coupling the rigid drops are
+19.5 / 32.8 / 42.3 % (paper 16 / 32 / 43 %). The printed eqn (11) coupling adds drag that grows with
+b, and the paper's Fig. 4d looks like a swimmer without it (or with a weaker one). R9's 139° at
+t_c = 54 s is inside the tolerance but comes from a 20 ms step, which turns less than 1 ms in
+buckled bursts (issue #15 measured -14 % at 150 rpm).
+
 What the comparison says about the paper: its ω_b, its 0.37 cm per turn and its small-head
 drops come from a swimmer whose flagellum base turns at ω in the lab frame with the printed head
 forms; the torque-free head counter-rotates (fast for small heads, whose rotational drag scales as
@@ -77,14 +87,21 @@ def rows_for(done, reading, plan) -> list[dict]:
     # R2
     base = _mid(br[0.0])
     red = {}
+    never = False  # a head that does not buckle where the headless swimmer does: omega_b raised, not lowered
     for b in (0.004, 0.008, 0.012):
         m = _mid(br[b])
-        red[f"{100 * b:.1f} cm"] = {"bracket_rpm": list(br[b]),
-                                     "reduction_pct": None if m is None or base is None else 100 * (1 - m / base)}
+        entry = {"bracket_rpm": list(br[b]),
+                 "reduction_pct": None if m is None or base is None else 100 * (1 - m / base)}
+        if br[b][0] is not None and br[b][1] is None and base is not None and br[b][0] > base:
+            entry["no_buckling_up_to_rpm"] = br[b][0]
+            entry["reduction_pct_below"] = 100 * (1 - br[b][0] / base)
+            never = True
+        red[f"{100 * b:.1f} cm"] = entry
     vals = [red[k]["reduction_pct"] for k in ("0.4 cm", "0.8 cm", "1.2 cm")]
+    ok = False if never else (None if any(v is None for v in vals)
+                              else bool(all(abs(v - t) <= 5 for v, t in zip(vals, PAPER_R2))))
     row("R2", "reduction of omega_b against b = 0 (bracket midpoints), b = 0.4, 0.8, 1.2 cm (%)", PAPER_R2,
-        {"b=0 bracket_rpm": list(br[0.0]), **red}, "±5 points",
-        None if any(v is None for v in vals) else bool(all(abs(v - t) <= 5 for v, t in zip(vals, PAPER_R2))))
+        {"b=0 bracket_rpm": list(br[0.0]), **red}, "±5 points", ok)
     # R3: L'/L below omega_b
     low = [r for r in _points(done, reading) if r["omega_rpm"] <= 30 and r["error"] is None]
     ll = [r["end_to_end_ratio"] for r in low]
