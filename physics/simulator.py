@@ -247,7 +247,6 @@ class Simulator:
         move = float(np.abs(q_pred[self._pos] - self.q[self._pos]).max()) if self.step_count else 0.0
         self._contact_pad = max(0.5 * self.params.rod_radius, 2.0 * move)
         self._contact_candidates = self.contact.broad_phase(x_pred, self._contact_pad)
-        self._contact_x = x_pred
         self._contact_none = len(self._contact_candidates[0]) == 0 and len(self._contact_candidates[1]) == 0
 
     def min_gaps(self) -> tuple[float, float]:
