@@ -18,9 +18,11 @@ For a gap g = d - d_min each active pair stores the C2 penalty
     E(g) = k eps / 3 (1 - g / eps)^3   for g < eps,   0 otherwise,
 
 so the repulsive force is k (1 - g/eps)^2: zero at g = eps (the activation distance), k at
-contact (g = 0) and 4 k at a penetration of eps. k (N, ``contact_stiffness``) is chosen well
-above the forces that press the rod together, so the gap stays above -eps sqrt(F/k) - ...;
-in practice above 0 for a contact force F < k (stated tolerance: g > -eps).
+contact (g = 0) and 4 k at a penetration of eps. A pair pressed together by a force F settles
+at g = eps (1 - sqrt(F/k)): no overlap while F < k, an overlap smaller than the margin eps while
+F < 4 k (the stated tolerance: g > -eps). k (N, ``contact_stiffness``, default 0.1 N) is well above
+the forces that press a buckled rod together (measured gaps: docs/contact_check.json,
+docs/stability.md).
 
 Derivatives of the distance: with D = d^2 = min_u f(x, u), f = |w|^2 and u the closest-point
 parameters, the envelope theorem gives grad D = f_x at u*, and (u* interior)
