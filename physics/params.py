@@ -131,7 +131,17 @@ class SwimmerParams:
 class NumericsConfig:
     """Numerical settings of the implicit integrator."""
 
-    dt: float = _f(1e-3, "s", "time step h (paper: 1 ms)", 0.0, 1.0, True)
+    dt: float = _f(1e-3, "s", "time step h (paper: 1 ms); with step_tol > 0 the step of the simulator's "
+                   "step() (sampling and motor updates), inside which the adaptive steps are taken", 0.0, 1.0, True)
+    integrator: str = _f("euler", "-", "implicit scheme of eqn (6): euler (implicit Euler, first order, as in the "
+                         "paper) or bdf2 (variable-step BDF2, second order, L-stable; physics/time_integrator.py)",
+                         choices=("euler", "bdf2"))
+    step_tol: float = _f(0.0, "-", "adaptive time stepping: the local error of each step is kept below this "
+                         "fraction of the rod radius (positions) and radians (twists); 0 = fixed steps of dt",
+                         0.0, 1.0)
+    h_start: float = _f(1e-3, "s", "adaptive stepping: first step after a start or a motor-speed change (where "
+                        "the motion has a kink, so no error estimate exists yet)", 0.0, 1.0, True)
+    h_min: float = _f(1e-6, "s", "adaptive stepping: smallest step before SimulationError", 0.0, 1.0, True)
     newton_tol: float = _f(1e-6, "-", "Newton tolerance on the relative force residual", 0.0, 1e-2, True)
     newton_max_iter: int = _f(25, "-", "Newton iterations before the Jacobian is refreshed / the step fails", 2, 500)
     hydro_refresh_tol: float = _f(0.03, "-",

@@ -43,6 +43,8 @@ from physics.contact import ContactModel
 from physics.implicit_residual import assemble_residual, block_max_abs
 from physics.params import NumericsConfig, SwimmerParams
 from physics.step_solvers import BandedNewtonSolver, DenseChordSolver, StepFailed
+from physics.time_integrator import (SAFETY, SHRINK_MIN, History, StepBase, error_norm, next_step, split_remaining,
+                                     step_base, velocity_of)
 
 
 @dataclass
@@ -54,6 +56,8 @@ class StepStats:
     resistance_refreshes: int = 0
     jacobian_factorisations: int = 0
     halvings: int = 0
+    substeps: int = 0  # accepted integration steps (= steps with fixed steps and no halving)
+    rejected_steps: int = 0  # adaptive steps retried smaller (error too large or Newton failure)
     # wall seconds spent in each part of the step
     time_elastic: float = 0.0  # frames + elastic gradient
     time_hydro: float = 0.0  # applying the resistance (LSBT solves / matvecs)
@@ -129,6 +133,12 @@ class Simulator:
         self.stats = StepStats()
         self._v_prev: np.ndarray | None = None
         self._h_prev = -1.0
+        # time integration (physics.time_integrator): the history of accepted points for BDF2 and the
+        # error estimate, restarted at every kink of the motion (a start or a motor-speed change)
+        self._history = History()
+        self._restart = True
+        self._h = self.numerics.h_start  # the adaptive controller's next step, s
+        self._base: StepBase | None = None
         # observables of the last step
         self.node_forces = np.zeros((n, 3))  # hydrodynamic force on each node, N
         self.head_axial_torque = 0.0
@@ -149,11 +159,17 @@ class Simulator:
         """Set the motor speed omega (rad/s, the flagellum's rate relative to the head)."""
         if not math.isfinite(omega_rad_s):
             raise ValueError(f"motor speed {omega_rad_s!r} rad/s must be finite")
+        if float(omega_rad_s) != self.omega:
+            self._restart = True  # the motion has a kink here: no multistep formula may cross it
         self.omega = float(omega_rad_s)
 
     def step(self) -> None:
-        """Advance by one time step ``numerics.dt`` (halving it on Newton failure)."""
-        self._advance(self.numerics.dt, 0)
+        """Advance by ``numerics.dt``: one step (halved on Newton failure), or with ``step_tol`` > 0 as many
+        error-controlled steps as that takes, the last one ending exactly at the end of dt."""
+        if self.numerics.step_tol > 0.0:
+            self._adaptive(self.numerics.dt)
+        else:
+            self._advance(self.numerics.dt, 0)
         self.step_count += 1
         self.stats.steps += 1
 
@@ -184,6 +200,8 @@ class Simulator:
         self._solver.reset()  # factorisations are rebuilt at the next step
         self._v_prev = None
         self._h_prev = -1.0
+        self._restart = True
+        self._h = self.numerics.h_start
 
     @property
     def nodes(self) -> np.ndarray:
@@ -278,7 +296,8 @@ class Simulator:
         G, Q = self._solver.hydro_force(q, h)
         self.stats.time_elastic += t1 - t0
         self.stats.time_hydro += time.perf_counter() - t1
-        r, f, inertia = assemble_residual(q, self.q, self.v, h, self.mass, grad, G, Q, self.vdofs,
+        b = self._base
+        r, f, inertia = assemble_residual(q, b.q_hat, b.v_hat, b.h_eff, self.mass, grad, G, Q, self.vdofs,
                                           self.head_spins, self.prescribed)
         return r, grad, f, inertia, (t, d1, rt)
 
@@ -292,11 +311,18 @@ class Simulator:
                    self._f_floor * self.params.rod_radius)
         return block_max_abs(r, tw) <= tol * s_tw
 
-    def _try_step(self, h: float):
-        nm, p = self.numerics, self.params
-        # predictor: constant acceleration over the last two steps (first step: constant velocity)
+    def _euler_base(self, h: float) -> StepBase:
+        """Implicit Euler from the current state, started from the constant-acceleration predictor of the
+        last two steps (first step: constant velocity)."""
         q = self.q + h * (2.0 * self.v - self._v_prev) if self._v_prev is not None else self.q + h * self.v
-        q[self.prescribed] = self.q[self.prescribed] + h * self.omega
+        return StepBase(h, h, self.q, self.v, q, 1, None)
+
+    def _try_step(self, base: StepBase):
+        nm, p = self.numerics, self.params
+        self._base = base
+        h = base.h_eff  # the solvers see the effective step of the scheme (physics.time_integrator)
+        q = base.q_pred.copy()
+        q[self.prescribed] = self.q[self.prescribed] + base.h * self.omega
         if self.contact is not None:
             self._contact_broad_phase(q)
             self._contact_q = q.copy()
@@ -334,9 +360,17 @@ class Simulator:
         raise StepFailed("Newton", f"Newton did not converge after {it + 1} iterations "
                                    f"(max force residual {np.abs(r).max():.3e})")
 
+    def _base_for(self, h: float) -> StepBase:
+        if self._restart:
+            self._history.restart(self.time, self.q, self.v)
+            self._restart = False
+        return step_base(self._history, h, self.numerics.integrator)
+
     def _advance(self, h: float, level: int) -> None:
+        """Fixed steps: one step of h, halved (recursively) on failure."""
         try:
-            q, r, grad, f, (t, d1, rt) = self._try_step(h)
+            base = self._euler_base(h) if self.numerics.integrator == "euler" else self._base_for(h)
+            q, r, grad, f, (t, d1, rt) = self._try_step(base)
             self._check_state(q, t)
         except StepFailed as exc:
             if level >= self.numerics.max_substeps:
@@ -346,7 +380,41 @@ class Simulator:
             self._advance(h / 2, level + 1)
             self._advance(h / 2, level + 1)
             return
-        self._commit(q, h, grad, f, t, d1, rt)
+        self._commit(q, base, grad, f, t, d1, rt)
+
+    def _adaptive(self, dt: float) -> None:
+        """Error-controlled steps (physics.time_integrator) that end exactly at time + dt."""
+        nm = self.numerics
+        t_end = self.time + dt
+        while t_end - self.time > 1e-9 * dt:
+            if self._restart:
+                self._h = min(nm.h_start, dt)
+            h = split_remaining(self._h, t_end - self.time)
+            last = h == t_end - self.time
+            base = self._base_for(h)
+            try:
+                q, r, grad, f, (t, d1, rt) = self._try_step(base)
+                self._check_state(q, t)
+                err = error_norm(q, base, self._anderson_weights, nm.step_tol)
+            except StepFailed as exc:
+                self._reject(h / 4.0, exc.quantity, str(exc))
+                continue
+            if err > 1.0:
+                self._reject(h * max(SHRINK_MIN, SAFETY * err ** (-1.0 / (base.order + 1))), "local error",
+                             f"estimated local error {err * nm.step_tol:.3g} (r0 or rad) above step_tol")
+                continue
+            self._commit(q, base, grad, f, t, d1, rt, t_new=t_end if last else None)
+            proposal = next_step(h, err, base.order)
+            if h < self._h and proposal >= h:  # a step shortened to land on t_end says nothing against h
+                proposal = self._h
+            self._h = min(proposal, dt)
+
+    def _reject(self, h_new: float, quantity: str, why: str) -> None:
+        self.stats.rejected_steps += 1
+        if h_new < self.numerics.h_min:
+            raise SimulationError(f"{why}; the step would fall below h_min = {self.numerics.h_min:g} s",
+                                  self.step_count, self.time, quantity)
+        self._h = h_new
 
     def _check_state(self, q: np.ndarray, t: np.ndarray) -> None:
         if not np.all(np.isfinite(q)):
@@ -357,15 +425,19 @@ class Simulator:
             i = int(np.argmin(ratio)) if ratio.min() < 0.2 else int(np.argmax(ratio))
             raise StepFailed("edge length", f"edge {i} has {ratio[i]:.3g} x its rest length")
 
-    def _commit(self, q, h, grad, f, t, d1, rt) -> None:
+    def _commit(self, q, base: StepBase, grad, f, t, d1, rt, t_new: float | None = None) -> None:
+        h = base.h
         dq = q - self.q
         old_axis = self.body_frame[:, 0].copy()
         self._v_prev = self.v if h == self._h_prev else None
         self._h_prev = h
-        self.v = dq / h
+        self.v = dq / h if base.order == 1 and base.h_eff == h else velocity_of(q, base)
         self.q = q
         self.tangent, self.d1, self.ref_twist = t, d1, rt
-        self.time += h
+        self.time = self.time + h if t_new is None else t_new
+        self.stats.substeps += 1
+        if self.numerics.integrator == "bdf2" or self.numerics.step_tol > 0.0:
+            self._history.push(self.time, self.q, self.v)
         self.motor_angle += h * self.omega
         self._solver.end_step()
         self.node_forces = np.stack([f[0::4], f[1::4], f[2::4]], axis=1)

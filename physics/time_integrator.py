@@ -1,0 +1,161 @@
+"""Time discretisation of eqn (6) of Huang & Jawed 2020: implicit Euler and variable-step BDF2,
+with a local error estimate and a step-size controller.
+
+Both schemes give the same nonlinear system as the paper's implicit Euler,
+
+    M (q - q^ - h_e v^) / h_e^2 + grad E(q) + P^T R (P (q - q^) / h_e - omega e_s) = 0,
+
+only with different base values (q^, v^) and an effective step h_e, so the residual, the
+Jacobian M/h_e^2 + K + P^T R P / h_e and every solver are shared:
+
+* implicit Euler (order 1): h_e = h, q^ = q_n, v^ = v_n (eqn 6 as printed).
+* BDF2 (order 2; variable step, ratio w = h_n / h_{n-1}; Hairer & Wanner, *Solving ODEs II*,
+  Sec. III.5): v_{n+1} = a0 q_{n+1} + a1 q_n + a2 q_{n-1} with a0 = (1 + 2w) / (h (1 + w)),
+  a1 = -(1 + w) / h, a2 = w^2 / (h (1 + w)); the same formula for the acceleration from the
+  velocities. So h_e = 1 / a0, q^ = -(a1 q_n + a2 q_{n-1}) / a0, v^ = -(a1 v_n + a2 v_{n-1}) / a0.
+  BDF2 is L-stable like implicit Euler: the stiff elastic and twist modes are damped, not rung.
+
+Local error (Milne's device): the predictor P is the polynomial through the last p + 1 accepted
+points (p = the order), evaluated at t_{n+1}. For a solution with smooth (p+1)-th derivative,
+P misses by E_p = q^{(p+1)}/(p+1)! * prod_j (t_{n+1} - t_j) and the corrector by
+E_c = q^{(p+1)}/(p+1)! * (its own error constant), with the opposite sign, so
+E_c ~ k / (1 + k) * (q_c - P), k = E_c / E_p (``error_ratio``). Constant steps: k = 1/2
+(Euler), 2/9 (BDF2).
+
+The error is measured in units that mean something for this rod: node positions in rod radii
+r0, twist angles in radians, as a max norm (a local kink must not hide in an average).
+
+A motor-speed change puts a kink in q(t) (the velocity jumps): the history is restarted there,
+the first step after it is implicit Euler at ``h_start``, and no estimate crosses the kink.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: step-size controller: safety factor, largest growth and shrink per step, and the band of
+#: growth factors in which the step is kept as it is (so factorisations at h_e stay valid)
+SAFETY = 0.9
+GROW_MAX = 2.0
+SHRINK_MIN = 0.2
+KEEP_BELOW = 1.25
+
+
+@dataclass(frozen=True)
+class StepBase:
+    """What one implicit step needs besides the state: h (s), the effective step h_e (s), the base
+    values q^ and v^ (ndof,), the Newton start ``q_pred`` (ndof,), the order, and the error ratio
+    k of the estimate (None: no estimate for this step)."""
+
+    h: float
+    h_eff: float
+    q_hat: np.ndarray
+    v_hat: np.ndarray
+    q_pred: np.ndarray
+    order: int
+    error_ratio: float | None
+
+
+class History:
+    """The accepted points (t, q, v) since the last restart, newest last (at most three kept)."""
+
+    def __init__(self) -> None:
+        self.points: list[tuple[float, np.ndarray, np.ndarray]] = []
+
+    def restart(self, t: float, q: np.ndarray, v: np.ndarray) -> None:
+        self.points = [(t, q, v)]
+
+    def push(self, t: float, q: np.ndarray, v: np.ndarray) -> None:
+        self.points.append((t, q, v))
+        if len(self.points) > 3:
+            del self.points[0]
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+
+def step_base(history: History, h: float, scheme: str) -> StepBase:
+    """The base of a step of length h (s) from the newest point of ``history``.
+
+    ``scheme`` "euler" or "bdf2". BDF2 needs one earlier point (else the step is implicit Euler);
+    the error estimate needs order + 1 of them (see the module doc)."""
+    t0, q0, v0 = history.points[-1]
+    npts = len(history)
+    if scheme == "bdf2" and npts >= 2:
+        t1, q1, v1 = history.points[-2]
+        h1 = t0 - t1
+        w = h / h1
+        a0 = (1.0 + 2.0 * w) / (h * (1.0 + w))
+        a1 = -(1.0 + w) / h
+        a2 = w * w / (h * (1.0 + w))
+        q_hat = -(a1 * q0 + a2 * q1) / a0
+        v_hat = -(a1 * v0 + a2 * v1) / a0
+        order, h_eff = 2, 1.0 / a0
+    else:
+        q_hat, v_hat, order, h_eff = q0, v0, 1, h
+    q_pred, ratio = _predict(history, h, order)
+    return StepBase(h, h_eff, q_hat, v_hat, q_pred, order, ratio)
+
+
+def _predict(history: History, h: float, order: int) -> tuple[np.ndarray, float | None]:
+    """Polynomial extrapolation through the last order + 1 points to t_n + h, and the error ratio
+    k = E_c / E_p of the corrector of that order (None with too few points: then a lower-degree
+    extrapolation or q_n + h v_n, with no estimate)."""
+    pts = history.points
+    t0, q0, v0 = pts[-1]
+    if len(pts) >= order + 1:
+        if order == 1:
+            t1, q1, _ = pts[-2]
+            h1 = t0 - t1
+            return q0 + (h / h1) * (q0 - q1), h / (h + h1)
+        (t2, q2, _), (t1, q1, _) = pts[-3], pts[-2]
+        h1, h2 = t0 - t1, t1 - t2
+        x = h
+        l0 = (x + h1) * (x + h1 + h2) / (h1 * (h1 + h2))
+        l1 = -x * (x + h1 + h2) / (h1 * h2)
+        l2 = x * (x + h1) / ((h1 + h2) * h2)
+        k = h * (h + h1) / ((2.0 * h + h1) * (h + h1 + h2))
+        return l0 * q0 + l1 * q1 + l2 * q2, k
+    if len(pts) >= 2:  # BDF2 right after a restart: linear extrapolation, no estimate
+        t1, q1, _ = pts[-2]
+        return q0 + (h / (t0 - t1)) * (q0 - q1), None
+    return q0 + h * v0, None
+
+
+def error_norm(q_new: np.ndarray, base: StepBase, weights: np.ndarray, tol: float) -> float:
+    """Estimated local error of an accepted iterate over the tolerance (<= 1: accept), max norm with
+    ``weights`` (1/r0 on positions, 1 on twists). 0 if the step has no estimate."""
+    k = base.error_ratio
+    if k is None:
+        return 0.0
+    return float(np.max(np.abs(q_new - base.q_pred) * weights)) * (k / (1.0 + k)) / tol
+
+
+def next_step(h: float, err: float, order: int) -> float:
+    """The step (s) after one of length h with error ratio ``err`` (error / tolerance) at ``order``:
+    the classic controller h (SAFETY / err)^(1/(p+1)), growth at most GROW_MAX, shrink at least
+    SHRINK_MIN; a growth below KEEP_BELOW keeps h (a changed h_e costs a refactorisation)."""
+    if err <= 0.0:
+        fac = GROW_MAX
+    else:
+        fac = min(GROW_MAX, max(SHRINK_MIN, SAFETY * err ** (-1.0 / (order + 1))))
+    if 1.0 <= fac < KEEP_BELOW:
+        return h
+    return h * fac
+
+
+def split_remaining(h: float, remaining: float) -> float:
+    """A step no longer than ``remaining`` (s) that avoids a sliver at the end: the whole rest if it is
+    within 30 % of h, half of it if it is within 2 h."""
+    if remaining <= 1.3 * h:
+        return remaining
+    if remaining < 2.0 * h:
+        return 0.5 * remaining
+    return h
+
+
+def velocity_of(q_new: np.ndarray, base: StepBase) -> np.ndarray:
+    """The scheme's velocity at the new point, (q - q^) / h_e (m/s, rad/s)."""
+    return (q_new - base.q_hat) / base.h_eff
