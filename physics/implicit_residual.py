@@ -1,4 +1,4 @@
-"""Numba kernels of the implicit-Euler residual (eqn 6 with implicit hydrodynamics).
+"""Numba kernels of the implicit residual of eqn (6) with implicit hydrodynamics, and of its Jacobian.
 
 r(q) = M (q - q_k - h v_k) / h^2 + grad E(q) - P^T G,   G = -Q~ R_ref Q~^T V,
 V = P (q - q_k) / h - omega e_s   (node velocities, then the head spin rate s).
@@ -83,3 +83,55 @@ def block_max_abs(y: np.ndarray, idx: np.ndarray) -> float:
         if v > m:
             m = v
     return m
+
+
+@njit(cache=True)
+def assemble_dense_jacobian(ab: np.ndarray, mass: np.ndarray, h: float, R: np.ndarray, vdofs: np.ndarray) -> np.ndarray:
+    """The Newton Jacobian of the residual, J = K + M/h^2 + P^T R P / h, dense (ndof, ndof).
+
+    ab: elastic Hessian K in general-banded storage (21, ndof) (``physics.elastic``); mass (ndof,);
+    R (nv, nv) resistance in the lab frame; vdofs (nv,) the DOFs of the generalised velocities
+    (prescribed DOFs are the caller's: after any further terms). Same arithmetic, in the same order, as
+    ``banded_to_dense`` + diagonal + ``J[np.ix_(vdofs, vdofs)] += R / h`` (bit-identical, one pass).
+    """
+    nd = ab.shape[1]
+    bw = (ab.shape[0] - 1) // 2
+    J = np.zeros((nd, nd))
+    for j in range(nd):
+        for i in range(max(0, j - bw), min(nd, j + bw + 1)):
+            J[i, j] = ab[bw + i - j, j]
+    for j in range(nd):
+        J[j, j] += mass[j] / (h * h)
+    nv = vdofs.shape[0]
+    for a in range(nv):
+        ia = vdofs[a]
+        for b in range(nv):
+            J[ia, vdofs[b]] += R[a, b] / h
+    return J
+
+
+@njit(cache=True)
+def rotate_dense_blocks(R: np.ndarray, Q: np.ndarray, spin: bool) -> np.ndarray:
+    """Q~ R Q~^T for the block rotation Q~ = diag(Q, ..., Q[, 1]) (the spin entry, if any, last):
+    the resistance of a rigidly rotated configuration (``rigid_alignment``). O(9 n^2), no dense products."""
+    nv = R.shape[0]
+    nb = (nv - 1) // 3 if spin else nv // 3
+    out = np.empty_like(R)
+    tmp = np.empty_like(R)
+    # tmp = R Q~^T (columns of each block rotated)
+    for i in range(nv):
+        for b in range(nb):
+            r0, r1, r2 = R[i, 3 * b], R[i, 3 * b + 1], R[i, 3 * b + 2]
+            for k in range(3):
+                tmp[i, 3 * b + k] = r0 * Q[k, 0] + r1 * Q[k, 1] + r2 * Q[k, 2]
+        if spin:
+            tmp[i, nv - 1] = R[i, nv - 1]
+    # out = Q~ tmp (rows of each block rotated)
+    for j in range(nv):
+        for b in range(nb):
+            t0, t1, t2 = tmp[3 * b, j], tmp[3 * b + 1, j], tmp[3 * b + 2, j]
+            for k in range(3):
+                out[3 * b + k, j] = Q[k, 0] * t0 + Q[k, 1] * t1 + Q[k, 2] * t2
+        if spin:
+            out[nv - 1, j] = tmp[nv - 1, j]
+    return out

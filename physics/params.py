@@ -152,6 +152,10 @@ class NumericsConfig:
                                "strength of the force-smoothness regularisation of the LSBT inverse, in units of "
                                "1/(8 pi mu 2 delta) (0 = plain eqn (8), which is indefinite)", 0.0, 1e3)
     max_substeps: int = _f(6, "-", "times a failing step may be halved before SimulationError", 0, 20)
+    jacobian_refresh: str = _f("stall", "-", "when the dense Newton Jacobian is refactorised besides a changed step: "
+                               "stall (only when the chord iteration stops contracting) or resistance (also "
+                               "whenever the hydrodynamic resistance is rebuilt, i.e. the shape has changed)",
+                               choices=("stall", "resistance"))
     single_iteration: bool = _f(False, "-", "take exactly one Newton iteration per step (linearly implicit "
                                 "Euler): fastest, first-order accurate, no convergence check")
     anderson_depth: int = _f(4, "-", "Anderson acceleration depth of the Newton/chord iteration (0 = off)", 0, 20)

@@ -27,10 +27,11 @@ from numba import njit
 from scipy.linalg import lapack, lu_factor, solve_banded
 
 from physics.contact import add_blocks_to_dense
-from physics.elastic import BANDWIDTH, banded_to_dense, elastic_hessian_banded_kernel
+from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel
 from physics.geometry import nodes_of
 from physics.hydrodynamics import HydroError, ResistanceOperator
-from physics.implicit_residual import generalised_velocity, rotate_node_blocks
+from physics.implicit_residual import (assemble_dense_jacobian, generalised_velocity, rotate_dense_blocks,
+                                       rotate_node_blocks)
 from physics.rft import apply_blocks, rft_blocks, rft_coefficients
 from physics.rigid_alignment import best_fit_rotation
 
@@ -88,22 +89,23 @@ class DenseChordSolver:
         sim.stats.resistance_refreshes += 1
         sim.stats.time_resistance_refresh += time.perf_counter() - t0
 
-    def _refresh_jacobian(self, q: np.ndarray, h: float, keep_resistance: bool) -> None:
-        """Factorise J = M/h^2 + K + P^T R P / h at q (with the resistance rebuilt at q unless kept)."""
+    def _refresh_jacobian(self, q: np.ndarray, h: float, keep_resistance: bool, rotate: bool = True) -> None:
+        """Factorise J = M/h^2 + K + P^T R P / h at q (with the resistance rebuilt at q unless kept; a kept
+        one is rotated to q's orientation unless ``rotate`` is false, i.e. it was built at q)."""
         sim = self.sim
-        if keep_resistance and self.hyd is not None:
-            hyd_geometry = self.x_hyd
+        if keep_resistance and self.hyd is not None and not rotate:
+            Rq = self.hyd.dense()
+        elif keep_resistance and self.hyd is not None:
             R = self.hyd.dense()
-            Q = best_fit_rotation(hyd_geometry, nodes_of(q))[0]
-            Rq = _rotate_dense(R, Q, self.hyd.spin)
+            Q = best_fit_rotation(self.x_hyd, nodes_of(q))[0]
+            Rq = rotate_dense_blocks(R, Q, self.hyd.spin)
         else:
             self._refresh_hydro(q)
             Rq = self.hyd.dense()
         t0 = time.perf_counter()
         t, d1, d2, rt, m1, m2 = sim.frames_at(q)
-        J = banded_to_dense(elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *sim.rest_arrays))
-        J[np.diag_indices_from(J)] += sim.mass / h**2
-        J[np.ix_(sim.vdofs, sim.vdofs)] += Rq / h
+        J = assemble_dense_jacobian(elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *sim.rest_arrays),
+                                    sim.mass, h, Rq, sim.vdofs)
         self.contact_set = None
         if sim.contact is not None:
             _, _, nodes_c, blocks_c = sim.contact_terms(q)
@@ -135,7 +137,11 @@ class DenseChordSolver:
                 Qh, dev = best_fit_rotation(self.x_hyd, x_pred)
                 if dev > nm.hydro_refresh_tol * p.rod_radius:
                     self._refresh_hydro(q_pred)
-            if nm.single_iteration or self._contacts_changed(q_pred):
+            if self.since_hydro == 0 and nm.jacobian_refresh == "resistance":
+                # the shape has changed: the old Jacobian's elastic and hydrodynamic parts are both stale
+                self._refresh_jacobian(q_pred, h, keep_resistance=True, rotate=False)
+                self.jac_fresh = True
+            elif nm.single_iteration or self._contacts_changed(q_pred):
                 # one linearly implicit solve per step needs the current Jacobian, and so does a
                 # contact that has started since the last factorisation
                 self._refresh_jacobian(q_pred, h, keep_resistance=True)
@@ -182,15 +188,6 @@ class DenseChordSolver:
 def _contact_signature(nodes: np.ndarray) -> frozenset:
     """The set of active contact interactions (their node quadruples)."""
     return frozenset(map(tuple, nodes.tolist()))
-
-
-def _rotate_dense(R: np.ndarray, Q: np.ndarray, spin: bool) -> np.ndarray:
-    """Q~ R Q~^T for node-block rotations (the trailing spin entry, if any, is a scalar)."""
-    n = R.shape[0] - (1 if spin else 0)
-    T = np.eye(R.shape[0])
-    for i in range(n // 3):
-        T[3 * i:3 * i + 3, 3 * i:3 * i + 3] = Q
-    return T @ R @ T.T
 
 
 class BandedNewtonSolver:
