@@ -47,6 +47,7 @@ import yaml
 from agents.residual_planner import ResidualLimits
 from flagellum_env.paths import RandomPathConfig, WaypointPath, random_path
 from physics.presets import preset_names
+from physics.validation import require_finite
 
 #: PPO constructor arguments a config may set (stable-baselines3 2.x).
 PPO_KEYS = ("learning_rate", "n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda", "clip_range", "ent_coef",
@@ -175,9 +176,7 @@ class TrainConfig:
             ResidualLimits(**limits)
         except TypeError as exc:
             raise ValueError(f"{where}: {name}.task.limits: {exc}") from None
-        cost = task.get("action_cost", 0.0)
-        if isinstance(cost, bool) or not isinstance(cost, (int, float)) or not math.isfinite(cost) or cost < 0:
-            raise ValueError(f"{where}: {name}.task.action_cost={cost!r} must be a number >= 0")
+        cost = require_finite(f"{where}: {name}.task.action_cost", task.get("action_cost", 0.0), 0.0)
         normalize = dict(body.get("normalize") or {"norm_obs": True, "norm_reward": True})
         _only(normalize, NORMALIZE_KEYS, f"{where}: {name}.normalize")
         wall = body.get("max_wall_time_s")
@@ -204,7 +203,7 @@ class TrainConfig:
                    seed=_int(body.get("seed", 0), f"{where}: {name}.seed", 0),
                    checkpoint_every=_int(body.get("checkpoint_every", 32), f"{where}: {name}.checkpoint_every", 1),
                    normalize=normalize, ppo={k: body[k] for k in PPO_KEYS if k in body}, preset=preset,
-                   turn_map=task.get("turn_map"), limits=limits, action_cost=float(cost),
+                   turn_map=task.get("turn_map"), limits=limits, action_cost=cost,
                    env_kwargs=dict(task.get("env_kwargs") or {}), init_from=init_from,
                    source=source)
 

@@ -38,6 +38,7 @@ import numpy as np
 from flagellum_env.turn_geometry import angle_between, azimuth, wrap_angle
 from agents.turn_map import TurnMap
 from agents.turn_planner import PlannerConfig, RulePlanner, _Episode
+from physics.validation import require_finite
 
 #: Length of the feature vector the residual policy sees.
 N_FEATURES = 14
@@ -55,10 +56,8 @@ class ResidualLimits:
 
     def __post_init__(self) -> None:
         for name, hi in (("max_dtc_fraction", 1.0), ("max_dphase_deg", 180.0)):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 < v < hi:
-                raise ValueError(f"ResidualLimits.{name}={v!r} must be a number in (0, {hi:g})")
-            object.__setattr__(self, name, float(v))
+            object.__setattr__(self, name, require_finite(f"ResidualLimits.{name}", getattr(self, name), 0.0, hi,
+                                                          lo_open=True, hi_open=True))
 
 
 def turn_features(plan: dict, targets: np.ndarray, reach_radius_m: float, end_to_end_ratio: float,

@@ -20,7 +20,6 @@ and ``turns`` (decisions taken).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -35,6 +34,7 @@ from agents.turn_map import TurnMap
 from flagellum_env.paths import RandomPathConfig, WaypointPath
 from flagellum_env.paths import random_path as draw_random_path
 from flagellum_env.steer_env import FlagellumSteerEnv
+from physics.validation import require_finite
 
 
 class TurnDecisionEnv(gym.Env):
@@ -64,9 +64,7 @@ class TurnDecisionEnv(gym.Env):
         if isinstance(limits, Mapping):
             limits = ResidualLimits(**limits)
         self.planner = ResidualPlanner.for_env(self.base, tmap, limits=limits)
-        if not (isinstance(action_cost, (int, float)) and math.isfinite(action_cost) and action_cost >= 0):
-            raise ValueError(f"action_cost={action_cost!r} must be a finite number >= 0")
-        self.action_cost = float(action_cost)
+        self.action_cost = require_finite("action_cost", action_cost, 0.0)
         self.paths = list(paths) if paths else None
         self.set_random_path(random_path or {})
         self.observation_space = spaces.Box(-10.0, 10.0, (N_FEATURES,), np.float32)

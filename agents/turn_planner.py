@@ -31,6 +31,7 @@ import numpy as np
 from flagellum_env.turn_geometry import angle_between, azimuth, perpendicular_basis, unit, wrap_angle
 from agents.turn_map import TurnMap
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M
+from physics.validation import require_finite
 
 
 @dataclass(frozen=True)
@@ -47,9 +48,7 @@ class PlannerConfig:
     def __post_init__(self) -> None:
         for name in ("min_turn_deg", "hit_fraction", "settle_tol_deg", "max_relax_factor", "improvement_m",
                      "phase_step_deg"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"PlannerConfig.{name}={v!r} must be a finite number > 0")
+            require_finite(f"PlannerConfig.{name}", getattr(self, name), 0.0, lo_open=True)
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,8 @@
 """Speed versus accuracy: measure each fidelity configuration against the ``paper`` reference.
 
 Every (configuration, metric) pair is one task; finished tasks are appended to a JSONL file at
-once (resumable), tasks run in parallel processes, and the report is built from the file.
+once (resumable), tasks run in parallel local processes or on a Dask cluster (the backends of
+``batch.backends``, as for the sweeps), and the report is built from the file.
 
 Metrics (the same for every configuration):
 
@@ -26,7 +27,6 @@ import json
 import math
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -153,14 +153,6 @@ def run_metric(cfg: FidelityConfig, metric: str) -> dict[str, Any]:
     return out
 
 
-def _worker_init(parent_pid: int) -> None:
-    from batch.worker import watch_parent
-
-    os.environ["OPENBLAS_NUM_THREADS"] = "1"
-    os.environ["OMP_NUM_THREADS"] = "1"
-    watch_parent(parent_pid)
-
-
 def _task(cfg: FidelityConfig, metric: str, commit: str | None = None) -> dict[str, Any]:
     stamp = {"measured": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "commit": commit,
              "setup": cfg.setup()}
@@ -189,28 +181,68 @@ def load_done(path: Path, configs=None) -> dict[tuple[str, str], dict]:
     return done
 
 
+@dataclass(frozen=True)
+class FidelityTask:
+    """One (configuration, metric) measurement as a task of ``batch.backends`` (local worker
+    processes or a Dask cluster): ``point_id`` and ``label()`` name it, ``execute()`` runs it
+    in the worker and returns the record of :func:`_task` as a ``batch.worker.PointOutcome``."""
+
+    config: FidelityConfig
+    metric: str
+    commit: str | None = None
+
+    @property
+    def point_id(self) -> str:
+        return f"{self.config.name}: {self.metric}"
+
+    def label(self) -> str:
+        return self.point_id
+
+    def execute(self):
+        from batch.worker import PointOutcome
+
+        return PointOutcome(_task(self.config, self.metric, self.commit), None)
+
+
 def run_fidelity(path: Path, configs=LADDER, metrics=FULL_METRICS, workers: int | None = None,
-                 progress: bool = True) -> dict[tuple[str, str], dict]:
-    """Run every missing (config, metric) task in parallel, appending each result to ``path``."""
+                 progress: bool = True, scheduler: Any | None = None) -> dict[tuple[str, str], dict]:
+    """Run every missing (config, metric) task, appending each result to ``path`` as it arrives.
+
+    The tasks run on ``workers`` local processes (default: one per core) or, with ``scheduler``
+    (an address ``"tcp://HOST:PORT"``, a cluster object or a ``distributed.Client``), on that Dask
+    cluster; ``batch.backends.BackendError`` if it cannot be used. Ctrl-C stops the running tasks
+    (the finished ones are in ``path``) and is raised again."""
     from tqdm import tqdm
+
+    from batch.backends import default_workers, make_backend
+    from batch.provenance import git_commit
 
     path.parent.mkdir(parents=True, exist_ok=True)
     done = load_done(path, configs)
     # cheap metrics of every configuration first, so a partial run still compares all of them
     todo = [(c, m) for m in metrics for c in configs if (c.name, m) not in done]
-    workers = workers or os.cpu_count() or 1
-    from batch.provenance import git_commit
-
+    if not todo:
+        return done
     commit = git_commit()
-    with ProcessPoolExecutor(max_workers=workers, initializer=_worker_init, initargs=(os.getpid(),)) as pool, \
-            open(path, "a") as fh:
-        futs = [pool.submit(_task, c, m, commit) for c, m in todo]
-        for fut in tqdm(as_completed(futs), total=len(futs), disable=not progress, desc="fidelity", unit="task"):
-            rec = fut.result()
-            fh.write(json.dumps(rec) + "\n")
-            fh.flush()
-            os.fsync(fh.fileno())
-            done[(rec["config"], rec["metric"])] = rec
+    backend = make_backend(min(workers or default_workers(), len(todo)), scheduler)
+    futures: dict[Any, FidelityTask] = {}
+    try:
+        with open(path, "a") as fh:
+            for c, m in todo:
+                task = FidelityTask(c, m, commit)
+                futures[backend.submit(task)] = task
+            for fut in tqdm(backend.as_completed(futures), total=len(futures), disable=not progress,
+                            desc="fidelity", unit="task"):
+                rec = fut.result().record
+                fh.write(json.dumps(rec) + "\n")
+                fh.flush()
+                os.fsync(fh.fileno())
+                done[(rec["config"], rec["metric"])] = rec
+    except KeyboardInterrupt:
+        backend.abort(futures)
+        raise
+    finally:
+        backend.close()
     return done
 
 

@@ -21,6 +21,7 @@ from flagellum_env.paths import RandomPathConfig, WaypointPath, load_path, path_
 from flagellum_env.rewards import RewardConfig
 from physics.params import NumericsConfig, SwimmerParams
 from physics.presets import apply_preset, preset_names
+from physics.validation import is_real, require_finite
 
 PATH_NAMES = ("square", "random")
 ACTION_TYPES = ("continuous", "discrete")
@@ -51,13 +52,8 @@ class RandomizationConfig:
 
     def __post_init__(self) -> None:
         for f in fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"randomize.{f.name}={v!r} must be a finite number")
             hi = 1.0 if f.name == "obs_noise_std" else 0.5
-            if not 0.0 <= v <= hi:
-                raise ValueError(f"randomize.{f.name}={v!r} must be between 0 and {hi}")
-            object.__setattr__(self, f.name, float(v))
+            object.__setattr__(self, f.name, require_finite(f"randomize.{f.name}", getattr(self, f.name), 0.0, hi))
 
     @property
     def changes_physics(self) -> bool:
@@ -244,19 +240,12 @@ def _overrides(value: Any, cls: type, name: str) -> dict[str, Any] | None:
     return dict(value)
 
 
-def _is_number(v: Any) -> bool:
-    return not isinstance(v, (bool, np.bool_)) and isinstance(v, (int, float, np.integer, np.floating))
-
-
 def _positive(value: Any, name: str, unit: str) -> float:
-    if not _is_number(value) or not math.isfinite(value) or value <= 0.0:
-        unit_txt = f" ({unit})" if unit else ""
-        raise ValueError(f"{name}={value!r} must be a finite number > 0{unit_txt}")
-    return float(value)
+    return require_finite(name, value, 0.0, lo_open=True, unit=unit)
 
 
 def _integer(value: Any, name: str, lo: int, hi: int) -> int:
-    if not _is_number(value) or not float(value).is_integer() or not lo <= value <= hi:
+    if not is_real(value) or not float(value).is_integer() or not lo <= value <= hi:
         raise ValueError(f"{name}={value!r} must be an integer from {lo} to {hi}")
     return int(value)
 
@@ -271,7 +260,7 @@ def _number_tuple(value: Any, name: str) -> tuple[float, ...]:
         raise ValueError(f"{name}={value!r} must be a sequence of numbers")
     out = []
     for v in value:
-        if not _is_number(v) or not math.isfinite(v):
+        if not is_real(v) or not math.isfinite(v):
             raise ValueError(f"{name}={value!r} must hold finite numbers only")
         out.append(float(v))
     return tuple(out)

@@ -24,6 +24,8 @@ from typing import Any
 
 import numpy as np
 
+from physics.validation import require_finite
+
 #: Side of the paper's square path, m.
 PAPER_SQUARE_SIDE_M = 0.25
 #: Segments shorter than this count as zero-length, m.
@@ -49,9 +51,7 @@ class WaypointPath:
         pts.setflags(write=False)
         object.__setattr__(self, "waypoints", pts)
         if self.reach_radius_m is not None:
-            r = _finite_float(self.reach_radius_m, f"path {self.name!r}: reach_radius_m")
-            if r <= 0.0:
-                raise ValueError(f"path {self.name!r}: reach_radius_m={r!r} must be > 0 (metres)")
+            r = require_finite(f"path {self.name!r}: reach_radius_m", self.reach_radius_m, 0.0, lo_open=True, unit="m")
             object.__setattr__(self, "reach_radius_m", r)
 
     @property
@@ -117,12 +117,9 @@ class RandomPathConfig:
             raise ValueError(f"random_path.segment_length_m={self.segment_length_m!r} must be (lo, hi) metres "
                              f"with 0 < lo <= hi")
         object.__setattr__(self, "segment_length_m", (lo, hi))
-        turn = _finite_float(self.max_turn_deg, "random_path.max_turn_deg")
-        if not 0.0 <= turn <= 180.0:
-            raise ValueError(f"random_path.max_turn_deg={turn!r} must be between 0 and 180 degrees")
-        low = _finite_float(self.min_turn_deg, "random_path.min_turn_deg")
-        if not 0.0 <= low <= turn:
-            raise ValueError(f"random_path.min_turn_deg={low!r} must be between 0 and max_turn_deg={turn!r} degrees")
+        turn = require_finite("random_path.max_turn_deg", self.max_turn_deg, 0.0, 180.0, unit="degrees")
+        low = require_finite("random_path.min_turn_deg", self.min_turn_deg, 0.0, turn,
+                             unit=f"degrees (max_turn_deg={turn!r})")
         object.__setattr__(self, "min_turn_deg", low)
         object.__setattr__(self, "max_turn_deg", turn)
         if not isinstance(self.planar, (bool, np.bool_)):
@@ -132,9 +129,7 @@ class RandomPathConfig:
 
 def square_path(side_m: float = PAPER_SQUARE_SIDE_M) -> WaypointPath:
     """The paper's square: ahead along +x, then three left turns back to the start (x-y plane)."""
-    s = _finite_float(side_m, "side_m")
-    if s <= 0.0:
-        raise ValueError(f"side_m={side_m!r} must be > 0 (metres)")
+    s = require_finite("side_m", side_m, 0.0, lo_open=True, unit="m")
     pts = np.array([[s, 0.0, 0.0], [s, s, 0.0], [0.0, s, 0.0], [0.0, 0.0, 0.0]])
     return WaypointPath(name="square", waypoints=pts)
 
@@ -185,9 +180,7 @@ def path_from_dict(data: Any, source: str = "path", default_name: str = "path") 
     pts = _validated_waypoints(data["waypoints"], source=source)
     radius = data.get("reach_radius_m")
     if radius is not None:
-        radius = _finite_float(radius, f"{source}: reach_radius_m")
-        if radius <= 0.0:
-            raise ValueError(f"{source}: reach_radius_m={radius!r} must be > 0 (metres)")
+        radius = require_finite(f"{source}: reach_radius_m", radius, 0.0, lo_open=True, unit="m")
     return WaypointPath(name=name, waypoints=pts, reach_radius_m=radius)
 
 
@@ -242,19 +235,10 @@ def _validated_waypoints(raw: Any, source: str) -> np.ndarray:
     return pts
 
 
-def _finite_float(value: Any, name: str) -> float:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ValueError(f"{name}={value!r} must be a finite number")
-    v = float(value)
-    if not math.isfinite(v):
-        raise ValueError(f"{name}={value!r} must be a finite number")
-    return v
-
-
 def _pair(value: Any, name: str) -> tuple[float, float]:
     if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2:
         raise ValueError(f"{name}={value!r} must be a pair (lo, hi)")
-    return _finite_float(value[0], name), _finite_float(value[1], name)
+    return require_finite(name, value[0]), require_finite(name, value[1])
 
 
 def _short(w: Any) -> str:

@@ -20,8 +20,9 @@ The reward is the sum of the terms.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, fields
+
+from physics.validation import require_finite
 
 CM = 1e-2  # m
 MJ = 1e-3  # J
@@ -42,10 +43,7 @@ class RewardConfig:
 
     def __post_init__(self) -> None:
         for f in fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0.0:
-                raise ValueError(f"reward.{f.name}={v!r} must be a finite number >= 0")
-            object.__setattr__(self, f.name, float(v))
+            object.__setattr__(self, f.name, require_finite(f"reward.{f.name}", getattr(self, f.name), 0.0))
 
 
 def reward_terms(cfg: RewardConfig, progress_m: float, cross_track_m: float, duration_s: float,

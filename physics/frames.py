@@ -80,12 +80,12 @@ def _half_turn(u, t1) -> tuple[float, float, float]:
     return (s * p[0] - u[0], s * p[1] - u[1], s * p[2] - u[2])
 
 
-@njit(cache=True)
-def _transport(u, t1, t2) -> tuple[float, float, float]:
-    """Tuple form of :func:`parallel_transport`."""
-    c = dot3(t1, t2)
-    if 1.0 + c <= 1e-12:
-        return _half_turn(u, t1)
+@njit(cache=True, inline="always", error_model="numpy")
+def _rodrigues(u, t1, t2, c: float) -> tuple[float, float, float]:
+    """The transport formula, in one place: ``c u + b x u + (b.u) b / (1 + c)`` with
+    ``b = t1 x t2`` and ``c = t1.t2`` (passed in, so callers test ``1 + c`` for the
+    anti-parallel case once). Inlined, so the loops of :func:`update_frames` still
+    vectorise; anti-parallel tangents (``1 + c = 0``) give inf/nan, not an exception."""
     b = vcross(t1, t2)
     bxu = vcross(b, u)
     s = dot3(b, u) / (1.0 + c)
@@ -94,6 +94,15 @@ def _transport(u, t1, t2) -> tuple[float, float, float]:
         c * u[1] + bxu[1] + s * b[1],
         c * u[2] + bxu[2] + s * b[2],
     )
+
+
+@njit(cache=True)
+def _transport(u, t1, t2) -> tuple[float, float, float]:
+    """Tuple form of :func:`parallel_transport`."""
+    c = dot3(t1, t2)
+    if 1.0 + c <= 1e-12:
+        return _half_turn(u, t1)
+    return _rodrigues(u, t1, t2, c)
 
 
 @njit(cache=True)
@@ -323,16 +332,10 @@ def update_frames(
         e0, e1, e2 = tx[i], ty[i], tz[i]
         inv = 1.0 / np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
         t0, t1, t2 = e0 * inv, e1 * inv, e2 * inv
-        a0, a1, a2 = ax[i], ay[i], az[i]
-        u0, u1, u2 = ux[i], uy[i], uz[i]
-        c = a0 * t0 + a1 * t1 + a2 * t2
-        b0 = a1 * t2 - a2 * t1
-        b1 = a2 * t0 - a0 * t2
-        b2 = a0 * t1 - a1 * t0
-        s = (b0 * u0 + b1 * u1 + b2 * u2) / (1.0 + c)
-        v0 = c * u0 + (b1 * u2 - b2 * u1) + s * b0
-        v1 = c * u1 + (b2 * u0 - b0 * u2) + s * b1
-        v2 = c * u2 + (b0 * u1 - b1 * u0) + s * b2
+        a = (ax[i], ay[i], az[i])
+        ti = (t0, t1, t2)
+        c = dot3(a, ti)
+        v0, v1, v2 = _rodrigues((ux[i], uy[i], uz[i]), a, ti, c)
         s = v0 * t0 + v1 * t1 + v2 * t2
         v0 = v0 - s * t0
         v1 = v1 - s * t1
@@ -352,20 +355,13 @@ def update_frames(
 
     # reference twist: d1[i-1] transported t[i-1] -> t[i], signed angle to d1[i]
     for i in range(1, m):
-        a0, a1, a2 = tx[i - 1], ty[i - 1], tz[i - 1]
-        t0, t1, t2 = tx[i], ty[i], tz[i]
-        u0, u1, u2 = ax[i - 1], ay[i - 1], az[i - 1]
-        d0, dd1, d2_ = ax[i], ay[i], az[i]
-        c = a0 * t0 + a1 * t1 + a2 * t2
-        b0 = a1 * t2 - a2 * t1
-        b1 = a2 * t0 - a0 * t2
-        b2 = a0 * t1 - a1 * t0
-        s = (b0 * u0 + b1 * u1 + b2 * u2) / (1.0 + c)
-        v0 = c * u0 + (b1 * u2 - b2 * u1) + s * b0
-        v1 = c * u1 + (b2 * u0 - b0 * u2) + s * b1
-        v2 = c * u2 + (b0 * u1 - b1 * u0) + s * b2
-        ys[i] = (v1 * d2_ - v2 * dd1) * t0 + (v2 * d0 - v0 * d2_) * t1 + (v0 * dd1 - v1 * d0) * t2
-        xs[i] = v0 * d0 + v1 * dd1 + v2 * d2_
+        tp = (tx[i - 1], ty[i - 1], tz[i - 1])
+        ti = (tx[i], ty[i], tz[i])
+        di = (ax[i], ay[i], az[i])
+        c = dot3(tp, ti)
+        u = _rodrigues((ax[i - 1], ay[i - 1], az[i - 1]), tp, ti, c)
+        ys[i] = dot3(vcross(u, di), ti)
+        xs[i] = dot3(u, di)
         cpl[i] = 1.0 + c
     for i in range(1, m):
         if cpl[i] <= 1e-12:

@@ -12,6 +12,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from physics.validation import finite_range, require_finite
+
 RPM_TO_RAD_S = 2.0 * math.pi / 60.0
 
 
@@ -33,17 +35,8 @@ def _validate_fields(obj: Any) -> None:
             continue
         if isinstance(value, bool):
             continue
-        if not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise ValueError(f"{f.name}={value!r} must be a finite number")
-        lo, hi = meta.get("lo"), meta.get("hi")
-        if lo is not None:
-            bad = value <= lo if meta.get("lo_open") else value < lo
-            if bad:
-                op = ">" if meta.get("lo_open") else ">="
-                raise ValueError(f"{f.name}={value!r} {f.metadata['unit']} is out of range; "
-                                 f"allowed: {op} {lo}" + (f" and <= {hi}" if hi is not None else ""))
-        if hi is not None and value > hi:
-            raise ValueError(f"{f.name}={value!r} {f.metadata['unit']} is out of range; allowed: <= {hi}")
+        require_finite(f.name, value, meta.get("lo"), meta.get("hi"), lo_open=meta.get("lo_open", False),
+                       unit="" if meta["unit"] == "-" else meta["unit"])
 
 
 @dataclass(frozen=True)
@@ -197,13 +190,7 @@ def parameter_table() -> list[dict[str, Any]]:
             if m.get("choices") is not None:
                 allowed = "one of " + ", ".join(m["choices"])
             else:
-                lo, hi = m.get("lo"), m.get("hi")
-                parts = []
-                if lo is not None:
-                    parts.append((">" if m.get("lo_open") else ">=") + f" {lo:g}")
-                if hi is not None:
-                    parts.append(f"<= {hi:g}")
-                allowed = " and ".join(parts) or "any finite"
+                allowed = finite_range(m.get("lo"), m.get("hi"), lo_open=m.get("lo_open", False)) or "any finite"
             if isinstance(f.default, bool):
                 allowed = "true or false"
             rows.append({"name": f.name, "group": group, "default": f.default, "unit": m["unit"],

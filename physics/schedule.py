@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from physics.params import RPM_TO_RAD_S
+from physics.validation import require_finite
 
 MAX_RPM = 10000.0
 CSV_HEADER = ("time_s", "omega_rpm")
@@ -47,9 +48,7 @@ def _check_steps(steps: Sequence[tuple[float, float]], labels: Sequence[str]) ->
     for (t, w), where in zip(steps, labels):
         if not math.isfinite(t):
             raise ValueError(f"{where}: time_s={t!r} must be a finite number of seconds")
-        if not math.isfinite(w) or w < 0.0 or w > MAX_RPM:
-            raise ValueError(f"{where}: omega_rpm={w!r} is not allowed; "
-                             f"allowed: a finite speed >= 0 and <= {MAX_RPM:g} rpm")
+        require_finite(f"{where}: omega_rpm", w, 0.0, MAX_RPM, unit="rpm")
         if prev == -math.inf and t != 0.0:
             raise ValueError(f"{where}: the first step must start at time_s=0, got time_s={t!r}")
         if t <= prev:
@@ -79,13 +78,7 @@ class MotorSchedule:
     @classmethod
     def constant(cls, omega_rpm: float) -> MotorSchedule:
         """A constant speed ``omega_rpm`` (rpm) from t = 0 on."""
-        if isinstance(omega_rpm, bool) or not isinstance(omega_rpm, Real):
-            raise ValueError(f"omega_rpm={omega_rpm!r} is not a number; allowed: 0 to {MAX_RPM:g} rpm")
-        w = float(omega_rpm)
-        if not math.isfinite(w) or w < 0.0 or w > MAX_RPM:
-            raise ValueError(f"omega_rpm={omega_rpm!r} is not allowed; "
-                             f"allowed: a finite speed >= 0 and <= {MAX_RPM:g} rpm")
-        return cls(((0.0, w),))
+        return cls(((0.0, require_finite("omega_rpm", omega_rpm, 0.0, MAX_RPM, unit="rpm")),))
 
     @classmethod
     def load(cls, path: str | Path) -> MotorSchedule:

@@ -138,14 +138,15 @@ def test_a_bad_training_setting_names_the_file_and_the_key(usage_error, tmp_path
 
 @pytest.mark.parametrize("command", [["sweep", "--config", "examples/sweep_small.yaml"],
                                      ["evaluate", "--paths", "square", "--controller", "rule"],
-                                     ["calibrate-turns", "--preset", "fast"]])
+                                     ["calibrate-turns", "--preset", "fast"], ["bench", "--quick"]])
 @pytest.mark.parametrize("address, fragments", [
     ("nope", ["--scheduler 'nope'", "tcp://HOST:PORT"]),
     ("tcp://127.0.0.1:99999", ["'tcp://127.0.0.1:99999'", "tcp://HOST:PORT"]),
 ])
 def test_a_malformed_scheduler_address_is_refused_before_anything_runs(usage_error, tmp_path, command, address,
                                                                        fragments):
-    line = usage_error(command + ["--scheduler", address, "--out", str(tmp_path / "o")])
+    out = ["--json", str(tmp_path / "o" / "f.json")] if command[0] == "bench" else ["--out", str(tmp_path / "o")]
+    line = usage_error(command + ["--scheduler", address] + out)
     for fragment in fragments:
         assert fragment in line, line
     assert not (tmp_path / "o").exists()

@@ -127,3 +127,34 @@ def test_relative_error_floors_angles_only():
     assert relative_error("phi_tc40", 3.0, 1.0) == pytest.approx(2.0 / ANGLE_FLOOR_DEG)
     assert relative_error("theta_tc40", 49.0, 47.5) == pytest.approx(1.5 / 47.5)
     assert relative_error("lratio_100s", 0.0, 0.0) == 0.0
+
+
+def test_bench_runs_its_tasks_on_a_dask_cluster_with_scheduler(tmp_path, monkeypatch):
+    """``flagellum bench --quick --scheduler ADDR`` on a Dask LocalCluster. Every task but the cheapest
+    configuration's is already in ``--results`` (resume), so one real task runs, on the cluster."""
+    distributed = pytest.importorskip("distributed")
+    import batch.backends as backends
+    from flagellum.cli import main
+    from flagellum.fidelity import LADDER
+
+    def no_local_processes(workers):
+        raise AssertionError("bench --scheduler started local worker processes")
+
+    monkeypatch.setattr(backends, "LocalBackend", no_local_processes)
+    cheap = next(c for c in LADDER if c.name == "RFT N = 30, h = 50 ms, one iteration")
+    results = tmp_path / "fidelity.results.jsonl"
+    stub = {"swim_per_turn_10rpm": 0.004, "rtf": 1.0, "wall_s": 1.0}
+    results.write_text("".join(
+        json.dumps({"config": c.name, "metric": METRICS[0], "result": stub, "error": None,
+                    "measured": "2026-01-01T00:00:00Z", "commit": None, "setup": c.setup()}) + "\n"
+        for c in LADDER if c is not cheap))
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        assert main(["bench", "--quick", "--json", str(tmp_path / "fidelity.json"), "--results", str(results),
+                     "--scheduler", cluster.scheduler_address, "--no-progress"]) == 0
+    lines = results.read_text().splitlines()
+    assert len(lines) == len(LADDER)
+    rec = json.loads(lines[-1])
+    assert rec["config"] == cheap.name and rec["error"] is None
+    assert 0.001 < rec["result"]["swim_per_turn_10rpm"] < 0.01  # m per motor turn
+    assert cheap.name in (tmp_path / "fidelity.md").read_text()

@@ -6,13 +6,14 @@ import argparse
 import time
 from pathlib import Path
 
-from flagellum.commands.common import UsageError, ensure_dir, parse_int
+from flagellum.commands.common import SCHEDULER_HELP, UsageError, ensure_dir, parse_workers
 
 NAME = "bench"
 HELP = "measure speed and accuracy of the fidelity configurations against the paper preset"
 DESCRIPTION = ("Runs every configuration of the fidelity ladder on the same tasks (swim speed at 10 rpm, "
                "L'/L after 100 s at 90 rpm; with --full also turning angles and the buckling threshold), "
-               "in parallel and resumably, and reports real-time factors and relative errors against 'paper'. "
+               "in parallel (local processes, or a Dask cluster with --scheduler) and resumably, and reports "
+               "real-time factors and relative errors against 'paper'. "
                "The ladder fixes every configuration, so bench takes neither --set nor --preset.")
 ACCEPTS_SET = False
 PRESET = None
@@ -26,7 +27,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "reports go beside it)")
     parser.add_argument("--results", default=None,
                         help="task results file (JSONL, resumable); default: next to --json")
-    parser.add_argument("--workers", metavar="N", help="parallel processes (default: all cores)")
+    parser.add_argument("--workers", metavar="N", help="local worker processes (default: one per core)")
+    parser.add_argument("--scheduler", metavar="ADDR", help=SCHEDULER_HELP)
     parser.add_argument("--no-progress", action="store_true", help="do not show the progress bar")
 
 
@@ -34,8 +36,9 @@ def run(args: argparse.Namespace) -> int:
     from flagellum.fidelity import (FULL_METRICS, LADDER, QUICK_METRICS, REPORT_NOTES, missing_tasks,
                                     rows_from, run_fidelity)
     from flagellum.fidelity_report import write_report
+    from batch.store import SweepError
 
-    workers = None if args.workers is None else parse_int("--workers", args.workers, 1)
+    workers, scheduler = parse_workers(args)
     metrics = ("swim_per_turn_10rpm",) if args.quick else (FULL_METRICS if args.full else QUICK_METRICS)
     out = Path(args.json)
     results = Path(args.results) if args.results else out.with_suffix(".results.jsonl")
@@ -45,7 +48,11 @@ def run(args: argparse.Namespace) -> int:
         if f.is_dir():
             raise UsageError(f"{option} {str(f)!r} is a directory; allowed: a file path")
     t0 = time.perf_counter()
-    done = run_fidelity(results, LADDER, metrics, workers=workers, progress=not args.no_progress)
+    try:
+        done = run_fidelity(results, LADDER, metrics, workers=workers, progress=not args.no_progress,
+                            scheduler=scheduler)
+    except SweepError as exc:  # BackendError: no dask.distributed, or the scheduler cannot be reached
+        raise UsageError(str(exc)) from None
     rows = rows_from(done)
     write_report(rows, out, out.with_suffix(".md"), out.with_suffix(".png"),
                  "flagellum bench " + ("--quick" if args.quick else "--full" if args.full else ""),

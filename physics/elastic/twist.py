@@ -1,11 +1,12 @@
 """Twisting energy at one interior node, eqns (4) and (5c) of Huang & Jawed 2020.
 
-Same edge-pair element and local DOF order as ``bend.py``: ``[x0(3), x1(3), x2(3),
-theta_e, theta_f]`` with ``e = x1 - x0``, ``f = x2 - x1``. Under time-parallel reference
-frames the reference twist varies with the edges as ``d(ref)/de = kb / (2|e|)``,
-``d(ref)/df = kb / (2|f|)`` (Bergou et al. 2010, Sec. 6). Its Hessian is the symmetric
-part of the derivative of that expression: the antisymmetric part is the holonomy of
-parallel transport, which the energy itself does not see to second order.
+Same edge-pair element (``edge_pair.py``) and local DOF order as ``bend.py``:
+``[x0(3), x1(3), x2(3), theta_e, theta_f]`` with ``e = x1 - x0``, ``f = x2 - x1``.
+Under time-parallel reference frames the reference twist varies with the edges as
+``d(ref)/de = kb / (2|e|)``, ``d(ref)/df = kb / (2|f|)`` (Bergou et al. 2010, Sec. 6).
+Its Hessian is the symmetric part of the derivative of that expression: the
+antisymmetric part is the holonomy of parallel transport, which the energy itself does
+not see to second order.
 """
 
 from __future__ import annotations
@@ -13,12 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from physics.elastic.bend import (
-    add_block2,
-    edge_pair_geom,
-    edge_pair_to_nodes,
-    symmetrize,
-)
+from physics.elastic.edge_pair import add_block2, edge_pair_geom, edge_pair_result
 from physics.frames import vcross, vec
 
 
@@ -97,7 +93,7 @@ def twist_into(
     gy: np.ndarray, Hy: np.ndarray, order: int,
 ) -> float:
     """Twisting energy (J) of an edge pair with geometry from
-    :func:`physics.elastic.bend.edge_pair_geom`; ``stiff = GJ / l_vor`` (N m).
+    :func:`physics.elastic.edge_pair.edge_pair_geom`; ``stiff = GJ / l_vor`` (N m).
 
     ``order`` >= 1 adds the gradient in ``y = [e, f, theta_e, theta_f]`` into ``gy`` (8,),
     ``order`` >= 2 the Hessian, not yet symmetrised, into ``Hy`` (8, 8). Allocation-free.
@@ -118,44 +114,6 @@ def twist_into(
 
 
 @njit(cache=True)
-def twist_element(
-    x0: np.ndarray,
-    x1: np.ndarray,
-    x2: np.ndarray,
-    theta_e: float,
-    theta_f: float,
-    ref_twist: float,
-    twist_bar: float,
-    l_vor: float,
-    GJ: float,
-    g: np.ndarray,
-    H: np.ndarray,
-    order: int,
-) -> float:
-    """Twisting energy (J) at node ``x1``; ``order`` >= 1 / >= 2 also writes the gradient
-    ``g`` (11,) / Hessian ``H`` (11, 11) in local order ``[x0, x1, x2, theta_e, theta_f]``.
-
-    ``tau = theta_f - theta_e + ref_twist`` (eqn (4)), ``E = 0.5 GJ / l_vor (tau -
-    twist_bar)^2`` (eqn (5c) of Huang & Jawed 2020, with a rest twist). Angles in rad,
-    ``GJ`` in N m^2, ``l_vor`` in m.
-    """
-    stiff = GJ / l_vor
-    if order < 1:  # the energy needs no geometry
-        d = theta_f - theta_e + ref_twist - twist_bar
-        return 0.5 * stiff * d * d
-    te, tf, le, lf, chi, kb = edge_pair_geom(vec(x0), vec(x1), vec(x2))
-    gy = np.zeros(8)
-    Hy = np.zeros((8, 8))
-    E = twist_into(
-        te, tf, le, lf, chi, kb, theta_e, theta_f, ref_twist, twist_bar, stiff, gy, Hy, order
-    )
-    if order >= 2:
-        symmetrize(Hy)
-    edge_pair_to_nodes(gy, Hy, g, H, order)
-    return E
-
-
-@njit(cache=True)
 def twist_energy_grad_hess(
     x0: np.ndarray,
     x1: np.ndarray,
@@ -167,11 +125,17 @@ def twist_energy_grad_hess(
     l_vor: float,
     GJ: float,
 ) -> tuple[float, np.ndarray, np.ndarray]:
-    """Twisting energy (J), gradient (11,) and Hessian (11, 11) at node ``x1``.
+    """Twisting energy (J), gradient (11,) and Hessian (11, 11) at node ``x1``, local DOF
+    order ``[x0, x1, x2, theta_e, theta_f]``.
 
-    See :func:`twist_element`; local DOF order ``[x0, x1, x2, theta_e, theta_f]``.
+    ``tau = theta_f - theta_e + ref_twist`` (eqn (4)), ``E = 0.5 GJ / l_vor (tau -
+    twist_bar)^2`` (eqn (5c) of Huang & Jawed 2020, with a rest twist). Angles in rad,
+    ``GJ`` in N m^2, ``l_vor`` in m.
     """
-    g = np.empty(11)
-    H = np.empty((11, 11))
-    E = twist_element(x0, x1, x2, theta_e, theta_f, ref_twist, twist_bar, l_vor, GJ, g, H, 2)
-    return E, g, H
+    te, tf, le, lf, chi, kb = edge_pair_geom(vec(x0), vec(x1), vec(x2))
+    gy = np.zeros(8)
+    Hy = np.zeros((8, 8))
+    E = twist_into(
+        te, tf, le, lf, chi, kb, theta_e, theta_f, ref_twist, twist_bar, GJ / l_vor, gy, Hy, 2
+    )
+    return edge_pair_result(E, gy, Hy)

@@ -1,5 +1,8 @@
 """Helpers shared by the tests of the bending and twisting elements (``test_bend.py``, ``test_twist.py``):
-a random bent edge pair with its frames, finite differences and the transport holonomy."""
+a random bent edge pair with its frames, its curvature binormal, finite differences of an element's
+energy and gradient, a rigid motion of its nodes and the transport holonomy.
+
+An element's ``evaluate(p)`` returns ``(E, g (11,), H (11, 11))`` for local DOFs ``p`` (11,)."""
 
 from __future__ import annotations
 
@@ -21,6 +24,44 @@ def to_q(p: np.ndarray) -> np.ndarray:
 def fd_jacobian(f, p: np.ndarray, h: float) -> np.ndarray:
     cols = [(f(p + h * ei) - f(p - h * ei)) / (2 * h) for ei in np.eye(p.size)]
     return np.array(cols).T
+
+
+def fd_gradient(evaluate, p: np.ndarray, h: float = 1e-6) -> np.ndarray:
+    """Central differences (11,) of the energy ``evaluate(p)[0]``."""
+    return fd_jacobian(lambda x: np.array([evaluate(x)[0]]), p, h)[0]
+
+
+def fd_gradient_jacobian(evaluate, p: np.ndarray, h: float = 1e-6) -> np.ndarray:
+    """Central differences (11, 11) of the gradient ``evaluate(p)[1]``."""
+    return fd_jacobian(lambda x: evaluate(x)[1], p, h)
+
+
+def second_difference_hessian(evaluate, p0: np.ndarray, h: float = 1e-4) -> np.ndarray:
+    """Hessian (11, 11) of the energy ``evaluate(p)[0]`` from second differences of the energy alone."""
+    E = lambda p: evaluate(p)[0]  # noqa: E731
+    I = np.eye(11) * h
+    return np.array([
+        [(E(p0 + I[a] + I[b]) - E(p0 + I[a] - I[b]) - E(p0 - I[a] + I[b]) + E(p0 - I[a] - I[b]))
+         / (4 * h * h) for b in range(11)]
+        for a in range(11)
+    ])
+
+
+def curvature_binormal(p: np.ndarray) -> np.ndarray:
+    """``kb = 2 e x f / (|e||f| + e.f)`` (eqn (2)) of the edge pair of local DOFs ``p`` (11,)."""
+    e, f = p[3:6] - p[0:3], p[6:9] - p[3:6]
+    return 2.0 * np.cross(e, f) / (np.linalg.norm(e) * np.linalg.norm(f) + e.dot(f))
+
+
+def moved_nodes(p: np.ndarray, R: np.ndarray, shift: np.ndarray) -> list[np.ndarray]:
+    """The three nodes of ``p`` (11,) under the rigid motion ``x -> R x + shift``."""
+    return [R @ p[3 * k:3 * k + 3] + shift for k in range(3)]
+
+
+def assert_node_forces_rotate(g: np.ndarray, g_moved: np.ndarray, R: np.ndarray) -> None:
+    """The node blocks of a gradient (11,) turn with the body: ``g_moved = R g`` node by node."""
+    for k in range(3):
+        np.testing.assert_allclose(g_moved[3 * k:3 * k + 3], R @ g[3 * k:3 * k + 3], atol=1e-12 * np.abs(g).max())
 
 
 class RandomEdgePair:

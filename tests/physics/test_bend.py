@@ -13,7 +13,17 @@ from scipy.spatial.transform import Rotation
 
 from physics.elastic.bend import bend_energy_grad_hess, material_curvatures
 from physics.frames import tangents
-from tests.physics.der_helpers import RandomEdgePair, fd_jacobian, holonomy, to_q
+from tests.physics.der_helpers import (
+    RandomEdgePair,
+    assert_node_forces_rotate,
+    curvature_binormal,
+    fd_gradient,
+    fd_gradient_jacobian,
+    holonomy,
+    moved_nodes,
+    second_difference_hessian,
+    to_q,
+)
 
 L_VOR = 1.1
 EI = 2.0
@@ -44,8 +54,7 @@ def test_material_curvatures_match_eqns_2_and_3() -> None:
     pair = EdgePair(0)
     p = pair.p0
     m1, m2, _ = pair.frames(p)
-    e, f = p[3:6] - p[0:3], p[6:9] - p[3:6]
-    kb = 2.0 * np.cross(e, f) / (np.linalg.norm(e) * np.linalg.norm(f) + e.dot(f))
+    kb = curvature_binormal(p)
     expected = [0.5 * (m2[0] + m2[1]).dot(kb), -0.5 * (m1[0] + m1[1]).dot(kb)]
     got = material_curvatures(p[0:3], p[3:6], p[6:9], m1[0], m2[0], m1[1], m2[1])
     np.testing.assert_allclose(got, expected, rtol=1e-13)
@@ -75,8 +84,7 @@ def test_bend_theta_gradient_matches_der_formulas() -> None:
     pair = EdgePair(3)
     p = pair.p0
     m1, m2, _ = pair.frames(p)
-    e, f = p[3:6] - p[0:3], p[6:9] - p[3:6]
-    kb = 2.0 * np.cross(e, f) / (np.linalg.norm(e) * np.linalg.norm(f) + e.dot(f))
+    kb = curvature_binormal(p)
     k = material_curvatures(p[0:3], p[3:6], p[6:9], m1[0], m2[0], m1[1], m2[1]) - pair.kappa_bar
     g = pair.evaluate(p)[1]
     for j in (0, 1):
@@ -88,7 +96,7 @@ def test_bend_theta_gradient_matches_der_formulas() -> None:
 @pytest.mark.parametrize("seed", SEEDS)
 def test_bend_gradient_matches_finite_differences(seed: int) -> None:
     pair = EdgePair(seed)
-    fd = fd_jacobian(lambda p: np.array([pair.evaluate(p)[0]]), pair.p0, 1e-6)[0]
+    fd = fd_gradient(pair.evaluate, pair.p0)
     g = pair.evaluate(pair.p0)[1]
     assert np.abs(g - fd).max() <= 1e-6 * np.abs(g).max()
 
@@ -97,7 +105,7 @@ def test_bend_gradient_matches_finite_differences(seed: int) -> None:
 def test_bend_hessian_is_symmetric_part_of_gradient_finite_differences(seed: int) -> None:
     pair = EdgePair(seed)
     H = pair.evaluate(pair.p0)[2]
-    J = fd_jacobian(lambda p: pair.evaluate(p)[1], pair.p0, 1e-6)
+    J = fd_gradient_jacobian(pair.evaluate, pair.p0)
     np.testing.assert_array_equal(H, H.T)
     assert np.abs(H - 0.5 * (J + J.T)).max() <= 1e-5 * np.abs(H).max()
 
@@ -108,7 +116,7 @@ def test_bend_gradient_jacobian_antisymmetric_part_is_transportholonomy(seed: in
     is -C, the non-commutativity of parallel transport weighted by dE/dtheta."""
     pair = EdgePair(seed)
     _, g, _ = pair.evaluate(pair.p0)
-    J = fd_jacobian(lambda p: pair.evaluate(p)[1], pair.p0, 1e-6)
+    J = fd_gradient_jacobian(pair.evaluate, pair.p0)
     C = holonomy(pair.p0, g)
     scale = np.abs(J).max()
     assert np.abs(0.5 * (J - J.T) + C).max() <= 1e-5 * scale
@@ -117,16 +125,8 @@ def test_bend_gradient_jacobian_antisymmetric_part_is_transportholonomy(seed: in
 @pytest.mark.parametrize("seed", SEEDS[:3])
 def test_bend_hessian_matches_second_differences_of_energy(seed: int) -> None:
     pair = EdgePair(seed)
-    p0 = pair.p0
-    H = pair.evaluate(p0)[2]
-    h = 1e-4
-    E = lambda p: pair.evaluate(p)[0]  # noqa: E731
-    I = np.eye(11) * h
-    H2 = np.array([
-        [(E(p0 + I[a] + I[b]) - E(p0 + I[a] - I[b]) - E(p0 - I[a] + I[b]) + E(p0 - I[a] - I[b]))
-         / (4 * h * h) for b in range(11)]
-        for a in range(11)
-    ])
+    H = pair.evaluate(pair.p0)[2]
+    H2 = second_difference_hessian(pair.evaluate, pair.p0)
     assert np.abs(H - H2).max() <= 1e-5 * np.abs(H).max()
 
 
@@ -136,13 +136,12 @@ def test_bend_energy_invariant_under_rigid_motion() -> None:
     m1, m2, _ = pair.frames(p)
     R = Rotation.random(random_state=5).as_matrix()
     shift = np.array([1.0, -0.4, 2.5])
-    x = [R @ p[3 * k:3 * k + 3] + shift for k in range(3)]
+    x = moved_nodes(p, R, shift)
     m1r, m2r = m1 @ R.T, m2 @ R.T
     E, g, _ = pair.evaluate(p)
     Er, gr, _ = bend_energy_grad_hess(*x, m1r[0], m2r[0], m1r[1], m2r[1], pair.kappa_bar, L_VOR, EI)
     assert Er == pytest.approx(E, rel=1e-12)
-    for k in range(3):  # forces rotate with the body, moments about the tangents do not
-        np.testing.assert_allclose(gr[3 * k:3 * k + 3], R @ g[3 * k:3 * k + 3], atol=1e-12 * np.abs(g).max())
+    assert_node_forces_rotate(g, gr, R)  # forces rotate with the body, moments about the tangents do not
     np.testing.assert_allclose(gr[9:], g[9:], atol=1e-12 * np.abs(g).max())
 
 

@@ -13,7 +13,17 @@ from scipy.spatial.transform import Rotation
 
 from physics.elastic.twist import twist_energy_grad_hess
 from physics.frames import reference_twist
-from tests.physics.der_helpers import RandomEdgePair, fd_jacobian, holonomy
+from tests.physics.der_helpers import (
+    RandomEdgePair,
+    assert_node_forces_rotate,
+    curvature_binormal,
+    fd_gradient,
+    fd_gradient_jacobian,
+    fd_jacobian,
+    holonomy,
+    moved_nodes,
+    second_difference_hessian,
+)
 
 L_VOR = 0.9
 GJ = 1.5
@@ -37,11 +47,6 @@ class EdgePair(RandomEdgePair):
         )
 
 
-def _kb(p: np.ndarray) -> np.ndarray:
-    e, f = p[3:6] - p[0:3], p[6:9] - p[3:6]
-    return 2.0 * np.cross(e, f) / (np.linalg.norm(e) * np.linalg.norm(f) + e.dot(f))
-
-
 def test_twist_energy_matches_eqns_4_and_5c() -> None:
     pair = EdgePair(0)
     p = pair.p0
@@ -54,7 +59,7 @@ def test_reference_twist_gradient_matches_der_formula() -> None:
     pair = EdgePair(1)
     p = pair.p0
     e, f = p[3:6] - p[0:3], p[6:9] - p[3:6]
-    kb = _kb(p)
+    kb = curvature_binormal(p)
     expected = np.concatenate([
         -kb / (2 * np.linalg.norm(e)),
         kb / (2 * np.linalg.norm(e)) - kb / (2 * np.linalg.norm(f)),
@@ -82,7 +87,7 @@ def test_twist_energy_and_gradient_vanish_at_rest_twist() -> None:
 @pytest.mark.parametrize("seed", SEEDS)
 def test_twist_gradient_matches_finite_differences(seed: int) -> None:
     pair = EdgePair(seed)
-    fd = fd_jacobian(lambda p: np.array([pair.evaluate(p)[0]]), pair.p0, 1e-6)[0]
+    fd = fd_gradient(pair.evaluate, pair.p0)
     g = pair.evaluate(pair.p0)[1]
     assert np.abs(g - fd).max() <= 1e-6 * np.abs(g).max()
 
@@ -91,7 +96,7 @@ def test_twist_gradient_matches_finite_differences(seed: int) -> None:
 def test_twist_hessian_is_symmetric_part_of_gradient_finite_differences(seed: int) -> None:
     pair = EdgePair(seed)
     H = pair.evaluate(pair.p0)[2]
-    J = fd_jacobian(lambda p: pair.evaluate(p)[1], pair.p0, 1e-6)
+    J = fd_gradient_jacobian(pair.evaluate, pair.p0)
     np.testing.assert_array_equal(H, H.T)
     assert np.abs(H - 0.5 * (J + J.T)).max() <= 1e-5 * np.abs(H).max()
     # the theta rows/columns have no transport ambiguity: there J itself must match
@@ -102,16 +107,8 @@ def test_twist_hessian_is_symmetric_part_of_gradient_finite_differences(seed: in
 @pytest.mark.parametrize("seed", SEEDS[:3])
 def test_twist_hessian_matches_second_differences_of_energy(seed: int) -> None:
     pair = EdgePair(seed)
-    p0 = pair.p0
-    H = pair.evaluate(p0)[2]
-    h = 1e-4
-    E = lambda p: pair.evaluate(p)[0]  # noqa: E731
-    I = np.eye(11) * h
-    H2 = np.array([
-        [(E(p0 + I[a] + I[b]) - E(p0 + I[a] - I[b]) - E(p0 - I[a] + I[b]) + E(p0 - I[a] - I[b]))
-         / (4 * h * h) for b in range(11)]
-        for a in range(11)
-    ])
+    H = pair.evaluate(pair.p0)[2]
+    H2 = second_difference_hessian(pair.evaluate, pair.p0)
     assert np.abs(H - H2).max() <= 1e-5 * np.abs(H).max()
 
 
@@ -122,7 +119,7 @@ def test_twist_gradient_jacobian_antisymmetric_part_is_transport_holonomy(seed: 
     pair = EdgePair(seed)
     p = pair.p0
     _, g, _ = pair.evaluate(p)
-    J = fd_jacobian(lambda q: pair.evaluate(q)[1], p, 1e-6)
+    J = fd_gradient_jacobian(pair.evaluate, p)
     C = holonomy(p, g)
     assert np.abs(0.5 * (J - J.T) + C).max() <= 1e-5 * np.abs(J).max()
 
@@ -135,9 +132,8 @@ def test_twist_energy_invariant_under_rigid_motion() -> None:
     d1r, tr = pair.d1_0 @ R.T, pair.t0 @ R.T
     ref_r = reference_twist(d1r, tr, pair.ref0)
     assert ref_r[0] == pytest.approx(pair.ref0[0], abs=1e-12)
-    x = [R @ p[3 * k:3 * k + 3] + shift for k in range(3)]
+    x = moved_nodes(p, R, shift)
     E, g, _ = pair.evaluate(p)
     Er, gr, _ = twist_energy_grad_hess(*x, p[9], p[10], ref_r[0], pair.twist_bar, L_VOR, GJ)
     assert Er == pytest.approx(E, rel=1e-12)
-    for k in range(3):
-        np.testing.assert_allclose(gr[3 * k:3 * k + 3], R @ g[3 * k:3 * k + 3], atol=1e-12 * np.abs(g).max())
+    assert_node_forces_rotate(g, gr, R)
