@@ -5,7 +5,7 @@ Shipped (``pyproject.toml``, ``[tool.setuptools.package-data]``):
 
 - ``agents/turn_maps/<preset>.json``: the turn map of each preset (``flagellum calibrate-turns``);
 - ``agents/eval_paths/*.json``: the 20 evaluation paths (``flagellum evaluate --paths eval``);
-- ``agents/pretrained/ppo_residual_fast/``: the PPO agent of ``--controller ppo`` (``model.zip``,
+- ``agents/pretrained/ppo_residual_coarse/``: the PPO agent of ``--controller ppo`` (``model.zip``,
   ``vecnormalize.pkl``, ``config.yml``, ``meta.json``). Its training logs and the earlier agents
   are results, in the repository's ``results/agents/`` (docs/agents.md).
 
@@ -22,7 +22,7 @@ from importlib import resources
 from pathlib import Path
 
 #: The agent ``--controller ppo`` loads.
-SHIPPED_AGENT = "ppo_residual_fast"
+SHIPPED_AGENT = "ppo_residual_coarse"
 #: Environment variable naming the folder of the user's turn maps.
 TURN_MAPS_ENV = "FLAGELLUM_TURN_MAPS"
 

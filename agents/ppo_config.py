@@ -3,7 +3,7 @@
 The file has one top-level key, the agent's name, holding the stable-baselines3 PPO
 hyperparameters (flat, as in rl-zoo3's ``hyperparams/ppo.yml``) and a ``task`` section::
 
-    ppo_residual_fast:
+    ppo_residual_coarse:
       policy: MlpPolicy
       n_envs: 2                 # SubprocVecEnv workers
       n_timesteps: 640          # turn decisions (steps of TurnDecisionEnv)
@@ -17,7 +17,7 @@ hyperparameters (flat, as in rl-zoo3's ``hyperparams/ppo.yml``) and a ``task`` s
       ...                       # any other PPO argument (PPO_KEYS)
       policy_kwargs: {net_arch: [64, 64], log_std_init: -1.0}
       task:
-        preset: fast
+        preset: coarse
         turn_map: null          # null: the preset's turn map (agents.assets.default_turn_map)
         limits: {max_dtc_fraction: 0.05, max_dphase_deg: 15}
         action_cost: 5.0        # reward - action_cost |a|^2 per decision
@@ -46,7 +46,7 @@ import yaml
 
 from agents.residual_planner import ResidualLimits
 from flagellum_env.paths import RandomPathConfig, WaypointPath, random_path
-from physics.presets import preset_names
+from physics.presets import DEFAULT_PRESET, preset_names
 from physics.validation import require_finite
 
 #: PPO constructor arguments a config may set (stable-baselines3 2.x).
@@ -105,7 +105,7 @@ class TrainConfig:
     checkpoint_every: int = 32
     normalize: Mapping[str, Any] = field(default_factory=lambda: {"norm_obs": True, "norm_reward": True})
     ppo: Mapping[str, Any] = field(default_factory=dict)
-    preset: str = "fast"
+    preset: str = DEFAULT_PRESET
     turn_map: str | None = None
     limits: Mapping[str, Any] = field(default_factory=dict)
     action_cost: float = 0.0
@@ -168,7 +168,7 @@ class TrainConfig:
                              f"from 0 to {HELD_OUT_SEED0 - 1} (seeds from {HELD_OUT_SEED0} on are held out)")
         validation = ValidationConfig(tuple(seeds), _int(val.get("every"), f"{where}: {name}.task.validation.every", 1),
                                       _random_path(val.get("random_path"), f"{where}: {name}.task.validation.random_path"))
-        preset = task.get("preset", "fast")
+        preset = task.get("preset", DEFAULT_PRESET)
         if preset not in preset_names():
             raise ValueError(f"{where}: {name}.task.preset={preset!r} is not allowed; choose one of {preset_names()}")
         limits = dict(task.get("limits") or {})

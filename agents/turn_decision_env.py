@@ -34,6 +34,7 @@ from agents.turn_map import TurnMap
 from flagellum_env.paths import RandomPathConfig, WaypointPath
 from flagellum_env.paths import random_path as draw_random_path
 from flagellum_env.steer_env import FlagellumSteerEnv
+from physics.presets import DEFAULT_PRESET
 from physics.validation import require_finite
 
 
@@ -53,7 +54,7 @@ class TurnDecisionEnv(gym.Env):
 
     metadata: dict[str, Any] = {"render_modes": []}
 
-    def __init__(self, preset: str = "fast", turn_map: str | None = None, env_kwargs: Mapping[str, Any] | None = None,
+    def __init__(self, preset: str = DEFAULT_PRESET, turn_map: str | None = None, env_kwargs: Mapping[str, Any] | None = None,
                  paths: Sequence[WaypointPath] | None = None, random_path: Mapping[str, Any] | None = None,
                  limits: ResidualLimits | Mapping[str, Any] | None = None, action_cost: float = 0.0) -> None:
         kwargs = {**CONTROLLER_ENV_DEFAULTS["rule"], "preset": preset, **dict(env_kwargs or {})}

@@ -18,7 +18,7 @@ from typing import NoReturn
 
 from flagellum import __version__
 from flagellum.commands import COMMANDS
-from flagellum.commands.common import PARAMETER_DEFAULTS, UsageError, add_common_arguments
+from flagellum.commands.common import DEFAULT_PRESET_ARG, UsageError, add_common_arguments
 
 PROG = "flagellum"
 
@@ -43,7 +43,7 @@ def build_parser() -> argparse.ArgumentParser:
         cmd = sub.add_parser(module.NAME, help=module.HELP, description=module.DESCRIPTION)
         module.add_arguments(cmd)
         add_common_arguments(cmd, accepts_set=getattr(module, "ACCEPTS_SET", True),
-                             preset=getattr(module, "PRESET", (None, PARAMETER_DEFAULTS)))
+                             preset=getattr(module, "PRESET", DEFAULT_PRESET_ARG))
         cmd.set_defaults(_run=module.run, _parser=cmd)
     return parser
 

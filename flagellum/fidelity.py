@@ -76,6 +76,65 @@ LADDER: tuple[FidelityConfig, ...] = (
 )
 
 QUICK_METRICS = ("swim_per_turn_10rpm", "lratio_100s")
+
+# --- flagellum bench --quick: one row per preset ------------------------------------------------
+#: The burst of the quick protocol: from steady 10 rpm, BURST_TC s at BURST_RPM, then 10 rpm until the
+#: heading settles (``flagellum_env.turn_measurement``).
+BURST_RPM = 150.0
+BURST_TC = 7.5
+#: The held-out path of the episode metric (a start and 3 waypoints, from the committed eval set).
+EPISODE_PATH = "planar_1000.json"
+QUICK_PRESET_METRICS = ("swim_per_turn_10rpm", "burst", "episode")
+#: value -> name of the error in the quick rows
+QUICK_ERRORS = {"swim_per_turn_10rpm": "swim_per_turn", "theta_burst": "theta", "phi_burst": "phi",
+                "lratio_burst": "lratio_end_of_burst"}
+
+
+def quick_configs() -> tuple[FidelityConfig, ...]:
+    from physics.presets import preset_names
+
+    return tuple(FidelityConfig(p, p) for p in preset_names())
+
+
+def quick_tasks(configs: tuple[FidelityConfig, ...]) -> list[tuple[FidelityConfig, str]]:
+    """(config, metric) of the quick protocol: every metric for every preset but ``paper``'s episode (its
+    episode belongs to the full ladder: ~10 min)."""
+    return [(c, m) for m in QUICK_PRESET_METRICS for c in configs if not (c.name == "paper" and m == "episode")]
+
+
+def quick_rows(done: dict[tuple[str, str], dict], configs: tuple[FidelityConfig, ...]) -> list[dict[str, Any]]:
+    """The rows of ``bench --quick``: config, preset, real_time_factor (steady 10 rpm), burst_real_time_factor
+    (the 150 rpm burst), episode_wall_s, their CPU-time versions, values, and errors against paper."""
+    values: dict[str, dict[str, Any]] = {}
+    rows = []
+    for c in configs:
+        vals, rtf, failures = {}, {}, []
+        for m in QUICK_PRESET_METRICS:
+            rec = done.get((c.name, m))
+            if rec is None:
+                continue
+            if rec["error"]:
+                failures.append(f"{m}: {rec['error']}")
+                continue
+            r = rec["result"]
+            rtf[m] = (r.get("rtf"), r.get("rtf_cpu"))
+            vals.update({k: v for k, v in r.items() if k not in ("rtf", "rtf_cpu", "wall_s")})
+        values[c.name] = vals
+        rows.append({"config": c.name, "preset": c.preset,
+                     "real_time_factor": rtf.get("swim_per_turn_10rpm", (None, None))[0],
+                     "real_time_factor_cpu": rtf.get("swim_per_turn_10rpm", (None, None))[1],
+                     "burst_real_time_factor": rtf.get("burst", (None, None))[0],
+                     "burst_real_time_factor_cpu": rtf.get("burst", (None, None))[1],
+                     "episode_wall_s": vals.get("episode_wall_s"), "episode_cpu_s": vals.get("episode_cpu_s"),
+                     "values": vals, "failures": failures,
+                     "measured": sorted({rec.get("measured") or "undated" for (name, _), rec in done.items()
+                                         if name == c.name})})
+    ref = values.get("paper", {})
+    for row in rows:
+        row["errors"] = {QUICK_ERRORS[k]: relative_error(k, v, ref[k])
+                         for k, v in row["values"].items()
+                         if k in QUICK_ERRORS and isinstance(v, (int, float)) and isinstance(ref.get(k), (int, float))}
+    return rows
 FULL_METRICS = QUICK_METRICS + tuple(f"turn_tc{int(t)}" for t in TC_VALUES) + ("omega_b",)
 
 
@@ -116,9 +175,10 @@ def run_metric(cfg: FidelityConfig, metric: str) -> dict[str, Any]:
 
         sim = _steady(cfg)
         x0 = sim.head_position
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         advance(sim, 12.0)
         out["rtf"] = 12.0 / (time.perf_counter() - t0)
+        out["rtf_cpu"] = 12.0 / max(time.process_time() - c0, 1e-9)
         out["swim_per_turn_10rpm"] = float(math.dist(sim.head_position, x0) / 2.0)
     elif metric == "lratio_100s":
         ratio, rtf = _lratio(cfg, OMEGA_HIGH_RPM)
@@ -133,6 +193,29 @@ def run_metric(cfg: FidelityConfig, metric: str) -> dict[str, Any]:
         out["rtf"] = (sim.time - sim_t0) / (time.perf_counter() - t0)
         out[f"theta_tc{int(tc)}"], out[f"phi_tc{int(tc)}"] = res.theta_deg, res.phi_deg
         out["straight"] = res.straight
+    elif metric == "burst":
+        from flagellum_env.turn_measurement import measure_turn
+
+        sim = _steady(cfg)
+        res = measure_turn(sim, 10.0, BURST_RPM, BURST_TC, relax_max_s=90.0)
+        out.update(theta_burst=res.theta_deg, phi_burst=res.phi_deg, lratio_burst=res.burst_end_ratio,
+                   straight=res.straight)
+        out["rtf"] = BURST_TC / res.burst_wall_s
+        out["rtf_cpu"] = BURST_TC / max(res.burst_cpu_s, 1e-9)
+    elif metric == "episode":
+        from agents.assets import eval_paths_dir
+        from agents.path_following import EpisodeTask
+        from flagellum_env.paths import load_path
+
+        path = load_path(eval_paths_dir() / EPISODE_PATH)
+        c0 = time.process_time()
+        rec = EpisodeTask("rule", path, cfg.preset).execute().record
+        if rec["status"] != "ok":
+            raise RuntimeError(f"episode failed: {rec['error']}")
+        out.update(episode_wall_s=rec["wall_time_s"], episode_cpu_s=time.process_time() - c0,
+                   episode_success=rec["success"], episode_mean_cross_track_m=rec["mean_cross_track_m"],
+                   episode_time_s=rec["time_s"])
+        out["rtf"] = rec["time_s"] / rec["wall_time_s"]
     elif metric == "omega_b":
         lo, hi = 50.0, 130.0
         evals = []
@@ -205,8 +288,9 @@ class FidelityTask:
 
 
 def run_fidelity(path: Path, configs=LADDER, metrics=FULL_METRICS, workers: int | None = None,
-                 progress: bool = True, scheduler: Any | None = None) -> dict[tuple[str, str], dict]:
-    """Run every missing (config, metric) task, appending each result to ``path`` as it arrives.
+                 progress: bool = True, scheduler: Any | None = None,
+                 tasks: list[tuple[FidelityConfig, str]] | None = None) -> dict[tuple[str, str], dict]:
+    """Run every missing (config, metric) task (``tasks``, default every config with every metric), appending each result to ``path`` as it arrives.
 
     The tasks run on ``workers`` local processes (default: one per core) or, with ``scheduler``
     (an address ``"tcp://HOST:PORT"``, a cluster object or a ``distributed.Client``), on that Dask
@@ -220,7 +304,8 @@ def run_fidelity(path: Path, configs=LADDER, metrics=FULL_METRICS, workers: int 
     path.parent.mkdir(parents=True, exist_ok=True)
     done = load_done(path, configs)
     # cheap metrics of every configuration first, so a partial run still compares all of them
-    todo = [(c, m) for m in metrics for c in configs if (c.name, m) not in done]
+    grid = tasks if tasks is not None else [(c, m) for m in metrics for c in configs]
+    todo = [(c, m) for c, m in grid if (c.name, m) not in done]
     if not todo:
         return done
     commit = git_commit()

@@ -115,3 +115,48 @@ def write_report(rows: list[dict[str, Any]], json_path: Path, md_path: Path | No
         md_path.write_text(markdown(rows, header))
     if png_path is not None:
         pareto_plot(rows, png_path)
+
+
+def quick_markdown(rows: list[dict[str, Any]], wall_s: float, missing: list[str]) -> str:
+    """The report of ``flagellum bench --quick``: speed and errors against paper, one row per preset."""
+    import os
+    import platform
+    import time as _time
+
+    load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
+    err_keys = ("swim_per_turn", "theta", "phi", "lratio_end_of_burst")
+    lines = [f"# flagellum bench --quick ({_time.strftime('%Y-%m-%d %H:%M UTC', _time.gmtime())})", "",
+             f"{platform.node()}, {os.cpu_count()} cores, load average {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} "
+             f"at the end; {wall_s:.0f} s in all. Real-time factor = simulated s per wall s (CPU s in brackets), one "
+             "task per core. Steady: 12 s at 10 rpm after 6 s of start-up. Burst: 7.5 s at 150 rpm from steady "
+             "10 rpm, then 10 rpm until the heading settles (θ, φ: the paper's turn angles; L'/L at the burst's end). "
+             "Episode: the rule planner on agents/eval_paths/planar_1000.json (not run for paper). Errors: "
+             "|x - x_paper| / max(|x_paper|, floor), floor 10° for angles.", "",
+             "| preset | steady RTF | burst RTF | episode wall s | " + " | ".join(f"error {k}" for k in err_keys)
+             + " |", "|---" * (4 + len(err_keys)) + "|"]
+
+    def pair(a, b):
+        return "—" if a is None else f"{a:.3g} ({_fmt(b)})"
+
+    for r in rows:
+        lines.append(f"| {r['config']} | {pair(r['real_time_factor'], r['real_time_factor_cpu'])} | "
+                     f"{pair(r['burst_real_time_factor'], r['burst_real_time_factor_cpu'])} | "
+                     f"{pair(r['episode_wall_s'], r['episode_cpu_s'])} | "
+                     + " | ".join(f"{100 * r['errors'][k]:.2f} %" if k in r["errors"] else "—" for k in err_keys)
+                     + " |")
+    lines += ["", "Values:", "", "| preset | swim per turn (mm) | θ (deg) | φ (deg) | L'/L end of burst | episode |",
+              "|---|---|---|---|---|---|"]
+    for r in rows:
+        v = r["values"]
+        ep = ("—" if "episode_success" not in v else
+              f"{'reached' if v['episode_success'] else 'FAILED'}, {v['episode_time_s']:.0f} s simulated, "
+              f"cross-track {100 * v['episode_mean_cross_track_m']:.2f} cm")
+        swim = v.get("swim_per_turn_10rpm")
+        lines.append(f"| {r['config']} | {'—' if swim is None else f'{1e3 * swim:.4f}'} | {_fmt(v.get('theta_burst'))} "
+                     f"| {_fmt(v.get('phi_burst'))} | {_fmt(v.get('lratio_burst'))} | {ep} |")
+    fails = [(r["config"], f) for r in rows for f in r["failures"]]
+    if fails:
+        lines += ["", "Failures:", ""] + [f"- {c}: {f}" for c, f in fails]
+    if missing:
+        lines += ["", "Not measured (interrupted?): " + ", ".join(missing)]
+    return "\n".join(lines) + "\n"

@@ -20,7 +20,7 @@ import numpy as np
 from flagellum_env.paths import RandomPathConfig, WaypointPath, load_path, path_from_waypoints, square_path
 from flagellum_env.rewards import RewardConfig
 from physics.params import NumericsConfig, SwimmerParams
-from physics.presets import apply_preset, preset_names
+from physics.presets import DEFAULT_PRESET, apply_preset, preset_names
 from physics.validation import is_real, require_finite
 
 PATH_NAMES = ("square", "random")
@@ -66,7 +66,7 @@ class SteerConfig:
 
     path: Any = "random"
     random_path: RandomPathConfig | Mapping[str, Any] | None = None
-    preset: str = "fast"
+    preset: str = DEFAULT_PRESET
     params: Mapping[str, Any] | None = None
     numerics: Mapping[str, Any] | None = None
     control_dt: float = 2.0

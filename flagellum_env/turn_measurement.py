@@ -13,6 +13,7 @@ the relaxation time and the head's displacement over the turn.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -46,6 +47,9 @@ class TurnResult:
     period_s: float      # wobble period (one flagellum rotation in the lab) at omega_l
     offset_m: tuple[float, float, float]  # head displacement burst start -> end of relaxation,
     #                                     # along (d0, phase-node direction, d0 x that)
+    burst_end_ratio: float | None = None  # L'/L at the end of the burst
+    burst_wall_s: float | None = None     # wall and CPU seconds the burst took (benchmarks)
+    burst_cpu_s: float | None = None
 
 
 def rotation_rate(sim: Any, phase_node: int, duration_s: float = 1.0) -> float:
@@ -82,9 +86,13 @@ def measure_turn(sim: Any, omega_l_rpm: float, omega_h_rpm: float, t_c: float, p
     start = sim.head_position
     ref = sim.nodes[phase_node] - start
     ref_az = azimuth(ref, d0)
+    burst_end_ratio = burst_wall = burst_cpu = None
     if t_c > 0.0:
         sim.set_motor_speed(omega_h_rpm * RPM_TO_RAD_S)
+        w0, c0 = time.perf_counter(), time.process_time()
         advance(sim, t_c)
+        burst_wall, burst_cpu = time.perf_counter() - w0, time.process_time() - c0
+        burst_end_ratio = float(sim.end_to_end_ratio())
         sim.set_motor_speed(omega_l_rpm * RPM_TO_RAD_S)
     t_relax0 = sim.time
     prev = heading(sim, period)
@@ -102,4 +110,5 @@ def measure_turn(sim: Any, omega_l_rpm: float, omega_h_rpm: float, t_c: float, p
     disp = sim.head_position - start
     offset = (float(disp @ d0), float(disp @ e_ref), float(disp @ np.cross(d0, e_ref)))
     return TurnResult(t_c=float(t_c), phase_deg=float(phase_deg), theta_deg=theta, phi_deg=phi, psi_deg=psi,
-                      relax_s=sim.time - t_relax0, straight=straight, period_s=period, offset_m=offset)
+                      relax_s=sim.time - t_relax0, straight=straight, period_s=period, offset_m=offset,
+                      burst_end_ratio=burst_end_ratio, burst_wall_s=burst_wall, burst_cpu_s=burst_cpu)

@@ -23,11 +23,22 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 from scipy.linalg import lapack
 
 from physics.higdon_head import (head_flow_operators, head_operators_as_printed, sphere_rotational_drag,
                                  sphere_translational_drag)
 from physics.lsbt import lsbt_mobility, node_tangents
+
+
+@njit(cache=True)
+def _mirror_upper(a: np.ndarray) -> np.ndarray:
+    """The symmetric matrix whose upper triangle is a's (in place; LAPACK potri fills only that one)."""
+    n = a.shape[0]
+    for i in range(n):
+        for j in range(i):
+            a[i, j] = a[j, i]
+    return a
 
 
 class HydroError(RuntimeError):
@@ -102,8 +113,7 @@ class ResistanceOperator:
             inv, info = lapack.dpotri(self._chol[0], lower=0)
             if info != 0:
                 raise HydroError(f"LSBT mobility inversion failed (potri info {info})")
-            inv = np.triu(inv)
-            self._inv = inv + np.triu(inv, 1).T
+            self._inv = _mirror_upper(inv)
         return self._inv
 
     def apply(self, V: np.ndarray) -> np.ndarray:

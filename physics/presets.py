@@ -1,14 +1,19 @@
 """Named speed/accuracy presets, selectable everywhere (CLI ``--preset``, API, environment).
 
 ``paper`` is the reference: the paper's discretisation (N = 122, edges 2 delta, LSBT + Higdon
-head) at the paper's h = 1 ms, with the resistance refreshed whenever the shape has changed by
-more than 0.03 r0 (indistinguishable from refreshing every step, see docs/fidelity.md).
-``balanced`` keeps the paper's grid and refresh rule and takes a 20x longer step (h = 20 ms,
-Newton tolerance 1e-5): the onset of buckling, and so every turn, needs the paper's grid and
-refresh rule; the time step matters little up to 20 ms (docs/node_convergence.md). ``fast`` coarsens the grid to N = 45 and refreshes the resistance
-lazily: it swims like ``paper`` (within ~1 %) but buckles later, so its turns are its own and its
-turn map must be calibrated on it (the planner does). Measured costs and errors against ``paper``:
-docs/fidelity.md (scripts/bench_fidelity.py).
+head) and scheme (implicit Euler, eqn 6) at the paper's h = 1 ms, Newton tolerance 1e-6, with
+the resistance refreshed whenever the shape has changed by more than 0.03 r0.
+
+``faithful`` (the default everywhere: ``DEFAULT_PRESET``) is the paper's swimmer on the paper's
+grid, integrated by variable-step BDF2 with the local error per step held below ``step_tol``
+(``physics.time_integrator``), the Newton Jacobian refactorised whenever the resistance is
+rebuilt; ``dt`` = 0.1 s is the sampling / control step inside which the adaptive steps are taken.
+``fast`` is the same grid and scheme with a looser error tolerance and a lazier resistance.
+``coarse`` (N = 45, h = 10 ms implicit Euler; called ``fast`` before 2026-12-02) swims like
+``paper`` but buckles later and turns differently: its turns are its own, and so is its turn map.
+
+Measured costs and errors against ``paper``: docs/fidelity.md (``flagellum bench --quick`` and
+scripts/bench_fidelity.py).
 """
 
 from __future__ import annotations
@@ -19,17 +24,23 @@ from typing import Any
 
 from physics.params import NumericsConfig, SwimmerParams, apply_overrides
 
+#: The preset of every command, the environment and the agents unless told otherwise.
+DEFAULT_PRESET = "faithful"
+
+_ADAPTIVE = {"dt": 0.1, "integrator": "bdf2", "jacobian_refresh": "resistance", "hydro_model": "lsbt",
+             "head_model": "higdon"}
+
 PRESETS: dict[str, dict[str, dict[str, Any]]] = {
     "paper": {"params": {"n_nodes": 122},
               "numerics": {"dt": 1e-3, "hydro_model": "lsbt", "head_model": "higdon",
                            "hydro_refresh_tol": 0.03, "newton_tol": 1e-6}},
-    # the paper's grid (the buckling onset needs it, docs/node_convergence.md) at h = 20 ms
-    "balanced": {"params": {"n_nodes": 122},
-                 "numerics": {"dt": 2e-2, "hydro_model": "lsbt", "head_model": "higdon",
-                              "hydro_refresh_tol": 0.03, "newton_tol": 1e-5}},
-    "fast": {"params": {"n_nodes": 45},
-             "numerics": {"dt": 1e-2, "hydro_model": "lsbt", "head_model": "higdon",
-                          "hydro_refresh_tol": 0.1, "newton_tol": 1e-5}},
+    "faithful": {"params": {"n_nodes": 122},
+                 "numerics": {**_ADAPTIVE, "step_tol": 3e-3, "hydro_refresh_tol": 0.03, "newton_tol": 1e-5}},
+    "fast": {"params": {"n_nodes": 122},
+             "numerics": {**_ADAPTIVE, "step_tol": 3e-2, "hydro_refresh_tol": 0.1, "newton_tol": 1e-5}},
+    "coarse": {"params": {"n_nodes": 45},
+               "numerics": {"dt": 1e-2, "hydro_model": "lsbt", "head_model": "higdon",
+                            "hydro_refresh_tol": 0.1, "newton_tol": 1e-5}},
 }
 
 

@@ -194,22 +194,33 @@ def validate_run_arguments(numerics: NumericsConfig, duration_s: float, record_i
 
 
 def advance(sim: Any, duration_s: float | None = None, *, steps: int | None = None,
-            on_step: Callable[[Any, int], bool | None] | None = None) -> int:
-    """The run loop: step ``sim`` for ``duration_s`` seconds (rounded to whole steps of ``sim.numerics.dt``,
-    as ``Simulator.advance``) or for ``steps`` steps, calling ``on_step(sim, k)`` after step k = 1, 2, ...
+            spans: list[float] | None = None, on_step: Callable[[Any, int], bool | None] | None = None) -> int:
+    """The run loop: step ``sim`` for ``duration_s`` seconds (as ``Simulator.advance``: rounded to whole steps
+    of ``sim.numerics.dt`` with fixed steps, exact with adaptive ones) or for ``steps`` steps, calling ``on_step(sim, k)`` after step k = 1, 2, ...
 
-    A callback that returns True ends the loop after its step. Returns the number of steps taken.
+    ``spans`` (adaptive steps only): one step per span, of that length (s). A callback that returns True ends
+    the loop after its step. Returns the number of steps taken.
     ``SimulationError`` and ``KeyboardInterrupt`` propagate (the steps before them are taken). With no
     callback, ``advance(sim, T)`` takes exactly the steps of ``sim.advance(T)``.
     """
-    if (duration_s is None) == (steps is None):
-        raise ValueError("give exactly one of duration_s and steps")
-    n = int(round(duration_s / sim.numerics.dt)) if steps is None else int(steps)
-    for k in range(1, n + 1):
-        sim.step()
+    if sum(x is not None for x in (duration_s, steps, spans)) != 1:
+        raise ValueError("give exactly one of duration_s, steps and spans")
+    if spans is not None:
+        spans = list(spans)
+    elif steps is not None:
+        spans = [None] * int(steps)
+    else:
+        from physics.time_integrator import step_spans
+
+        spans = step_spans(duration_s, sim.numerics)
+    for k, span in enumerate(spans, start=1):
+        if span is None:
+            sim.step()
+        else:
+            sim.step(span)
         if on_step is not None and on_step(sim, k):
             return k
-    return n
+    return len(spans)
 
 
 class StopRequest:
@@ -262,6 +273,10 @@ def run_simulation(params: SwimmerParams, numerics: NumericsConfig, schedule: Mo
     """
     n_steps = validate_run_arguments(numerics, duration_s, record_interval_s, node_record_interval_s)
     dt = numerics.dt
+    # adaptive steps: pieces of at most dt that end at every switch of the schedule (exact switch times)
+    plan = schedule.spans(duration_s, dt) if getattr(numerics, "step_tol", 0.0) > 0.0 else None
+    if plan is not None:
+        n_steps = len(plan)
     if simulator is None:
         from physics.simulator import Simulator  # heavy (numba); imported only when running
 
@@ -273,12 +288,12 @@ def run_simulation(params: SwimmerParams, numerics: NumericsConfig, schedule: Mo
     omega = schedule.omega_rad_s_at(0.0)
     rec.sample(sim, 0, omega, force=True)
     interrupted, error = False, None
-    bar = _progress_bar(n_steps, dt) if progress else None
+    bar = _progress_bar(n_steps, dt if plan is None else duration_s / n_steps) if progress else None
     wall0 = time.perf_counter()
     try:
         with stop_requests() as stop:
             t_before = sim.time
-            omega = schedule.omega_rad_s_at(t_before - rec.t0 + 0.5 * dt)
+            omega = schedule.omega_rad_s_at(t_before - rec.t0 + 0.5 * dt) if plan is None else plan[0][1]
             sim.set_motor_speed(omega)
 
             def on_step(sim: Any, step: int) -> None:
@@ -294,10 +309,14 @@ def run_simulation(params: SwimmerParams, numerics: NumericsConfig, schedule: Mo
                     raise KeyboardInterrupt
                 if step < n_steps:
                     t_before = sim.time
-                    omega = schedule.omega_rad_s_at(t_before - rec.t0 + 0.5 * dt)
+                    omega = (schedule.omega_rad_s_at(t_before - rec.t0 + 0.5 * dt) if plan is None
+                             else plan[step][1])
                     sim.set_motor_speed(omega)
 
-            advance(sim, steps=n_steps, on_step=on_step)
+            if plan is None:
+                advance(sim, steps=n_steps, on_step=on_step)
+            else:
+                advance(sim, spans=[span for span, _ in plan], on_step=on_step)
     except KeyboardInterrupt:
         interrupted = True
     except SimulationError as exc:

@@ -121,6 +121,19 @@ class MotorSchedule:
         """Motor speed at time ``t_s`` (s), rad/s."""
         return self.omega_rpm_at(t_s) * RPM_TO_RAD_S
 
+    def spans(self, duration_s: float, dt: float) -> list[tuple[float, float]]:
+        """(span s, omega rad/s) pieces covering [0, duration_s]: steps of at most dt that end at every switch
+        time, so no step straddles a switch (for the adaptive integrator, whose steps may have any length)."""
+        cuts = {k * dt for k in range(1, int(math.floor(duration_s / dt + 1e-9)) + 1)}
+        cuts |= {t for t in self.times_s if 0.0 < t < duration_s}
+        cuts.add(duration_s)
+        edges = [0.0] + sorted(c for c in cuts if c <= duration_s)
+        out = []
+        for a, b in zip(edges[:-1], edges[1:]):
+            if b - a > 1e-9 * dt:
+                out.append((b - a, self.omega_rad_s_at(0.5 * (a + b))))
+        return out
+
     def mean_omega_rpm(self, duration_s: float) -> float:
         """Time-averaged speed over [0, duration_s], rpm."""
         if not (math.isfinite(duration_s) and duration_s > 0.0):

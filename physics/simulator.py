@@ -44,7 +44,7 @@ from physics.implicit_residual import assemble_residual, block_max_abs
 from physics.params import NumericsConfig, SwimmerParams
 from physics.step_solvers import BandedNewtonSolver, DenseChordSolver, StepFailed
 from physics.time_integrator import (SAFETY, SHRINK_MIN, History, StepBase, error_norm, next_step, split_remaining,
-                                     step_base, velocity_of)
+                                     step_base, step_spans, velocity_of)
 
 
 @dataclass
@@ -163,20 +163,30 @@ class Simulator:
             self._restart = True  # the motion has a kink here: no multistep formula may cross it
         self.omega = float(omega_rad_s)
 
-    def step(self) -> None:
+    def step(self, duration_s: float | None = None) -> None:
         """Advance by ``numerics.dt``: one step (halved on Newton failure), or with ``step_tol`` > 0 as many
-        error-controlled steps as that takes, the last one ending exactly at the end of dt."""
+        error-controlled steps as that takes, the last one ending exactly at the end of dt.
+
+        ``duration_s`` (adaptive stepping only): advance by this span (s, 0 < span <= dt) instead of dt."""
         if self.numerics.step_tol > 0.0:
-            self._adaptive(self.numerics.dt)
+            span = self.numerics.dt if duration_s is None else float(duration_s)
+            if not 0.0 < span <= self.numerics.dt * (1.0 + 1e-12):
+                raise ValueError(f"step duration {duration_s!r} s is not allowed; allowed: > 0 and <= dt = "
+                                 f"{self.numerics.dt:g} s")
+            self._adaptive(span)
+        elif duration_s is not None and duration_s != self.numerics.dt:
+            raise ValueError(f"step duration {duration_s!r} s is not allowed with fixed steps; allowed: dt = "
+                             f"{self.numerics.dt:g} s (or set step_tol > 0)")
         else:
             self._advance(self.numerics.dt, 0)
         self.step_count += 1
         self.stats.steps += 1
 
     def advance(self, duration_s: float) -> None:
-        """Advance by ``duration_s`` seconds (rounded to whole steps)."""
-        for _ in range(int(round(duration_s / self.numerics.dt))):
-            self.step()
+        """Advance by ``duration_s`` seconds: rounded to whole steps of dt with fixed steps, exactly with
+        adaptive ones (whole steps of dt, then the rest)."""
+        for span in step_spans(duration_s, self.numerics):
+            self.step(span)
 
     _STATE_FIELDS = ("q", "v", "d1", "tangent", "ref_twist", "time", "step_count", "omega", "motor_angle",
                      "body_frame")
@@ -386,10 +396,12 @@ class Simulator:
         """Error-controlled steps (physics.time_integrator) that end exactly at time + dt."""
         nm = self.numerics
         t_end = self.time + dt
+        rejected = False
         while t_end - self.time > 1e-9 * dt:
             if self._restart:
                 self._h = min(nm.h_start, dt)
-            h = split_remaining(self._h, t_end - self.time)
+            h = split_remaining(self._h, t_end - self.time, stretch=not rejected)
+            rejected = True  # until the step is accepted
             last = h == t_end - self.time
             base = self._base_for(h)
             try:
@@ -403,10 +415,11 @@ class Simulator:
                 self._reject(h * max(SHRINK_MIN, SAFETY * err ** (-1.0 / (base.order + 1))), "local error",
                              f"estimated local error {err * nm.step_tol:.3g} (r0 or rad) above step_tol")
                 continue
+            rejected = False
             self._commit(q, base, grad, f, t, d1, rt, t_new=t_end if last else None)
             proposal = next_step(h, err, base.order)
             if h < self._h and proposal >= h:  # a step shortened to land on t_end says nothing against h
-                proposal = self._h
+                proposal = max(proposal, self._h)
             self._h = min(proposal, dt)
 
     def _reject(self, h_new: float, quantity: str, why: str) -> None:

@@ -103,9 +103,22 @@ class DenseChordSolver:
             self._refresh_hydro(q)
             Rq = self.hyd.dense()
         t0 = time.perf_counter()
+        J = self.dense_jacobian(q, h, Rq)
+        if not np.all(np.isfinite(J)):
+            raise StepFailed("Jacobian", "non-finite entries in the Newton Jacobian")
+        self.x_jac = nodes_of(q)
+        self.lu = lu_factor(J, check_finite=False)
+        self.lu_h = h
+        sim.stats.jacobian_factorisations += 1
+        sim.stats.time_jacobian_refresh += time.perf_counter() - t0
+
+    def dense_jacobian(self, q: np.ndarray, h: float, R: np.ndarray) -> np.ndarray:
+        """The Newton Jacobian dr/dq = M/h^2 + K(q) + P^T R P / h + contact Hessian at q, prescribed DOFs as
+        identity rows and columns, for the lab-frame resistance R (nv, nv) and the (effective) step h, s."""
+        sim = self.sim
         t, d1, d2, rt, m1, m2 = sim.frames_at(q)
         J = assemble_dense_jacobian(elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *sim.rest_arrays),
-                                    sim.mass, h, Rq, sim.vdofs)
+                                    sim.mass, h, R, sim.vdofs)
         self.contact_set = None
         if sim.contact is not None:
             _, _, nodes_c, blocks_c = sim.contact_terms(q)
@@ -115,13 +128,7 @@ class DenseChordSolver:
             J[k, :] = 0.0
             J[:, k] = 0.0
             J[k, k] = 1.0
-        if not np.all(np.isfinite(J)):
-            raise StepFailed("Jacobian", "non-finite entries in the Newton Jacobian")
-        self.x_jac = nodes_of(q)
-        self.lu = lu_factor(J, check_finite=False)
-        self.lu_h = h
-        sim.stats.jacobian_factorisations += 1
-        sim.stats.time_jacobian_refresh += time.perf_counter() - t0
+        return J
 
     def begin_step(self, q_pred: np.ndarray, h: float) -> None:
         nm, p = self.sim.numerics, self.sim.params

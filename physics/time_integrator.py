@@ -31,7 +31,9 @@ the first step after it is implicit Euler at ``h_start``, and no estimate crosse
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -146,10 +148,11 @@ def next_step(h: float, err: float, order: int) -> float:
     return h * fac
 
 
-def split_remaining(h: float, remaining: float) -> float:
+def split_remaining(h: float, remaining: float, stretch: bool = True) -> float:
     """A step no longer than ``remaining`` (s) that avoids a sliver at the end: the whole rest if it is
-    within 30 % of h, half of it if it is within 2 h."""
-    if remaining <= 1.3 * h:
+    within 30 % of h (within h if not ``stretch``: right after a rejected step), half of it if it is
+    within 2 h."""
+    if remaining <= (1.3 if stretch else 1.0) * h:
         return remaining
     if remaining < 2.0 * h:
         return 0.5 * remaining
@@ -159,3 +162,14 @@ def split_remaining(h: float, remaining: float) -> float:
 def velocity_of(q_new: np.ndarray, base: StepBase) -> np.ndarray:
     """The scheme's velocity at the new point, (q - q^) / h_e (m/s, rad/s)."""
     return (q_new - base.q_hat) / base.h_eff
+
+
+def step_spans(duration_s: float, numerics: Any) -> list[float | None]:
+    """The ``step`` arguments that advance by ``duration_s``: whole steps of dt (None), rounded with fixed
+    steps; with adaptive steps (step_tol > 0) the rest as a last, shorter span, so the time is exact."""
+    dt = numerics.dt
+    if getattr(numerics, "step_tol", 0.0) <= 0.0:
+        return [None] * int(round(duration_s / dt))
+    n = int(math.floor(duration_s / dt + 1e-9))
+    rest = duration_s - n * dt
+    return [None] * n + ([rest] if rest > 1e-9 * dt else [])

@@ -1,11 +1,11 @@
 """docs/agents.md and docs/figures/ppo_training.png: the PPO agent against the rule planner.
 
-    python scripts/agents_report.py [--agent agents/pretrained/ppo_residual_fast]
+    python scripts/agents_report.py [--agent agents/pretrained/ppo_residual_coarse]
 
 Inputs (each made by a committed command):
 - AGENT/meta.json, config.yml, and episodes.csv, eval/evaluations.npz in AGENT or (for the shipped agent)
   in results/agents/<name>/
-      flagellum train --config agents/configs/ppo_residual_fast.yml --out AGENT
+      flagellum train --config agents/configs/ppo_residual_coarse.yml --out AGENT
 - results/eval/<preset>/results.json for preset fast and paper, holding both controllers
       flagellum evaluate --paths eval --controller rule --controller ppo --preset <preset>
                          --out results/eval/<preset> --resume
@@ -190,12 +190,12 @@ def comparison_lines(res: dict[str, Any], ppo: str = "ppo") -> list[str]:
 
 
 def first_design_section(lines: list[str]) -> None:
-    agent = Path("results/agents/ppo_residual_fast_randomized")
+    agent = Path("results/agents/ppo_residual_coarse_randomized")
     lines += ["## The first design (kept for the record)", "",
               "Trained with a randomised swimmer (E, μ, b ±5 %, helix ±2 %), corrections of up to 20 % of the "
               "burst and 30° of phase, and no price on a correction. Its files and config are in "
-              f"`{agent}` (the config was then named `ppo_residual_fast.yml`; it is now "
-              "`agents/configs/ppo_residual_fast_randomized.yml`).", ""]
+              f"`{agent}` (the config was then named `ppo_residual_coarse.yml`; it is now "
+              "`agents/configs/ppo_residual_coarse_randomized.yml`).", ""]
     training_section(agent, lines, "### Its training", "ppo_training_randomized.png")
     f = Path("results/eval/ppo_randomized_fast/results.json")
     if f.is_file():
@@ -257,7 +257,7 @@ def verdict_section(found: dict[str, Any], agent: Path, lines: list[str]) -> Non
     """The issue's targets, checked against the measured files, and what was tried."""
     lines += ["## Against the targets", ""]
     minutes = []
-    for a in (agent, Path("results/agents/ppo_residual_fast_randomized")):
+    for a in (agent, Path("results/agents/ppo_residual_coarse_randomized")):
         f = a / "meta.json"
         if f.is_file():
             minutes.append(json.loads(f.read_text(encoding="utf-8"))["wall_time_s"] / 60)
@@ -332,13 +332,13 @@ def paired_lines(res: dict[str, Any], ppo: str = "ppo") -> list[str]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--agent", type=Path, default=Path("agents/pretrained/ppo_residual_fast"),
+    ap.add_argument("--agent", type=Path, default=Path("agents/pretrained/ppo_residual_coarse"),
                     help="agent folder (default: the pretrained one)")
     args = ap.parse_args()
     lines = ["# PPO agents: learned corrections of the turn planner", "",
              "Produced by `python scripts/agents_report.py` from the files listed in its docstring. Design and "
              "reasons: `agents/residual_planner.py`, `agents/turn_decision_env.py`; configuration: "
-             "`agents/configs/ppo_residual_fast.yml`.", "", DESIGN, ""]
+             "`agents/configs/ppo_residual_coarse.yml`.", "", DESIGN, ""]
     training_section(args.agent, lines)
     fine_tune_section(lines)
     found = evaluation_section(lines)

@@ -128,7 +128,7 @@ def test_a_bad_training_setting_names_the_file_and_the_key(usage_error, tmp_path
 
     from agents.assets import package_file
 
-    doc = yaml.safe_load(package_file("configs", "ppo_residual_fast.yml").read_text())
+    doc = yaml.safe_load(package_file("configs", "ppo_residual_coarse.yml").read_text())
     doc[next(iter(doc))]["learning_rate"] = -1
     cfg = tmp_path / "cfg.yml"
     cfg.write_text(yaml.safe_dump(doc))

@@ -55,7 +55,7 @@ BUDGETS: tuple[tuple[str, str], ...] = (
     (r"--path square\b", "--path {scratch}/one_turn.json"),
     (r"--paths eval\b", "--paths {scratch}/one_turn.json"),
     (r"calibrate-turns --preset fast\b", "calibrate-turns --preset fast --t-c 1 --phases 0 --out {scratch}/fast.json"),
-    (r"--config agents/configs/ppo_residual_fast\.yml", "--config {scratch}/tiny.yml"),
+    (r"--config agents/configs/ppo_residual_coarse\.yml", "--config {scratch}/tiny.yml"),
     (r"control_dt=2\.0,", "control_dt=2.0, max_episode_steps=3,"),
     (r'PPO\("MlpPolicy", venv\)', 'PPO("MlpPolicy", venv, n_steps=4, batch_size=8)'),
     (r"\.learn\(10_000\)", ".learn(8)"),

@@ -6,6 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
+from flagellum.fidelity import BURST_RPM, BURST_TC
 from flagellum.commands.common import SCHEDULER_HELP, UsageError, ensure_dir, parse_workers
 
 NAME = "bench"
@@ -20,11 +21,15 @@ PRESET = None
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--quick", action="store_true", help="only the swim-speed metric (minutes, not hours)")
-    parser.add_argument("--full", action="store_true", help="all metrics (turning angles, omega_b): hours")
-    parser.add_argument("--json", default="out/bench/fidelity.json",
-                        help="where to write the JSON report (default out/bench/fidelity.json; the .md and .png "
-                             "reports go beside it)")
+    parser.add_argument("--quick", action="store_true",
+                        help="one row per preset (minutes): steady 10 rpm real-time factor and swim speed, a "
+                             f"{BURST_TC:g} s burst at {BURST_RPM:g} rpm (real-time factor, turn angles, L'/L at its "
+                             "end), the rule planner's wall time on one held-out path, errors against paper")
+    parser.add_argument("--full", action="store_true", help="the ladder with all metrics (turning angles, omega_b): "
+                                                            "hours")
+    parser.add_argument("--json", default=None,
+                        help="where to write the JSON report (default out/bench/quick.json with --quick, else "
+                             "out/bench/fidelity.json; the .md (and .png) reports go beside it)")
     parser.add_argument("--results", default=None,
                         help="task results file (JSONL, resumable); default: next to --json")
     parser.add_argument("--workers", metavar="N", help="local worker processes (default: one per core)")
@@ -39,8 +44,10 @@ def run(args: argparse.Namespace) -> int:
     from batch.store import SweepError
 
     workers, scheduler = parse_workers(args)
-    metrics = ("swim_per_turn_10rpm",) if args.quick else (FULL_METRICS if args.full else QUICK_METRICS)
-    out = Path(args.json)
+    if args.quick and args.full:
+        raise UsageError("--quick and --full both given; allowed: one of them (or neither: the ladder's cheap metrics)")
+    metrics = FULL_METRICS if args.full else QUICK_METRICS
+    out = Path(args.json or ("out/bench/quick.json" if args.quick else "out/bench/fidelity.json"))
     results = Path(args.results) if args.results else out.with_suffix(".results.jsonl")
     ensure_dir("--json", out.parent)
     ensure_dir("--results", results.parent)
@@ -48,6 +55,8 @@ def run(args: argparse.Namespace) -> int:
         if f.is_dir():
             raise UsageError(f"{option} {str(f)!r} is a directory; allowed: a file path")
     t0 = time.perf_counter()
+    if args.quick:
+        return _run_quick(out, results, workers, scheduler, not args.no_progress, t0)
     try:
         done = run_fidelity(results, LADDER, metrics, workers=workers, progress=not args.no_progress,
                             scheduler=scheduler)
@@ -55,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     rows = rows_from(done)
     write_report(rows, out, out.with_suffix(".md"), out.with_suffix(".png"),
-                 "flagellum bench " + ("--quick" if args.quick else "--full" if args.full else ""),
+                 "flagellum bench" + (" --full" if args.full else ""),
                  time.perf_counter() - t0, missing=missing_tasks(done, LADDER, metrics), notes=REPORT_NOTES)
     for r in rows:
         err = r["errors"].get("swim_per_turn_10rpm")
@@ -64,3 +73,32 @@ def run(args: argparse.Namespace) -> int:
               f"swim-speed error {'—' if err is None else f'{100 * err:.2f} %'}")
     print(f"wrote {out}, {out.with_suffix('.md')}, {out.with_suffix('.png')}")
     return 0
+
+
+def _run_quick(out: Path, results: Path, workers, scheduler, progress: bool, t0: float) -> int:
+    import json
+
+    from flagellum.fidelity import quick_configs, quick_rows, quick_tasks, run_fidelity
+    from flagellum.fidelity_report import quick_markdown
+    from batch.store import SweepError
+
+    configs = quick_configs()
+    tasks = quick_tasks(configs)
+    try:
+        done = run_fidelity(results, configs, workers=workers, progress=progress, scheduler=scheduler, tasks=tasks)
+    except SweepError as exc:
+        raise UsageError(str(exc)) from None
+    rows = quick_rows(done, configs)
+    out.write_text(json.dumps(rows, indent=1) + "\n")
+    missing = [f"{c.name}: {m}" for c, m in tasks if (c.name, m) not in done]
+    out.with_suffix(".md").write_text(quick_markdown(rows, time.perf_counter() - t0, missing))
+    for r in rows:
+        print(f"{r['config']:10s} " + "  ".join(f"{k} {_fmt(r[k])}" for k in
+                                                ("real_time_factor", "burst_real_time_factor", "episode_wall_s"))
+              + "  errors " + ", ".join(f"{k} {100 * v:.2f} %" for k, v in r["errors"].items()))
+    print(f"wrote {out}, {out.with_suffix('.md')}")
+    return 0
+
+
+def _fmt(v) -> str:
+    return "—" if v is None else f"{v:.3g}"

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from flagellum.commands.common import SCHEDULER_HELP, UsageError, parse_number, parse_workers
+from flagellum.commands.common import DEFAULT_PRESET_ARG, SCHEDULER_HELP, UsageError, parse_number, parse_workers
 
 NAME = "evaluate"
 HELP = "run each controller on each path (parallel, resumable); write results.json and results.md"
@@ -14,7 +14,7 @@ DESCRIPTION = ("Every --controller on every path of --paths ('square', path file
                "Writes DIR/results.json (per_path and aggregate) and DIR/results.md. Each controller is built once "
                "before any episode runs, so a missing or bad turn map or agent stops the command at once.")
 ACCEPTS_SET = False  # the turn map fixes the swimmer: choose --preset
-PRESET = ("fast", "fast")
+PRESET = DEFAULT_PRESET_ARG
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

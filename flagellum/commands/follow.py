@@ -7,7 +7,7 @@ import json
 import re
 from pathlib import Path
 
-from flagellum.commands.common import UsageError, ensure_dir, parse_int, parse_number
+from flagellum.commands.common import DEFAULT_PRESET_ARG, UsageError, ensure_dir, parse_int, parse_number
 
 NAME = "follow"
 HELP = "drive FlagellumSteer-v0 along a path with a controller; write summary.json and plots (Fig. 6)"
@@ -17,7 +17,7 @@ DESCRIPTION = ("Follow --path (square = the paper's 0.25 m square, or a path fil
                "and the per-step trace: DIR/trace.npz for one controller, DIR/trace_<controller>.npz (each "
                "controller's spec with other characters than letters, digits, '-' and '_' as '_') for several.")
 ACCEPTS_SET = False  # the turn map fixes the swimmer: choose --preset
-PRESET = ("fast", "fast")
+PRESET = DEFAULT_PRESET_ARG
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

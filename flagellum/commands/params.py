@@ -7,7 +7,7 @@ import dataclasses
 import json
 from typing import Any
 
-from flagellum.commands.common import build_config, parse_overrides
+from flagellum.commands.common import PARAMETER_DEFAULTS, build_config, parse_overrides
 from physics.params import parameter_table
 
 NAME = "params"
@@ -15,6 +15,9 @@ HELP = "list every parameter with its default, unit, allowed range and meaning"
 DESCRIPTION = ("List the physical (SwimmerParams) and numerical (NumericsConfig) parameters. "
                "Any of them can be changed on every command with --set NAME=VALUE. "
                "With --set, a 'value' column shows the result.")
+
+
+PRESET = (None, PARAMETER_DEFAULTS)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

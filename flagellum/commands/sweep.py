@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from flagellum.commands.common import SCHEDULER_HELP, UsageError, parse_overrides, parse_workers
+from flagellum.commands.common import PARAMETER_DEFAULTS, SCHEDULER_HELP, UsageError, parse_overrides, parse_workers
 from batch.sweep import (RESULTS_FILE, SweepConfig, SweepConfigError, SweepError, SweepIncomplete,
                              SweepInterrupted, load_sweep_config, run_sweep)
 from batch.backends import default_workers
@@ -23,6 +23,9 @@ DESCRIPTION = ("Run one constant-speed swim per point of the sweep in FILE (see 
 MAX_TABLE_ROWS = 40
 _COLUMNS = (("displacement_m", "displacement_m", ".4g"), ("distance_per_motor_turn_m", "per_turn_m", ".4g"),
             ("end_to_end_ratio", "L'/L", ".4f"), ("mean_motor_power_W", "power_W", ".3g"))
+
+
+PRESET = (None, "the sweep file's preset:, else " + PARAMETER_DEFAULTS)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

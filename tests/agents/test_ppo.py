@@ -89,7 +89,7 @@ def test_turn_features_describe_the_turn_the_next_corner_and_the_last_turns_erro
 
 
 def test_shipped_config_loads_and_held_out_seeds_are_refused(tmp_path):
-    cfg = TrainConfig.from_yaml("agents/configs/ppo_residual_fast.yml")
+    cfg = TrainConfig.from_yaml("agents/configs/ppo_residual_coarse.yml")
     assert cfg.preset == "fast" and cfg.n_envs == 2 and cfg.max_wall_time_s <= 7200
     assert cfg.stage_at(0).name == "single_turns" and cfg.stage_at(10_000).name == "eval_like"
     assert all(s < 1000 for s in cfg.validation.seeds)

@@ -1,0 +1,209 @@
+"""Time integration (physics/time_integrator.py and the simulator's adaptive steps): the BDF2 formulas,
+the error estimate and controller, the order of each scheme on a burst, exact switch times, the Newton
+Jacobian against finite differences, and SimulationError when the step cannot be made small enough."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from physics.elastic import banded_to_dense, elastic_hessian_banded_kernel
+from physics import MotorSchedule, Simulator, SimulationError, advance, configure, run_simulation
+from physics.params import RPM_TO_RAD_S
+from physics.time_integrator import (GROW_MAX, History, error_norm, next_step, split_remaining, step_base,
+                                     step_spans, velocity_of)
+
+
+def _quadratic(t):
+    return np.array([1.0 + 2.0 * t - 3.0 * t * t, 0.5 * t * t, -t])
+
+
+def _history(times, f):
+    hist = History()
+    hist.restart(times[0], f(times[0]), np.zeros(3))
+    for t in times[1:]:
+        hist.push(t, f(t), np.zeros(3))
+    return hist
+
+
+def test_bdf2_is_exact_for_quadratics_with_variable_steps():
+    hist = _history([0.0, 0.3, 0.4], _quadratic)  # steps 0.3, 0.1, then 0.25
+    base = step_base(hist, 0.25, "bdf2")
+    assert base.order == 2
+    t = 0.65
+    v = velocity_of(_quadratic(t), base)
+    np.testing.assert_allclose(v, [2.0 - 6.0 * t, t, -1.0], rtol=1e-12, atol=1e-12)
+    # and the predictor (quadratic through three points) is exact too, so the estimate is zero
+    np.testing.assert_allclose(base.q_pred, _quadratic(t), atol=1e-12)
+    assert error_norm(_quadratic(t), base, np.ones(3), 1e-6) == pytest.approx(0.0, abs=1e-6)
+
+
+def test_error_ratios_of_the_estimate_are_the_classic_constants_at_constant_steps():
+    cubic = lambda t: np.array([t**3, 0.0, 0.0])  # noqa: E731
+    hist = _history([0.0, 0.1, 0.2], cubic)
+    base = step_base(hist, 0.1, "bdf2")
+    assert base.error_ratio == pytest.approx(2.0 / 9.0)
+    assert step_base(_history([0.0, 0.1], cubic), 0.1, "euler").error_ratio == pytest.approx(0.5)
+    # right after a restart there is no estimate (the motion may have a kink there)
+    assert step_base(_history([0.2], cubic), 0.1, "bdf2").error_ratio is None
+
+
+def test_estimate_matches_the_true_local_error_of_bdf2_on_a_cubic():
+    """For q = t^3 the BDF2 step's true local error and the Milne estimate agree (constant steps)."""
+    h = 0.01
+    cubic = lambda t: np.array([t**3])  # noqa: E731
+    hist = _history([0.0, h, 2 * h], lambda t: np.array([t**3]))
+    base = step_base(hist, h, "bdf2")
+    # solve the BDF2 step for q' = 3 t^2 exactly: (q - q^) / h_e = 3 t^2
+    t = 3 * h
+    q_new = base.q_hat + base.h_eff * 3.0 * t * t
+    true_err = abs(q_new[0] - cubic(t)[0])
+    est = error_norm(q_new, base, np.ones(1), 1.0)
+    assert est == pytest.approx(true_err, rel=1e-6)
+
+
+def test_controller_and_end_of_step_splitting():
+    assert next_step(0.1, 0.0, 2) == pytest.approx(GROW_MAX * 0.1)
+    assert next_step(0.1, 1.1, 2) < 0.1
+    assert next_step(0.1, 0.5, 2) == 0.1  # a small growth keeps h (the factorisation stays valid)
+    assert split_remaining(0.1, 0.12) == 0.12
+    assert split_remaining(0.1, 0.15) == pytest.approx(0.075)
+    assert split_remaining(0.1, 0.5) == 0.1
+    n = configure("faithful")[1]
+    spans = step_spans(0.25, n)
+    assert spans == [None, None, pytest.approx(0.05)]
+    assert len(step_spans(0.25, configure("paper")[1])) == 250
+
+
+def _burst_end(integrator: str, dt: float, step_tol: float = 0.0) -> np.ndarray:
+    """Node positions after a 0.4 s burst at 150 rpm from rest (a coarse rod, so the test is cheap)."""
+    p, n = configure("coarse", {"n_nodes": 24, "integrator": integrator, "dt": dt, "step_tol": step_tol,
+                                "newton_tol": 1e-9, "jacobian_refresh": "resistance", "hydro_refresh_tol": 0.0})
+    sim = Simulator(p, n)
+    sim.set_motor_speed(150 * RPM_TO_RAD_S)
+    advance(sim, 0.4)
+    assert sim.time == pytest.approx(0.4)
+    return sim.nodes
+
+
+@pytest.fixture(scope="module")
+def burst_reference():
+    return _burst_end("bdf2", 0.4 / 512)
+
+
+def test_fixed_step_orders_on_a_burst(burst_reference):
+    """Halving h divides the error by ~2 with implicit Euler and by ~4 with BDF2."""
+    errs = {}
+    for scheme in ("euler", "bdf2"):
+        errs[scheme] = [float(np.abs(_burst_end(scheme, h) - burst_reference).max()) for h in (0.4 / 32, 0.4 / 64)]
+    euler_ratio = errs["euler"][0] / errs["euler"][1]
+    bdf2_ratio = errs["bdf2"][0] / errs["bdf2"][1]
+    assert 1.6 < euler_ratio < 2.6, errs
+    assert bdf2_ratio > 3.0, errs
+    assert errs["bdf2"][1] < 0.2 * errs["euler"][1]
+
+
+def test_adaptive_error_falls_with_the_tolerance_at_the_schemes_order(burst_reference):
+    """With the local error per step held at tol, the global error of a p-th order scheme goes as
+    tol^(p/(p+1)): dividing tol by 8 divides BDF2's error by ~4 (at least 2.5 here)."""
+    e1 = float(np.abs(_burst_end("bdf2", 0.1, 8e-3) - burst_reference).max())
+    e2 = float(np.abs(_burst_end("bdf2", 0.1, 1e-3) - burst_reference).max())
+    assert e1 / e2 > 2.5, (e1, e2)
+
+
+def test_a_schedule_switch_is_a_step_boundary_and_restarts_the_history():
+    """A switch at 0.35 s inside a 0.1 s control step: one accepted step ends exactly there and the next one
+    starts afresh (implicit Euler at h_start)."""
+    p, n = configure("faithful", {"n_nodes": 24})
+    sim = Simulator(p, n)
+    ends, orders = [], []
+    commit = sim._commit
+
+    def spy(q, base, *args, **kwargs):
+        commit(q, base, *args, **kwargs)
+        ends.append(sim.time)
+        orders.append((base.order, base.h, sim.omega))
+
+    sim._commit = spy
+    result = run_simulation(p, n, MotorSchedule(((0.0, 10.0), (0.35, 150.0))), 0.6, record_interval_s=0.1,
+                            progress=False, simulator=sim)
+    assert result.error is None and sim.time == pytest.approx(0.6)
+    i = int(np.argmin(np.abs(np.array(ends) - 0.35)))
+    assert ends[i] == pytest.approx(0.35, abs=1e-12)
+    order, h, omega = orders[i + 1]
+    assert order == 1 and h == pytest.approx(n.h_start) and omega == pytest.approx(150 * RPM_TO_RAD_S)
+    assert all(o[2] == pytest.approx(10 * RPM_TO_RAD_S) for o in orders[: i + 1])
+
+
+def test_newton_jacobian_matches_finite_differences_of_the_bdf2_residual():
+    """dr/dq of the implicit step (BDF2 base, h_e; elastic + hydrodynamic + inertia + contact) against central
+    differences of the residual, at a bent, twisted state after a burst."""
+    p, n = configure("faithful", {"n_nodes": 20, "jacobian_refresh": "resistance"})
+    sim = Simulator(p, n)
+    sim.set_motor_speed(150 * RPM_TO_RAD_S)
+    advance(sim, 0.5)
+    base = sim._base_for(0.02)
+    sim._base = base
+    q = base.q_pred.copy()
+    q[sim.prescribed] = sim.q[sim.prescribed] + base.h * sim.omega
+    solver = sim._solver
+    solver.begin_step(q, base.h_eff)
+    solver._refresh_hydro(q)
+    solver.Qh = np.eye(3)
+    if sim.contact is not None:
+        sim._contact_broad_phase(q)
+        sim._contact_q = q.copy()
+    J = solver.dense_jacobian(q, base.h_eff, solver.hyd.dense())
+    t, d1, d2, rt, m1, m2 = sim.frames_at(q)
+    K = banded_to_dense(elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *sim.rest_arrays))
+    free = np.setdiff1d(np.arange(q.size), sim.prescribed)
+    fd_rest = np.zeros((q.size, q.size))  # inertia + hydrodynamics (+ contact, none here)
+    fd_grad = np.zeros((q.size, q.size))  # elastic gradient
+    for j in free:
+        eps = 1e-7 * (p.rod_radius if j % 4 != 3 else 1.0)
+        qp, qm = q.copy(), q.copy()
+        qp[j] += eps
+        qm[j] -= eps
+        (rp, gp, *_), (rm, gm, *_) = sim._residual(qp, base.h_eff), sim._residual(qm, base.h_eff)
+        fd_rest[:, j] = ((rp - gp) - (rm - gm)) / (2 * eps)
+        fd_grad[:, j] = (gp - gm) / (2 * eps)
+    sub = np.ix_(free, free)
+    scale = np.abs(J[sub]).max()
+    np.testing.assert_allclose((J - K)[sub], fd_rest[sub], atol=1e-7 * scale)
+    # The elastic Hessian is exact where the frames were last updated (the step's start): there it is the
+    # symmetric part of the gradient's derivative (as in tests/physics/test_rod_energy.py). Away from it (here
+    # the predictor, 0.24 rad of twist later) it drops the frames' transport: ~2e-4 of its largest entry,
+    # which slows the chord iteration a little and changes nothing it converges to.
+    assert np.abs(K - 0.5 * (fd_grad + fd_grad.T))[sub].max() < 1e-3 * scale
+    q0 = sim.q.copy()
+    t, d1, d2, rt, m1, m2 = sim.frames_at(q0)
+    K0 = banded_to_dense(elastic_hessian_banded_kernel(q0, d1, d2, rt, m1, m2, *sim.rest_arrays))
+    for j in free:
+        eps = 1e-7 * (p.rod_radius if j % 4 != 3 else 1.0)
+        qp, qm = q0.copy(), q0.copy()
+        qp[j] += eps
+        qm[j] -= eps
+        fd_grad[:, j] = (sim._residual(qp, base.h_eff)[1] - sim._residual(qm, base.h_eff)[1]) / (2 * eps)
+    np.testing.assert_allclose(K0[sub], 0.5 * (fd_grad + fd_grad.T)[sub], atol=1e-6 * np.abs(K0).max())
+
+
+def test_adaptive_run_that_cannot_meet_its_tolerance_raises_simulation_error():
+    p, n = configure("faithful", {"n_nodes": 20, "step_tol": 1e-12, "h_start": 1e-3, "h_min": 5e-4})
+    sim = Simulator(p, n)
+    sim.set_motor_speed(150 * RPM_TO_RAD_S)
+    with pytest.raises(SimulationError) as info:
+        advance(sim, 1.0)
+    err = info.value
+    assert err.quantity == "local error" and math.isfinite(err.time_s) and err.step >= 0
+    assert "h_min" in str(err) and f"step {err.step}" in str(err)
+
+
+def test_step_duration_is_checked():
+    sim = Simulator(*configure("faithful", {"n_nodes": 20}))
+    with pytest.raises(ValueError, match="allowed: > 0 and <= dt"):
+        sim.step(0.5)
+    fixed = Simulator(*configure("coarse", {"n_nodes": 20}))
+    with pytest.raises(ValueError, match="fixed steps"):
+        fixed.step(0.005)
