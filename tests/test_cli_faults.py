@@ -48,7 +48,7 @@ def test_output_folders_that_cannot_be_made_are_named(usage_error, a_file, one_t
 
 
 @pytest.mark.parametrize("command", [["bench", "--quick"], ["evaluate", "--paths", "square", "--controller", "rule"],
-                                     ["calibrate-turns", "--preset", "fast"]])
+                                     ["calibrate-turns", "--preset", "coarse"]])
 @pytest.mark.parametrize("value", ["-1", "0", "1.5", "many"])
 def test_workers_must_be_a_whole_number_of_at_least_one(usage_error, tmp_path, command, value):
     line = usage_error(command + ["--workers", value, "--out" if command[0] != "bench" else "--json",
@@ -117,7 +117,7 @@ def test_a_failing_turn_in_calibrate_turns_is_one_line_with_advice_that_does_not
         return []
 
     monkeypatch.setattr(turn_calibration, "run_tasks", all_fail)
-    line = usage_error(["calibrate-turns", "--preset", "fast", "--t-c", "5", "--phases", "0", "--out",
+    line = usage_error(["calibrate-turns", "--preset", "coarse", "--t-c", "5", "--phases", "0", "--out",
                                  str(tmp_path / "m.json"), "--no-progress"])
     assert "1 of 1 turns were not measured" in line and "t_c=5 s" in line and "Newton failed at t=3" in line
     assert "leave its burst length out of --t-c" in line
@@ -138,7 +138,7 @@ def test_a_bad_training_setting_names_the_file_and_the_key(usage_error, tmp_path
 
 @pytest.mark.parametrize("command", [["sweep", "--config", "examples/sweep_small.yaml"],
                                      ["evaluate", "--paths", "square", "--controller", "rule"],
-                                     ["calibrate-turns", "--preset", "fast"], ["bench", "--quick"]])
+                                     ["calibrate-turns", "--preset", "coarse"], ["bench", "--quick"]])
 @pytest.mark.parametrize("address, fragments", [
     ("nope", ["--scheduler 'nope'", "tcp://HOST:PORT"]),
     ("tcp://127.0.0.1:99999", ["'tcp://127.0.0.1:99999'", "tcp://HOST:PORT"]),
@@ -164,7 +164,7 @@ def test_a_scheduler_nobody_listens_at_fails_at_once_with_its_address(usage_erro
 
 
 @pytest.mark.parametrize("command, module", [(["evaluate", "--paths", "square", "--controller", "rule"], evaluation),
-                                             (["calibrate-turns", "--preset", "fast"], turn_calibration)])
+                                             (["calibrate-turns", "--preset", "coarse"], turn_calibration)])
 def test_evaluate_and_calibrate_turns_pass_the_scheduler_to_the_task_pool(tmp_path, command, module, monkeypatch):
     import batch.backends as backends
 
@@ -230,7 +230,7 @@ def _wait_for_workers(proc: subprocess.Popen, n: int, deadline_s: float = 120.0)
 
 
 def test_sigterm_stops_simulate_like_ctrl_c_and_writes_what_was_computed(tmp_path):
-    proc = _cli(["simulate", "--omega-rpm", "10", "--duration", "5000", "--preset", "fast", "--out",
+    proc = _cli(["simulate", "--omega-rpm", "10", "--duration", "5000", "--preset", "coarse", "--out",
                  str(tmp_path / "o")], tmp_path)
     seen = b""
     while b"%|" not in seen:  # the progress bar is up: the simulation runs
@@ -267,7 +267,7 @@ def test_sigterm_stops_evaluate_and_its_workers(tmp_path, one_turn):
 
 def test_workers_exit_when_their_parent_is_killed(tmp_path):
     cfg = tmp_path / "long.yaml"
-    cfg.write_text("preset: fast\nsweep: {omega_rpm: [10, 20]}\nduration_s: 5000\n")
+    cfg.write_text("preset: coarse\nsweep: {omega_rpm: [10, 20]}\nduration_s: 5000\n")
     proc = _cli(["sweep", "--config", str(cfg), "--workers", "2", "--no-progress", "--out", str(tmp_path / "o")],
                 tmp_path, start_new_session=True)
     workers = _wait_for_workers(proc, 2)

@@ -12,7 +12,7 @@ How a block runs (in a scratch folder, so nothing is written into the repository
 Budgets: before running, ``BUDGETS`` replaces these exact texts (nothing else changes):
 
 - ``--duration T`` -> ``--duration 0.02``; ``--path square`` and ``--paths eval`` -> a one-turn path
-  (2 cm ahead, then 8 cm to the left); ``calibrate-turns --preset fast`` -> one burst length and one
+  (2 cm ahead, then 8 cm to the left); ``calibrate-turns --preset coarse`` -> one burst length and one
   phase, written in the scratch folder; the training config -> a 3-decision one (as in
   ``tests/agents/test_ppo.py``);
 - Python: ``control_dt=2.0,`` -> ``control_dt=2.0, max_episode_steps=3,``; ``PPO("MlpPolicy", venv)``
@@ -43,7 +43,7 @@ ONE_TURN_PY = ('path_from_waypoints([[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]], name=
 TINY_TRAINING = {"tiny": {
     "n_envs": 1, "n_timesteps": 3, "seed": 0, "checkpoint_every": 1, "n_steps": 3, "batch_size": 3, "n_epochs": 1,
     "policy_kwargs": {"net_arch": [8], "log_std_init": -1.0},
-    "task": {"preset": "fast", "limits": {"max_dtc_fraction": 0.1},
+    "task": {"preset": "coarse", "limits": {"max_dtc_fraction": 0.1},
              "curriculum": [{"name": "one", "until": 3, "random_path": {
                  "n_waypoints": 1, "segment_length_m": [0.03, 0.04], "min_turn_deg": 70.0, "max_turn_deg": 90.0}}],
              "validation": {"seeds": [5], "every": 3, "random_path": {
@@ -54,7 +54,7 @@ BUDGETS: tuple[tuple[str, str], ...] = (
     (r"--duration \S+", "--duration 0.02"),
     (r"--path square\b", "--path {scratch}/one_turn.json"),
     (r"--paths eval\b", "--paths {scratch}/one_turn.json"),
-    (r"calibrate-turns --preset fast\b", "calibrate-turns --preset fast --t-c 1 --phases 0 --out {scratch}/fast.json"),
+    (r"calibrate-turns --preset coarse\b", "calibrate-turns --preset coarse --t-c 1 --phases 0 --out {scratch}/coarse.json"),
     (r"--config agents/configs/ppo_residual_coarse\.yml", "--config {scratch}/tiny.yml"),
     (r"control_dt=2\.0,", "control_dt=2.0, max_episode_steps=3,"),
     (r'PPO\("MlpPolicy", venv\)', 'PPO("MlpPolicy", venv, n_steps=4, batch_size=8)'),

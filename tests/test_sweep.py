@@ -78,12 +78,12 @@ def test_zip_expansion_pairs_the_i_th_values():
 
 
 def test_preset_then_fixed_then_point_values_are_applied_in_that_order():
-    config = SweepConfig(sweep={"dt": [0.01]}, duration_s=0.1, preset="fast", fixed={"omega_rpm": 10, "n_nodes": 26})
+    config = SweepConfig(sweep={"dt": [0.01]}, duration_s=0.1, preset="coarse", fixed={"omega_rpm": 10, "n_nodes": 26})
     (point,) = config.points()
     assert point.params.n_nodes == 26 and point.numerics.dt == 0.01
     from physics.presets import PRESETS
 
-    assert point.numerics.hydro_refresh_tol == PRESETS["fast"]["numerics"]["hydro_refresh_tol"]  # from the preset
+    assert point.numerics.hydro_refresh_tol == PRESETS["coarse"]["numerics"]["hydro_refresh_tol"]  # from the preset
     assert point.omega_rpm == 10.0
 
 

@@ -25,9 +25,9 @@ def test_every_preset_has_a_shipped_turn_map_that_loads():
 def test_a_users_turn_map_is_preferred_to_the_shipped_one(tmp_path, monkeypatch):
     monkeypatch.setenv("FLAGELLUM_TURN_MAPS", str(tmp_path))
     assert user_turn_map_dir() == tmp_path
-    assert default_turn_map("fast") == packaged_turn_map("fast")
-    (tmp_path / "fast.json").write_text(packaged_turn_map("fast").read_text())
-    assert default_turn_map("fast") == tmp_path / "fast.json"
+    assert default_turn_map("coarse") == packaged_turn_map("coarse")
+    (tmp_path / "coarse.json").write_text(packaged_turn_map("coarse").read_text())
+    assert default_turn_map("coarse") == tmp_path / "coarse.json"
     assert default_turn_map("paper") == packaged_turn_map("paper")
 
 

@@ -19,7 +19,7 @@ SHORT = path_from_waypoints([[0.004, 0.0, 0.0]], name="short", reach_radius_m=0.
 
 def test_evaluate_writes_results_and_resumes(tmp_path, monkeypatch):
     out = tmp_path / "eval"
-    res = evaluate([SHORT], ["rule"], "fast", out, workers=1, progress=False)
+    res = evaluate([SHORT], ["rule"], "coarse", out, workers=1, progress=False)
     doc = json.loads((out / "results.json").read_text())
     assert doc == json.loads(json.dumps(res))
     row = doc["per_path"][0]
@@ -33,11 +33,11 @@ def test_evaluate_writes_results_and_resumes(tmp_path, monkeypatch):
     assert "| success rate (%) | 100 |" in (out / "results.md").read_text()
     # a resumed run starts no worker and gives the same numbers
     monkeypatch.setattr(task_pool, "make_backend", lambda *a: pytest.fail("resume started workers"))
-    again = evaluate([SHORT], ["rule"], "fast", out, resume=True, progress=False)
+    again = evaluate([SHORT], ["rule"], "coarse", out, resume=True, progress=False)
     assert again["per_path"][0]["time_s"] == row["time_s"]
     # report-only lists what was never run instead of running it
     other = path_from_waypoints([[0.0, 0.004, 0.0]], name="other")
-    partial = evaluate([SHORT, other], ["rule"], "fast", out, report_only=True, progress=False)
+    partial = evaluate([SHORT, other], ["rule"], "coarse", out, report_only=True, progress=False)
     assert partial["missing"] == ["rule on other"] and len(partial["per_path"]) == 1
 
 
@@ -90,7 +90,7 @@ def test_resolve_paths_errors_and_folders(tmp_path):
     (["evaluate", "--paths", "square", "--controller", "magic"], "controller 'magic' is not allowed"),
     (["follow", "--path", "square", "--controller", "ppo:no_agent_here"], "no trained PPO agent"),
     (["follow", "--path", "square", "--controller", "rule:nomap.json"], "no turn map at 'nomap.json'"),
-    (["calibrate-turns", "--preset", "fast", "--t-c", "-1"], "--t-c '-1' is not allowed"),
+    (["calibrate-turns", "--preset", "coarse", "--t-c", "-1"], "--t-c '-1' is not allowed"),
 ])
 def test_cli_rejects_bad_input(argv, message, capsys, tmp_path):
     with pytest.raises(SystemExit) as info:

@@ -25,14 +25,14 @@ ONE_TURN = path_from_waypoints([[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]], name="one_
 SHORT_TURN = {"n_waypoints": 1, "segment_length_m": [0.03, 0.04], "min_turn_deg": 70.0, "max_turn_deg": 90.0}
 TINY = {"tiny": {"n_envs": 1, "n_timesteps": 3, "seed": 0, "checkpoint_every": 1, "n_steps": 3, "batch_size": 3,
                  "n_epochs": 1, "policy_kwargs": {"net_arch": [8], "log_std_init": -1.0},
-                 "task": {"preset": "fast", "limits": {"max_dtc_fraction": 0.1},
+                 "task": {"preset": "coarse", "limits": {"max_dtc_fraction": 0.1},
                           "curriculum": [{"name": "one", "until": 3, "random_path": SHORT_TURN}],
                           "validation": {"seeds": [5], "every": 3, "random_path": SHORT_TURN}}}}
 
 
 @pytest.fixture(scope="module")
 def fast_map() -> TurnMap:
-    return TurnMap.load(default_turn_map("fast"))
+    return TurnMap.load(default_turn_map("coarse"))
 
 
 def _plan(theta: float = 60.0) -> dict:
@@ -90,7 +90,7 @@ def test_turn_features_describe_the_turn_the_next_corner_and_the_last_turns_erro
 
 def test_shipped_config_loads_and_held_out_seeds_are_refused(tmp_path):
     cfg = TrainConfig.from_yaml("agents/configs/ppo_residual_coarse.yml")
-    assert cfg.preset == "fast" and cfg.n_envs == 2 and cfg.max_wall_time_s <= 7200
+    assert cfg.preset == "coarse" and cfg.n_envs == 2 and cfg.max_wall_time_s <= 7200
     assert cfg.stage_at(0).name == "single_turns" and cfg.stage_at(10_000).name == "eval_like"
     assert all(s < 1000 for s in cfg.validation.seeds)
     assert [p.name for p in cfg.validation.paths()] == [f"{'planar' if i % 2 == 0 else '3d'}_{s}" for i, s in enumerate(cfg.validation.seeds)]
@@ -177,11 +177,11 @@ def test_fine_tuning_starts_from_a_trained_agent(tiny_run, tmp_path):
 def test_pretrained_agent_completes_a_short_path_deterministically():
     assert (PRETRAINED_DIR / "model.zip").is_file(), "the pretrained agent is committed with the package"
     meta = json.loads((PRETRAINED_DIR / "meta.json").read_text())
-    assert meta["preset"] == "fast" and meta["commit"]
+    assert meta["preset"] == "coarse" and meta["commit"]
     runs = []
     for _ in range(2):
-        env = FlagellumSteerEnv(path=ONE_TURN, **env_settings("ppo", "fast"))
-        ctrl = make_controller("ppo", env, "fast")
+        env = FlagellumSteerEnv(path=ONE_TURN, **env_settings("ppo", "coarse"))
+        ctrl = make_controller("ppo", env, "coarse")
         metrics, trace = run_episode(env, ctrl, ONE_TURN)
         runs.append((metrics, trace, ctrl.turns))
     (m, trace, turns), (m2, trace2, turns2) = runs

@@ -49,7 +49,7 @@ def test_wrap_angle_range():
 
 
 def _map(points, params=None) -> TurnMap:
-    return TurnMap(params=params or SwimmerParams(n_nodes=45), numerics=NumericsConfig(), preset="fast",
+    return TurnMap(params=params or SwimmerParams(n_nodes=45), numerics=NumericsConfig(), preset="coarse",
                    omega_l_rpm=10.0, omega_h_rpm=150.0, phase_node=7, points=tuple(points))
 
 

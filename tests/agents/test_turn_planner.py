@@ -17,13 +17,13 @@ ONE_TURN = path_from_waypoints([[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]], name="one_
 
 
 def _env(**kw) -> FlagellumSteerEnv:
-    return FlagellumSteerEnv(path=ONE_TURN, preset="fast", control_dt=0.2, **kw)
+    return FlagellumSteerEnv(path=ONE_TURN, preset="coarse", control_dt=0.2, **kw)
 
 
 @pytest.fixture(scope="module")
 def one_turn_episode():
     env = _env()
-    planner = make_controller("rule", env, "fast")
+    planner = make_controller("rule", env, "coarse")
     metrics, trace = run_episode(env, planner, ONE_TURN)
     return env, planner, metrics, trace
 
@@ -48,7 +48,7 @@ def test_dead_reckoned_head_matches_the_simulator(one_turn_episode):
 
 def test_predict_batches_and_is_deterministic():
     env = _env()
-    tmap = TurnMap.load(default_turn_map("fast"))
+    tmap = TurnMap.load(default_turn_map("coarse"))
     a, b = RulePlanner.for_env(env, tmap), RulePlanner.for_env(env, tmap)
     obs, _ = env.reset(seed=0)
     acts = []
@@ -63,13 +63,13 @@ def test_predict_batches_and_is_deterministic():
 
 
 def test_map_for_other_parameters_is_refused():
-    env = FlagellumSteerEnv(path=ONE_TURN, preset="fast", control_dt=0.2, params={"head_radius": 0.008})
+    env = FlagellumSteerEnv(path=ONE_TURN, preset="coarse", control_dt=0.2, params={"head_radius": 0.008})
     with pytest.raises(TurnMapMismatch, match="head_radius"):
-        make_controller("rule", env, "fast")
+        make_controller("rule", env, "coarse")
 
 
 def test_env_that_cannot_serve_the_map_is_refused():
-    tmap = TurnMap.load(default_turn_map("fast"))
+    tmap = TurnMap.load(default_turn_map("coarse"))
     with pytest.raises(ValueError, match="phase node"):
         RulePlanner.for_env(_env(n_shape_nodes=5), tmap)
     with pytest.raises(ValueError, match="omega_range_rpm"):
@@ -90,7 +90,7 @@ def test_line_miss_ahead_aside_and_behind():
 
 def test_turn_choice_keeps_course_or_predicts_a_better_line():
     env = _env()
-    planner = RulePlanner.for_env(env, TurnMap.load(default_turn_map("fast")))
+    planner = RulePlanner.for_env(env, TurnMap.load(default_turn_map("coarse")))
     head, d, node = np.zeros(3), np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.006, 0.0])
     assert planner._plan_turn(head, d, np.array([0.2, 0.001, 0.0]), node) is None  # on course
     plan = planner._plan_turn(head, d, np.array([0.0, 0.2, 0.0]), node)

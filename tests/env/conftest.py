@@ -15,7 +15,7 @@ from flagellum_env.steer_env import FlagellumSteerEnv
 
 SMALL: dict[str, Any] = {
     "path": [[0.003, 0.0, 0.0], [0.006, 0.001, 0.0]],
-    "preset": "fast",
+    "preset": "coarse",
     "control_dt": 0.2,
     "omega_range_rpm": (10.0, 40.0),
     "discrete_speeds_rpm": (10.0, 25.0, 40.0),

@@ -14,7 +14,7 @@ from flagellum_env.steer_env import FlagellumSteerEnv
     ({"path": "circle"}, r"path='circle' is neither one of \['square', 'random'\]"),
     ({"path": [[0.0, 0.0, 0.0]]}, "zero-length segment"),
     ({"path": 3}, "path=3 must be one of"),
-    ({"preset": "slow"}, r"preset='slow' is not allowed; choose one of \['paper', 'balanced', 'fast'\]"),
+    ({"preset": "slow"}, r"preset='slow' is not allowed; choose one of \['paper', 'faithful', 'fast', 'coarse'\]"),
     ({"control_dt": 0.0}, r"control_dt=0.0 is not allowed; allowed: a finite number > 0 s"),
     ({"control_dt": 0.0301}, r"control_dt=0.0301 s must be a whole multiple of the physics time step dt="),
     ({"omega_range_rpm": (60, 10)}, r"omega_range_rpm=\(60, 10\) must be \(lo, hi\) rpm with 0 < lo < hi"),
@@ -61,7 +61,7 @@ def test_bad_path_file_raises_through_the_env(tmp_path, small_kwargs):
 
 def test_defaults_are_documented_values():
     cfg = SteerConfig()
-    assert cfg.preset == "fast"
+    assert cfg.preset == "faithful"
     assert cfg.control_dt == 2.0
     assert cfg.action_type == "continuous"
     assert cfg.fixed_path is None  # "random"

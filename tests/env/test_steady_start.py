@@ -14,7 +14,7 @@ W10 = 10 * RPM_TO_RAD_S
 
 @pytest.fixture(scope="module")
 def fast():
-    return apply_preset("fast")
+    return apply_preset("coarse")
 
 
 def test_disk_cache_round_trip_is_bit_identical(fast, tmp_path):

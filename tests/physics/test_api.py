@@ -24,8 +24,8 @@ def test_configure_is_defaults_then_preset_then_overrides():
     assert configure() == (SwimmerParams(), NumericsConfig())
     for name in preset_names():
         assert configure(name) == apply_preset(name)
-    p, n = configure("fast", {"head_radius": "0.01", "dt": 0.005, "head_rotation": "fixed"})
-    p2, n2 = apply_overrides(*apply_preset("fast"), {"head_radius": "0.01", "dt": "0.005", "head_rotation": "fixed"})
+    p, n = configure("coarse", {"head_radius": "0.01", "dt": 0.005, "head_rotation": "fixed"})
+    p2, n2 = apply_overrides(*apply_preset("coarse"), {"head_radius": "0.01", "dt": "0.005", "head_rotation": "fixed"})
     assert (p, n) == (p2, n2) and p.head_radius == 0.01 and n.dt == 0.005
 
 
@@ -42,12 +42,12 @@ def test_configure_routes_every_field_by_name():
                                                  ({"viscosity": -1.0}, "viscosity")])
 def test_configure_names_what_is_wrong(overrides, fragment):
     with pytest.raises(ValueError, match=fragment):
-        configure("fast", overrides)
+        configure("coarse", overrides)
 
 
 @pytest.fixture(scope="module")
 def small():
-    return configure("fast", {"n_nodes": 25})
+    return configure("coarse", {"n_nodes": 25})
 
 
 def _state(sim: Simulator) -> dict:

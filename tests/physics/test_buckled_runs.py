@@ -24,8 +24,8 @@ def _run(sim: Simulator, rpm: float, duration: float, check_every: int) -> tuple
 
 
 def test_fast_preset_at_150_rpm_for_25_s_finishes_without_overlap():
-    """`flagellum simulate --preset fast --omega-rpm 150 --duration 25` failed at t = 11.9 s."""
-    sim = Simulator(*apply_preset("fast"))
+    """`flagellum simulate --preset coarse --omega-rpm 150 --duration 25` failed at t = 11.9 s."""
+    sim = Simulator(*apply_preset("coarse"))
     g_rr, g_h = _run(sim, 150.0, 25.0, 10)
     margin = sim.numerics.contact_margin * sim.params.rod_radius
     assert sim.time >= 25.0 - 1e-9
