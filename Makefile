@@ -21,10 +21,10 @@ test: install
 	OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -q -n 2 --durations=10
 
 # The rule-based planner and the pretrained PPO agent steer the swimmer around the paper's 0.25 m square
-# (fast preset), side by side:
+# (the default preset, faithful), side by side:
 # out/demo/summary.json, path.png (target vs achieved) and omega.png (the control signal).
 demo: install
-	OPENBLAS_NUM_THREADS=1 $(BIN)/flagellum follow --path square --controller rule --controller ppo --preset fast --out out/demo
+	OPENBLAS_NUM_THREADS=1 $(BIN)/flagellum follow --path square --controller rule --controller ppo --out out/demo
 
 clean:
 	rm -rf $(VENV) out build *.egg-info .pytest_cache

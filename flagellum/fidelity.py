@@ -64,10 +64,13 @@ LADDER: tuple[FidelityConfig, ...] = (
     FidelityConfig("paper, h = 5 ms", "paper", numerics={"dt": 5e-3}),
     FidelityConfig("paper, h = 5 ms, refresh 0.3 r0", "paper", numerics={"dt": 5e-3, "hydro_refresh_tol": 0.3}),
     FidelityConfig("paper, h = 5 ms, Stokes head", "paper", numerics={"dt": 5e-3, "head_model": "stokes"}),
-    FidelityConfig("balanced", "balanced"),
+    FidelityConfig("faithful", "faithful"),
+    # `balanced` until 2026-12-02 (retired: implicit Euler at 20 ms turns 14 % less than paper)
+    FidelityConfig("balanced", "paper", numerics={"dt": 2e-2, "newton_tol": 1e-5}),
     FidelityConfig("LSBT N = 60, h = 5 ms, refresh 0.1 r0", "paper",  # `balanced` before 2026-12-01
                    params={"n_nodes": 60}, numerics={"dt": 5e-3, "hydro_refresh_tol": 0.1}),
     FidelityConfig("fast", "fast"),
+    FidelityConfig("coarse", "coarse"),
     FidelityConfig("LSBT N = 30, h = 50 ms, one iteration", "paper",
                    params={"n_nodes": 30}, numerics={"dt": 0.05, "single_iteration": True, "hydro_refresh_tol": 0.3}),
     FidelityConfig("RFT N = 122, h = 5 ms", "paper", numerics={"dt": 5e-3, "hydro_model": "rft"}),
@@ -348,10 +351,12 @@ REPORT_NOTES = (
     f"|x - x_paper| / max(|x_paper|, floor), floor {ANGLE_FLOOR_DEG:g}° for angles (φ is often near 0) and 0 "
     "otherwise. RTF = simulated seconds per wall second; RTF (10 rpm) is from the swim-speed task, RTF (90 rpm) "
     "from the L'/L task. ω_b is the midpoint of its final 10-rpm bracket (L'/L(100 s) < 0.98 by bisection on "
-    "[50, 130] rpm), so configurations in the same bracket show 0 % and a neighbouring bracket 13 %. Presets: `paper` N = 122, h = 1 ms, refresh 0.03 r0, Newton 1e-6; `balanced` N = 122, "
-    "h = 20 ms, refresh 0.03 r0, Newton 1e-5 (until 2026-12-01 `balanced` was N = 60, h = 5 ms, refresh 0.1 r0: "
-    "that configuration keeps its records under its own name, `LSBT N = 60, ...`); `fast` N = 45, h = 10 ms, "
-    "refresh 0.1 r0, Newton 1e-5. Why the coarse grids turn less: docs/node_convergence.md.")
+    "[50, 130] rpm), so configurations in the same bracket show 0 % and a neighbouring bracket 13 %. Presets: `paper` N = 122, implicit Euler at h = 1 ms, refresh 0.03 r0, Newton 1e-6; `faithful` N = 122, "
+    "BDF2 with step_tol 1e-4 inside 0.1 s steps, Jacobian refactorised with the resistance; `fast` the same with "
+    "step_tol 1e-3; `coarse` N = 45, h = 10 ms, refresh 0.1 r0, Newton 1e-5 (called `fast` until 2026-12-02); "
+    "`balanced` is the retired preset N = 122, implicit Euler at h = 20 ms (until 2026-12-01 N = 60, h = 5 ms, "
+    "refresh 0.1 r0: that configuration keeps its records under its own name, `LSBT N = 60, ...`). Why the "
+    "coarse grids turn less: docs/node_convergence.md.")
 
 
 def missing_tasks(done: dict[tuple[str, str], dict], configs=LADDER, metrics=FULL_METRICS) -> list[str]:

@@ -28,7 +28,7 @@ def sweep_configs() -> tuple[FidelityConfig, ...]:
     """The grid: N x refresh at h = 10 ms, then h at N = 122 and refresh 0.03 r0 (no duplicates)."""
     grid = [(n, 1e-2, tol) for tol in REFRESH_TOLS for n in NODE_COUNTS]
     grid += [(122, h, 0.03) for h in TIME_STEPS_S if h != 1e-2]
-    return tuple(FidelityConfig(_name(n, h, tol), "fast", params={"n_nodes": n},
+    return tuple(FidelityConfig(_name(n, h, tol), "coarse", params={"n_nodes": n},
                                 numerics={"dt": h, "hydro_refresh_tol": tol}) for n, h, tol in grid)
 
 

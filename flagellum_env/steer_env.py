@@ -136,7 +136,7 @@ class FlagellumSteerEnv(gym.Env):
     |---------------------|----------------------|-----------------------------------------------------------|
     | path                | "random"             | "square" (paper, side 0.25 m), "random" (new each reset), a path-file name (JSON), a list of [x, y, z] waypoints (m) or a ``WaypointPath`` |
     | random_path         | None                 | ``RandomPathConfig`` or dict: n_waypoints 3, segment_length_m (0.03, 0.08), max_turn_deg 90, planar True |
-    | preset              | "fast"               | physics preset: "paper", "balanced" or "fast"            |
+    | preset              | "faithful"           | physics preset: "paper", "faithful", "fast" or "coarse"  |
     | params / numerics   | None                 | dicts of ``SwimmerParams`` / ``NumericsConfig`` fields applied after the preset |
     | control_dt          | 2.0                  | simulated seconds per env step (a whole number of physics steps) |
     | omega_range_rpm     | (10, 150)            | motor speeds of the continuous action, rpm (0 < lo < hi)  |

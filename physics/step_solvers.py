@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
 from numba import njit
@@ -35,8 +35,25 @@ from physics.implicit_residual import (assemble_dense_jacobian, generalised_velo
 from physics.rft import apply_blocks, rft_blocks, rft_coefficients
 from physics.rigid_alignment import best_fit_rotation
 
-if TYPE_CHECKING:  # pragma: no cover
-    from physics.simulator import Simulator
+class StepSystem(Protocol):
+    """What the solvers read of the system being stepped (``physics.simulator.Simulator`` is one): its
+    parameters, the DOF bookkeeping, the state the step starts from, and the force terms."""
+
+    params: Any
+    numerics: Any
+    stats: Any
+    mass: np.ndarray  # lumped masses (ndof,)
+    vdofs: np.ndarray  # DOFs of the generalised velocities
+    prescribed: np.ndarray  # Dirichlet DOFs
+    head_spins: bool
+    omega: float  # motor speed, rad/s
+    rest_arrays: tuple
+    contact: Any  # physics.contact.ContactModel or None
+    _base: Any  # physics.time_integrator.StepBase of the step being taken
+
+    def frames_at(self, q: np.ndarray) -> tuple: ...
+
+    def contact_terms(self, q: np.ndarray) -> tuple: ...
 
 
 class StepFailed(Exception):
@@ -57,7 +74,7 @@ _H_REUSE = (0.8, 1.25)
 class DenseChordSolver:
     """LSBT + head resistance with reused factorisations (see module docstring)."""
 
-    def __init__(self, sim: "Simulator") -> None:
+    def __init__(self, sim: StepSystem) -> None:
         self.sim = sim
         self.reset()
 
@@ -200,7 +217,7 @@ def _contact_signature(nodes: np.ndarray) -> frozenset:
 class BandedNewtonSolver:
     """Local RFT + Stokes head: block-diagonal resistance, exact banded Newton (O(N) per iteration)."""
 
-    def __init__(self, sim: "Simulator") -> None:
+    def __init__(self, sim: StepSystem) -> None:
         self.sim = sim
         p, nm = sim.params, sim.numerics
         self.zeta = rft_coefficients(p, nm.rft_coefficients)

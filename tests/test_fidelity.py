@@ -131,30 +131,41 @@ def test_relative_error_floors_angles_only():
 
 def test_bench_runs_its_tasks_on_a_dask_cluster_with_scheduler(tmp_path, monkeypatch):
     """``flagellum bench --quick --scheduler ADDR`` on a Dask LocalCluster. Every task but the cheapest
-    configuration's is already in ``--results`` (resume), so one real task runs, on the cluster."""
+    (coarse: steady swimming) is already in ``--results`` (resume), so one real task runs, on the cluster."""
     distributed = pytest.importorskip("distributed")
     import batch.backends as backends
     from flagellum.cli import main
-    from flagellum.fidelity import LADDER
+    from flagellum.fidelity import quick_configs, quick_tasks
 
     def no_local_processes(workers):
         raise AssertionError("bench --scheduler started local worker processes")
 
     monkeypatch.setattr(backends, "LocalBackend", no_local_processes)
-    cheap = next(c for c in LADDER if c.name == "RFT N = 30, h = 50 ms, one iteration")
-    results = tmp_path / "fidelity.results.jsonl"
-    stub = {"swim_per_turn_10rpm": 0.004, "rtf": 1.0, "wall_s": 1.0}
+    configs = quick_configs()
+    tasks = quick_tasks(configs)
+    cheap = next((c, m) for c, m in tasks if c.name == "coarse" and m == "swim_per_turn_10rpm")
+    stubs = {"swim_per_turn_10rpm": {"swim_per_turn_10rpm": 0.0028, "rtf": 1.0, "rtf_cpu": 1.0, "wall_s": 1.0},
+             "burst": {"theta_burst": 80.0, "phi_burst": 80.0, "lratio_burst": 0.5, "straight": True, "rtf": 1.0,
+                       "rtf_cpu": 1.0, "wall_s": 1.0},
+             "episode": {"episode_wall_s": 9.0, "episode_cpu_s": 9.0, "episode_success": True,
+                         "episode_mean_cross_track_m": 0.01, "episode_time_s": 300.0, "rtf": 30.0, "wall_s": 9.0}}
+    results = tmp_path / "quick.results.jsonl"
     results.write_text("".join(
-        json.dumps({"config": c.name, "metric": METRICS[0], "result": stub, "error": None,
+        json.dumps({"config": c.name, "metric": m, "result": stubs[m], "error": None,
                     "measured": "2026-01-01T00:00:00Z", "commit": None, "setup": c.setup()}) + "\n"
-        for c in LADDER if c is not cheap))
+        for c, m in tasks if (c, m) != cheap))
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster:
-        assert main(["bench", "--quick", "--json", str(tmp_path / "fidelity.json"), "--results", str(results),
+        assert main(["bench", "--quick", "--json", str(tmp_path / "quick.json"), "--results", str(results),
                      "--scheduler", cluster.scheduler_address, "--no-progress"]) == 0
     lines = results.read_text().splitlines()
-    assert len(lines) == len(LADDER)
+    assert len(lines) == len(tasks)
     rec = json.loads(lines[-1])
-    assert rec["config"] == cheap.name and rec["error"] is None
+    assert rec["config"] == "coarse" and rec["metric"] == "swim_per_turn_10rpm" and rec["error"] is None
     assert 0.001 < rec["result"]["swim_per_turn_10rpm"] < 0.01  # m per motor turn
-    assert cheap.name in (tmp_path / "fidelity.md").read_text()
+    rows = json.loads((tmp_path / "quick.json").read_text())
+    assert [r["config"] for r in rows] == [c.name for c in configs]
+    row = next(r for r in rows if r["config"] == "faithful")
+    assert set(row) >= {"config", "preset", "real_time_factor", "burst_real_time_factor", "episode_wall_s", "errors"}
+    assert row["errors"]["theta"] == 0.0 and row["episode_wall_s"] == 9.0  # the stubs equal paper's
+    assert "coarse" in (tmp_path / "quick.md").read_text()

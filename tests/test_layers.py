@@ -16,10 +16,7 @@ ROOT = Path(__file__).resolve().parent.parent
 LAYERS = ("physics", "batch", "flagellum_env", "agents", "flagellum")
 
 #: File cycles that exist on purpose for now, each with the reason it stays.
-KNOWN_CYCLES: set[frozenset[str]] = {
-    # removed by the step rewrite (issue 15)
-    frozenset({"physics.simulator", "physics.step_solvers"}),
-}
+KNOWN_CYCLES: set[frozenset[str]] = set()
 
 
 def module_files() -> dict[str, Path]:
