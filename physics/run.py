@@ -186,6 +186,8 @@ def validate_run_arguments(numerics: NumericsConfig, duration_s: float, record_i
             raise ValueError(f"{name}={value!r} is not allowed; allowed: a finite time > 0 s")
     if duration_s > MAX_DURATION_S:
         raise ValueError(f"duration_s={duration_s!r} is not allowed; allowed: a time > 0 and <= {MAX_DURATION_S:g} s")
+    if getattr(numerics, "step_tol", 0.0) > 0.0:  # adaptive steps: any duration is covered exactly
+        return max(1, int(math.ceil(duration_s / numerics.dt - 1e-9)))
     n_steps = int(round(duration_s / numerics.dt))
     if n_steps < 1:
         raise ValueError(f"duration_s={duration_s!r} is shorter than one time step; "

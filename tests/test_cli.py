@@ -53,7 +53,7 @@ SIM = ["simulate", "--duration", "0.01"]
     (SIM + ["--omega-rpm", "10", "--set", "head_rotation=wobble"], ["'wobble'", "torque_free"]),
     (SIM + ["--omega-rpm", "10", "--head-radius", "0.01", "--set", "head_radius=0.02"], ["both given"]),
     (["simulate", "--omega-rpm", "10", "--duration", "-1"], ["'-1'", "> 0"]),
-    (["simulate", "--omega-rpm", "10", "--duration", "1e-5"], ["1e-05", "time step"]),
+    (["simulate", "--omega-rpm", "10", "--duration", "1e-5", "--preset", "paper"], ["1e-05", "time step"]),
     (["simulate", "--omega-rpm", "10"], ["--duration"]),
     (["simulate", "--duration", "1"], ["--omega-rpm", "--schedule"]),
     (SIM + ["--omega-rpm", "10", "--schedule", "x.csv"], ["not allowed with"]),
@@ -86,7 +86,7 @@ def _simulator_available() -> bool:
 @pytest.mark.skipif(not _simulator_available(), reason="physics.elastic is not available yet")
 def test_simulate_writes_summary_trajectory_and_plot(capsys, tmp_path):
     out = tmp_path / "run"
-    code = main(["simulate", "--omega-rpm", "60", "--duration", "0.02", "--set", "n_nodes=20",
+    code = main(["simulate", "--omega-rpm", "60", "--duration", "0.02", "--preset", "paper", "--set", "n_nodes=20",
                  "--out", str(out), "--no-progress"])
     assert code == 0
     summary = json.loads((out / "summary.json").read_text())
@@ -110,10 +110,10 @@ class _TinyFake:
     def set_motor_speed(self, omega_rad_s: float) -> None:
         pass
 
-    def step(self) -> None:
+    def step(self, duration_s: float | None = None) -> None:
         if self.step_count + 1 == self.stop_at:
             raise self.exc
-        self.time += self.dt
+        self.time += self.dt if duration_s is None else duration_s
         self.step_count += 1
 
     def end_to_end_ratio(self) -> float:
