@@ -207,3 +207,28 @@ def test_step_duration_is_checked():
     fixed = Simulator(*configure("coarse", {"n_nodes": 20}))
     with pytest.raises(ValueError, match="fixed steps"):
         fixed.step(0.005)
+
+
+def test_compiled_jacobian_assembly_is_bit_identical_to_the_numpy_form():
+    """``assemble_dense_jacobian`` replaced banded_to_dense + diagonal + np.ix_ (an exact rewrite), and
+    ``rotate_dense_blocks`` replaced T R T^T with block-diagonal T (the same sums in another order)."""
+    from physics.implicit_residual import assemble_dense_jacobian, rotate_dense_blocks
+    from physics.rigid_alignment import best_fit_rotation
+
+    rng = np.random.default_rng(0)
+    nd = 4 * 12 - 1
+    ab = rng.normal(size=(21, nd))
+    mass = rng.uniform(1e-6, 1e-5, nd)
+    vdofs = np.concatenate([np.array([k for k in range(nd) if k % 4 != 3]), [3]])
+    R = rng.normal(size=(vdofs.size, vdofs.size))
+    h = 0.0137
+    J = banded_to_dense(ab)
+    J[np.diag_indices_from(J)] += mass / h**2
+    J[np.ix_(vdofs, vdofs)] += R / h
+    np.testing.assert_array_equal(assemble_dense_jacobian(ab, mass, h, R, vdofs), J)
+    x = rng.normal(size=(12, 3))
+    Q = best_fit_rotation(x, x @ np.linalg.qr(rng.normal(size=(3, 3)))[0].T)[0]
+    T = np.eye(R.shape[0])
+    for i in range((R.shape[0] - 1) // 3):
+        T[3 * i:3 * i + 3, 3 * i:3 * i + 3] = Q
+    np.testing.assert_allclose(rotate_dense_blocks(R, Q, True), T @ R @ T.T, rtol=0, atol=1e-13 * np.abs(R).max())
