@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -48,8 +48,9 @@ class TurnResult:
     offset_m: tuple[float, float, float]  # head displacement burst start -> end of relaxation,
     #                                     # along (d0, phase-node direction, d0 x that)
     burst_end_ratio: float | None = None  # L'/L at the end of the burst
-    burst_wall_s: float | None = None     # wall and CPU seconds the burst took (benchmarks)
-    burst_cpu_s: float | None = None
+    # wall and CPU seconds the burst took (benchmarks; not part of the result's identity)
+    burst_wall_s: float | None = field(default=None, compare=False)
+    burst_cpu_s: float | None = field(default=None, compare=False)
 
 
 def rotation_rate(sim: Any, phase_node: int, duration_s: float = 1.0) -> float:

@@ -197,9 +197,9 @@ def test_set_is_neither_advertised_nor_accepted_where_it_is_not_used(usage_error
     assert "unrecognized arguments: --set dt=0.01" in line
 
 
-@pytest.mark.parametrize("command, default", [("follow", "default: fast"), ("evaluate", "default: fast"),
-                                              ("simulate", "h = 1 ms"), ("sweep", "h = 1 ms"),
-                                              ("calibrate-turns", "h = 1 ms"), ("params", "h = 1 ms"),
+@pytest.mark.parametrize("command, default", [("follow", "default: faithful"), ("evaluate", "default: faithful"),
+                                              ("simulate", "default: faithful"), ("sweep", "h = 1 ms"),
+                                              ("calibrate-turns", "default: faithful"), ("params", "h = 1 ms"),
                                               ("train", "the config's task.preset")])
 def test_every_help_text_states_the_real_default_preset(capsys, command, default):
     assert default in _help(capsys, command)
