@@ -11,6 +11,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from physics.elastic.rod_energy import banded_to_dense
+
 
 @njit(cache=True)
 def rotate_node_blocks(y: np.ndarray, Q: np.ndarray, transpose: bool) -> np.ndarray:
@@ -95,11 +97,7 @@ def assemble_dense_jacobian(ab: np.ndarray, mass: np.ndarray, h: float, R: np.nd
     ``banded_to_dense`` + diagonal + ``J[np.ix_(vdofs, vdofs)] += R / h`` (bit-identical, one pass).
     """
     nd = ab.shape[1]
-    bw = (ab.shape[0] - 1) // 2
-    J = np.zeros((nd, nd))
-    for j in range(nd):
-        for i in range(max(0, j - bw), min(nd, j + bw + 1)):
-            J[i, j] = ab[bw + i - j, j]
+    J = banded_to_dense(ab)
     for j in range(nd):
         J[j, j] += mass[j] / (h * h)
     nv = vdofs.shape[0]
