@@ -2,7 +2,8 @@
 
 Controllers are named by a spec string (``make_controller``): ``rule`` (the turn planner with
 the preset's turn map, ``agents.assets.default_turn_map``), ``rule:MAP.json`` (another
-map), ``ppo`` (the PPO agent shipped in ``agents/pretrained/``) and ``ppo:DIR`` (an agent folder
+map), ``adaptive`` / ``adaptive:MAP.json`` (the turn planner correcting its map online from the
+turns it observes, ``agents.adaptive_planner``), ``ppo`` (the PPO agent shipped in ``agents/pretrained/``) and ``ppo:DIR`` (an agent folder
 written by ``flagellum train``, or its ``model.zip``). Each has the stable-baselines3
 ``predict(obs, state, episode_start, deterministic)`` call, so the loop does not care which.
 
@@ -42,15 +43,16 @@ METRICS = ("success", "waypoints_reached", "mean_cross_track_m", "max_cross_trac
 #: The rule planner times its bursts to the flagellum's phase (~40 deg/s at 10 rpm) and its turns
 #: grow by up to ~100 deg per second of burst (paper preset), so it steps every 0.1 s.
 #: The PPO agent corrects the planner's turns (agents.residual_planner), so it steps like the planner.
-CONTROLLER_ENV_DEFAULTS: dict[str, dict[str, Any]] = {"rule": {"control_dt": 0.1}, "ppo": {"control_dt": 0.1}}
+CONTROLLER_ENV_DEFAULTS: dict[str, dict[str, Any]] = {"rule": {"control_dt": 0.1}, "adaptive": {"control_dt": 0.1},
+                                                      "ppo": {"control_dt": 0.1}}
 
 
 def controller_kind(spec: str) -> str:
-    """``"rule"`` or ``"ppo"`` from ``rule``, ``rule:FILE``, ``ppo``, ``ppo:FILE``; ValueError otherwise."""
+    """``"rule"``, ``"adaptive"`` or ``"ppo"`` from ``KIND`` or ``KIND:FILE``; ValueError otherwise."""
     kind = spec.split(":", 1)[0]
     if kind not in CONTROLLER_ENV_DEFAULTS:
-        raise ValueError(f"controller {spec!r} is not allowed; allowed: 'rule', 'rule:TURN_MAP.json', 'ppo', "
-                         "'ppo:AGENT_DIR'")
+        raise ValueError(f"controller {spec!r} is not allowed; allowed: 'rule', 'rule:TURN_MAP.json', 'adaptive', "
+                         "'adaptive:TURN_MAP.json', 'ppo', 'ppo:AGENT_DIR'")
     return kind
 
 
@@ -58,14 +60,15 @@ def make_controller(spec: str, env, preset: str):
     """The controller named by ``spec`` for this env (see the module docstring)."""
     kind = controller_kind(spec)
     arg = spec.split(":", 1)[1] if ":" in spec else None
-    if kind == "rule":
+    if kind in ("rule", "adaptive"):
+        from agents.adaptive_planner import AdaptivePlanner
         from agents.turn_map import TurnMap
         from agents.turn_planner import RulePlanner
 
         path = Path(arg) if arg else default_turn_map(preset)
         if not path.is_file():
             raise ValueError(missing_turn_map_message(path, preset, given=arg is not None))
-        return RulePlanner.for_env(env, TurnMap.load(path))
+        return (RulePlanner if kind == "rule" else AdaptivePlanner).for_env(env, TurnMap.load(path))
     from agents.ppo_policy import load_ppo_controller
 
     return load_ppo_controller(arg, env, preset)

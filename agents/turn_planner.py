@@ -167,12 +167,12 @@ class RulePlanner:
         starts = np.ones(n, bool) if episode_start is None and not self._episodes else (
             np.zeros(n, bool) if episode_start is None else np.asarray(episode_start, bool).reshape(n))
         while len(self._episodes) < n:
-            self._episodes.append(_Episode())
+            self._episodes.append(self._new_episode())
             starts[len(self._episodes) - 1] = True
         actions = []
         for i in range(n):
             if starts[i]:
-                self._episodes[i] = _Episode()
+                self._episodes[i] = self._new_episode()
             actions.append(self.action_of(self._decide(self._episodes[i], batch[i])))
         out = np.stack(actions)
         return (out[0] if single else out), None
@@ -213,6 +213,7 @@ class RulePlanner:
             limit = self.config.max_relax_factor * tm.relax_s / self.control_dt
             if waited >= 2 * self.period_steps and (self._heading_steady(ep) or waited >= limit):
                 ep.mode = "cruise"
+                self._turn_settled(ep)
             return wl
         if ep.mode == "hover":
             phase = azimuth(node, ep.axis)
@@ -236,7 +237,7 @@ class RulePlanner:
         if ep.step - ep.low_since < self.period_steps + 1:
             return wl
         d = self._heading(ep)
-        plan = self._plan_turn(ep.head, d, target, node)
+        plan = self._plan_turn(ep.head, d, target, node, ep)
         if plan is not None:
             plan = self._review_plan(ep, plan, obs)
         if plan is None:
@@ -245,6 +246,15 @@ class RulePlanner:
         ep.mode, ep.plan, ep.axis = "hover", plan, d
         ep.target_phase, ep.prev_phase, ep.hover_steps = plan["burst_phase"], azimuth(node, d), 0
         return wl
+
+    def _new_episode(self) -> _Episode:
+        """The memory of a new episode (subclasses may remember more)."""
+        return _Episode()
+
+    def _turn_settled(self, ep: _Episode) -> None:
+        """Called once the heading after the last turn (``ep.turns[-1]``) is steady (or the wait
+        ran out); ``_heading(ep)`` is then the new heading. The rule planner does not learn from it;
+        ``agents.adaptive_planner`` corrects its map."""
 
     def _review_plan(self, ep: _Episode, plan: dict, obs: np.ndarray) -> dict | None:
         """Last look at a planned turn before the hover starts: the plan to fly, or None to keep
@@ -262,7 +272,8 @@ class RulePlanner:
         b = ep.heads[-1 - k] - ep.heads[-1 - 2 * k]
         return math.degrees(angle_between(a, b)) < self.config.settle_tol_deg
 
-    def _plan_turn(self, head: np.ndarray, d: np.ndarray, target: np.ndarray, node: np.ndarray) -> dict | None:
+    def _plan_turn(self, head: np.ndarray, d: np.ndarray, target: np.ndarray, node: np.ndarray,
+                   ep: _Episode | None = None) -> dict | None:
         """The next turn (burst length, phase to burst at), or None to keep swimming straight.
 
         Every candidate turn (burst length on the map's rising branch x phase of the flagellum at
@@ -278,7 +289,7 @@ class RulePlanner:
             return None  # on course
         if math.degrees(angle_between(d, target - head)) < cfg.min_turn_deg:
             return None  # too small to turn for now; re-checked every step
-        t_c, theta, psi, off = self._candidates
+        t_c, theta, psi, off = self._candidate_turns(ep)
         beta = np.radians(np.arange(0.0, 360.0, cfg.phase_step_deg))
         e1, e2 = perpendicular_basis(d)
         e_ref = np.cos(beta)[:, None] * e1 + np.sin(beta)[:, None] * e2          # (B, 3)
@@ -293,8 +304,13 @@ class RulePlanner:
         if miss[i, j] > miss0 - cfg.improvement_m:
             return None
         return {"t_c": float(t_c[i]), "theta_deg": math.degrees(theta[i]), "burst_phase": wrap_angle(beta[j]),
+                "predicted_azimuth": wrap_angle(beta[j] + psi[i]),
                 "predicted_miss_m": float(miss[i, j]), "miss_straight_m": float(miss0),
                 "heading": d.tolist(), "head": head.tolist()}
+
+    def _candidate_turns(self, ep: _Episode | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The turns a plan chooses from in this episode: (t_c s, theta rad, psi rad, offset (T, 3) m)."""
+        return self._candidates
 
     @functools.cached_property
     def _candidates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -62,6 +62,53 @@ def rotation_rate(sim: Any, phase_node: int, duration_s: float = 1.0) -> float:
     return wrap_angle(a1 - a0) / duration_s
 
 
+@dataclass(frozen=True)
+class CruiseObservables:
+    """What a controller sees of the swimmer while it cruises at omega_l (before any turn).
+
+    strain: mean end-to-end strain L'/L - 1 (the flagellum is stretched by the load it carries,
+    about mu omega L^4 / EI); strain_sem: its standard error. rotation_rate: lab rotation rate of
+    the phase node about the head's initial axis, rad/s (least-squares slope of the unwrapped
+    azimuth; it moves with the head's rotational drag mu b^3); rotation_rate_std: its standard
+    error. samples: how many. Both readings feed ``agents.online_turn_map``.
+    """
+
+    strain: float
+    strain_sem: float
+    rotation_rate: float
+    rotation_rate_std: float
+    samples: int
+
+
+def summarise_cruise(strains: np.ndarray, azimuths: np.ndarray, sample_s: float) -> CruiseObservables:
+    """``CruiseObservables`` from samples every ``sample_s`` s: strains L'/L - 1 (n,) and azimuths
+    (n,) rad of the phase node about a fixed axis; n >= 3 (ValueError otherwise)."""
+    x = np.asarray(strains, dtype=np.float64)
+    a = np.unwrap(np.asarray(azimuths, dtype=np.float64))
+    n = x.size
+    if n < 3 or a.size != n:
+        raise ValueError(f"need at least 3 strain and azimuth samples of the same count; got {x.size} and {a.size}")
+    t = np.arange(n) * sample_s
+    tc = t - t.mean()
+    slope = float(tc @ (a - a.mean()) / (tc @ tc))
+    resid = a - a.mean() - slope * tc
+    slope_std = float(np.sqrt(resid @ resid / (n - 2) / (tc @ tc)))
+    return CruiseObservables(float(x.mean()), float(x.std(ddof=1) / math.sqrt(n)), slope, slope_std, n)
+
+
+def cruise_observables(sim: Any, phase_node: int, duration_s: float = 6.0, sample_s: float = 0.1
+                       ) -> CruiseObservables:
+    """Cruise at the current motor speed for ``duration_s``, sampling every ``sample_s`` as a
+    controller would; advances ``sim``."""
+    axis = sim.head_orientation[:, 0]
+    strains, azimuths = [], []
+    for _ in range(max(3, round(duration_s / sample_s))):
+        strains.append(sim.end_to_end_ratio() - 1.0)
+        azimuths.append(azimuth(sim.nodes[phase_node] - sim.head_position, axis))
+        advance(sim, sample_s)
+    return summarise_cruise(np.array(strains), np.array(azimuths), sample_s)
+
+
 def heading(sim: Any, period_s: float) -> np.ndarray:
     """Advance one wobble period at the current motor speed; the unit head displacement (3,)."""
     x0 = sim.head_position

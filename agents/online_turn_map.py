@@ -1,0 +1,223 @@
+"""A turn map corrected online from the turns the swimmer actually makes.
+
+The turn map (``agents.turn_map``) is a calibration of the nominal swimmer. A real swimmer
+differs: Huang & Jawed (2020, Sec. 4) name this imperfection sensitivity as the main obstacle
+for a physical robot and recommend calibrating on the robot itself. Measured here (faithful
+preset, 150 rpm burst of 6 s from steady 10 rpm, ``results/online_turn_map/sensitivity.jsonl``):
+E 5 % lower turns 42.8 deg instead of 26.2 deg, E 5 % higher 16.1 deg, mu 5 % higher 41.7 deg;
+the direction psi moves by at most ~2 deg. A parameter error moves *when* the flagellum
+buckles (the viscous time mu L^4 / EI), so the turn of a burst of t_c seconds is, to first
+order, the map's turn at t_c + s for a swimmer-specific shift s (s > 0: buckles early),
+
+    theta(t_c) = theta_map(t_c + s),        psi(t_c) = psi_map(t_c + s) + dpsi.
+
+Every settled turn gives one reading of s: the map's burst length for the observed angle
+(rising branch) minus the burst length flown. Its uncertainty is the angle's noise divided
+by the branch's slope there (steep = precise). ``OnlineTurnMap`` combines the readings with a
+Gaussian prior (s = 0) by precision weighting (a scalar Kalman filter for a constant), and
+the direction offset dpsi by a weighted circular mean of the readings of large turns.
+
+Planning with it: the candidate turns are the map's, flown ``s`` seconds shorter, and limited to
+map times ``t_map <= t_peak - caution * std(s)`` so that an uncertain swimmer is not sent
+over the branch's peak, where the buckled flagellum tumbles on and the direction flips
+(a large turn is then made in several bursts, each observed). With std(s) -> 0 the cap goes
+to the peak, and the planner is the rule planner on the swimmer's own map.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from agents.turn_map import TurnMap
+from flagellum_env.turn_geometry import wrap_angle
+from flagellum_env.turn_measurement import CruiseObservables
+from physics.validation import require_finite
+
+
+@dataclass(frozen=True)
+class OnlineMapConfig:
+    """Priors and noise of the online correction (times in s, angles in degrees).
+
+    prior_shift_std_s: prior standard deviation of the buckling-time shift s (see below).
+    theta_noise_deg +
+    theta_noise_fraction * theta: standard deviation of a measured turn angle (phase scatter,
+    the unrelaxed flagellum of a turn right after another). caution: candidates stay ``caution``
+    standard deviations of s below the branch's peak. min_theta_deg: smaller observed turns
+    give no shift reading (the branch is flat there). psi_min_theta_deg: smaller turns give no
+    direction reading (their azimuth is ill-defined). max_shift_s: readings are clipped to +-this.
+
+    The reading before any turn (``OnlineTurnMap.observe_cruise``): shift = strain_shift_s x
+    (relative change of the steady strain L'/L - 1) + rate_shift_s x (relative change of the
+    flagellum's lab rotation rate), both at omega_l; cruise_residual_std_s: what the fit leaves
+    unexplained (leave-one-out); min_cruise_samples: fewer samples give no reading. Fitted across
+    randomised swimmers by ``scripts/turn_shift_sensitivity.py --fit``
+    (``results/online_turn_map/``). prior_shift_std_s = 1 s is the spread of the shift over
+    swimmers with E, mu, b within +-10 % (measured there: rms 1.0 s).
+    """
+
+    prior_shift_std_s: float = 1.0
+    strain_shift_s: float = 10.7
+    rate_shift_s: float = 9.7
+    cruise_residual_std_s: float = 0.37
+    min_cruise_samples: int = 20
+    theta_noise_deg: float = 4.0
+    theta_noise_fraction: float = 0.1
+    caution: float = 2.0
+    min_theta_deg: float = 6.0
+    psi_min_theta_deg: float = 20.0
+    max_shift_s: float = 3.0
+
+    def __post_init__(self) -> None:
+        for name in ("prior_shift_std_s", "theta_noise_deg", "max_shift_s", "cruise_residual_std_s"):
+            require_finite(f"OnlineMapConfig.{name}", getattr(self, name), 0.0, lo_open=True)
+        for name in ("theta_noise_fraction", "caution", "min_theta_deg", "psi_min_theta_deg", "min_cruise_samples"):
+            require_finite(f"OnlineMapConfig.{name}", getattr(self, name), 0.0)
+        for name in ("strain_shift_s", "rate_shift_s"):
+            require_finite(f"OnlineMapConfig.{name}", getattr(self, name))
+
+
+def shift_reading(t_branch: np.ndarray, theta_branch: np.ndarray, t_c: float, theta_obs_deg: float,
+                  config: OnlineMapConfig) -> tuple[float, float] | None:
+    """One reading of the buckling-time shift from a flown burst ``t_c`` (s) that turned
+    ``theta_obs_deg``: (shift s, its standard deviation s), or None if the turn says nothing
+    (too small). ``t_branch``, ``theta_branch``: the map's rising branch (non-decreasing, deg).
+
+    A turn beyond the branch's peak reads as the peak (a lower bound on the shift: the next
+    reading pushes further if it was more).
+    """
+    if theta_obs_deg < config.min_theta_deg:
+        return None
+    peak = float(theta_branch[-1])
+    theta = min(float(theta_obs_deg), peak)
+    k = int(np.searchsorted(theta_branch, theta, side="left"))
+    k = min(max(k, 1), len(t_branch) - 1)
+    y0, y1 = float(theta_branch[k - 1]), float(theta_branch[k])
+    t0, t1 = float(t_branch[k - 1]), float(t_branch[k])
+    slope = (y1 - y0) / (t1 - t0) if t1 > t0 else 0.0          # deg/s
+    t_equiv = t1 if y1 == y0 else t0 + (theta - y0) / (y1 - y0) * (t1 - t0)
+    sigma_theta = config.theta_noise_deg + config.theta_noise_fraction * theta
+    std = sigma_theta / max(slope, 1e-6)
+    shift = float(np.clip(t_equiv - t_c, -config.max_shift_s, config.max_shift_s))
+    return shift, float(min(std, 10.0 * config.max_shift_s))
+
+
+@dataclass
+class OnlineTurnMap:
+    """The turn map with the swimmer's shift and direction offset, learnt from observed turns.
+
+    ``observe`` after every settled turn; ``candidates`` for the planner. ``reset`` forgets the
+    swimmer (a new episode may be a different swimmer).
+    """
+
+    turn_map: TurnMap
+    config: OnlineMapConfig = field(default_factory=OnlineMapConfig)
+
+    def __post_init__(self) -> None:
+        self._branch = self.turn_map.rising_branch()
+        self._tables: dict[float, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self.reset()
+
+    def reset(self) -> None:
+        self.shift_s = 0.0
+        self.shift_var = self.config.prior_shift_std_s ** 2
+        self._psi_sum = 0j
+        self._psi_weight = 0.0
+        self.readings: list[dict] = []
+
+    @property
+    def shift_std_s(self) -> float:
+        return math.sqrt(self.shift_var)
+
+    @property
+    def psi_offset_rad(self) -> float:
+        """Weighted circular mean of the direction readings (0 without any)."""
+        return math.atan2(self._psi_sum.imag, self._psi_sum.real) if self._psi_weight > 0.0 else 0.0
+
+    @property
+    def t_peak_s(self) -> float:
+        """Map time of the rising branch's peak, s."""
+        return float(self._branch[0][-1])
+
+    def _combine(self, reading: float, std: float) -> None:
+        w, w0 = 1.0 / (std * std), 1.0 / self.shift_var
+        self.shift_s = (w0 * self.shift_s + w * reading) / (w0 + w)
+        self.shift_var = 1.0 / (w0 + w)
+
+    def observe_cruise(self, seen: CruiseObservables, reference: CruiseObservables) -> dict | None:
+        """Update from what was seen while cruising at omega_l before the first turn (``seen``)
+        against the map swimmer's cruise (``reference``): the shift predicted by the relative
+        changes of the strain and of the rotation rate (coefficients fitted across swimmers,
+        ``OnlineMapConfig``), with the fit's residual and the readings' own noise as its spread.
+        Returns the reading, or None (too few samples or a degenerate reference)."""
+        cfg = self.config
+        if seen.samples < max(cfg.min_cruise_samples, 3) or reference.strain <= 0.0 or reference.rotation_rate == 0.0:
+            return None
+        d_strain = seen.strain / reference.strain - 1.0
+        d_rate = seen.rotation_rate / reference.rotation_rate - 1.0
+        if not (math.isfinite(d_strain) and math.isfinite(d_rate)):
+            return None
+        reading = float(np.clip(cfg.strain_shift_s * d_strain + cfg.rate_shift_s * d_rate,
+                                -cfg.max_shift_s, cfg.max_shift_s))
+        noise = math.hypot(cfg.strain_shift_s * seen.strain_sem / reference.strain,
+                           cfg.rate_shift_s * seen.rotation_rate_std / abs(reference.rotation_rate))
+        std = math.hypot(cfg.cruise_residual_std_s, noise)
+        self._combine(reading, std)
+        rec = {"strain_relative_change": d_strain, "rate_relative_change": d_rate, "shift_reading_s": reading,
+               "shift_reading_std_s": std, "shift_s": self.shift_s, "shift_std_s": self.shift_std_s}
+        self.readings.append(rec)
+        return rec
+
+    def observe(self, t_c: float, theta_obs_deg: float, azimuth_error_rad: float | None = None) -> dict:
+        """Update from one settled turn: burst ``t_c`` (s) flown, angle ``theta_obs_deg`` turned;
+        ``azimuth_error_rad``: observed minus predicted azimuth of the new heading about the old
+        one (the prediction used ``psi_offset_rad`` as it was), or None. Returns the reading."""
+        rec: dict = {"t_c": float(t_c), "theta_obs_deg": float(theta_obs_deg), "shift_before_s": self.shift_s}
+        reading = shift_reading(*self._branch, t_c, theta_obs_deg, self.config)
+        if reading is not None:
+            s, std = reading
+            self._combine(s, std)
+            rec.update(shift_reading_s=s, shift_reading_std_s=std)
+        if azimuth_error_rad is not None and theta_obs_deg >= self.config.psi_min_theta_deg:
+            # the reading is the total offset: the one already applied plus the error seen
+            total = wrap_angle(self.psi_offset_rad + float(azimuth_error_rad))
+            wt = math.sin(math.radians(min(theta_obs_deg, 90.0)))
+            self._psi_sum += wt * complex(math.cos(total), math.sin(total))
+            self._psi_weight += wt
+            rec["psi_reading_deg"] = math.degrees(total)
+        rec.update(shift_s=self.shift_s, shift_std_s=self.shift_std_s, psi_offset_deg=math.degrees(self.psi_offset_rad))
+        self.readings.append(rec)
+        return rec
+
+    def candidates(self, control_dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Turns the planner may choose now: (t_c flown s, theta rad, psi rad, offset (T, 3) m).
+
+        Map times every ``control_dt`` up to the cautious cap (module docstring); flown for
+        ``t_map - shift`` (at least one control step).
+        """
+        t_branch, theta_branch = self._branch
+        grid, psi_deg, off = self._table(control_dt)
+        cap = self.t_peak_s - self.config.caution * self.shift_std_s
+        t_lo = max(control_dt, control_dt + self.shift_s)
+        t_map = np.arange(t_lo, max(cap, t_lo) + 1e-9, control_dt)
+        theta = np.radians(np.interp(t_map, t_branch, theta_branch))
+        psi = np.radians(np.interp(t_map, grid, psi_deg)) + self.psi_offset_rad
+        offset = np.stack([np.interp(t_map, grid, off[:, k]) for k in range(3)], axis=1)
+        return t_map - self.shift_s, theta, psi, offset
+
+    def _table(self, control_dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The map's psi (deg, unwrapped) and offset (m) on a grid of map times (cached per step)."""
+        key = round(float(control_dt), 12)
+        if key not in self._tables:
+            grid = np.arange(0.0, self.t_peak_s + control_dt + 1e-9, control_dt)
+            psi = np.degrees(np.unwrap(np.radians([self.turn_map.psi_for(t) for t in grid])))
+            off = np.array([self.turn_map.offset_for(t) for t in grid]).reshape(-1, 3)
+            self._tables[key] = (grid, psi, off)
+        return self._tables[key]
+
+    def predicted_theta_deg(self, t_c: float) -> float:
+        """The corrected map's turn for a burst of ``t_c`` s flown."""
+        t_branch, theta_branch = self._branch
+        return float(np.interp(t_c + self.shift_s, t_branch, theta_branch))
