@@ -1,0 +1,154 @@
+"""``import agents`` registers FlagellumTurn-v0 (``TurnDecisionEnv``); ``gymnasium.make`` builds it, both env
+checkers pass, and the reward, the no-turn case and seeding behave as docs/env.md says.
+
+Cheap on purpose (coarse preset, a one-turn path): with ``off_path_m = 0.02`` every episode leaves the path
+during the first burst (~1.5 s of wall time per episode), which is all the checkers need; the test of the
+reward uses the same episode, the others paths that need no turn.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import agents
+from agents.residual_planner import N_FEATURES
+from agents.turn_decision_env import TurnDecisionEnv
+from flagellum_env.paths import path_from_waypoints
+
+ROOT = Path(__file__).resolve().parents[2]
+# 2 cm ahead, then a left turn of 90 degrees and 8 cm: one planned turn
+ONE_TURN = path_from_waypoints([[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]], name="one_turn", reach_radius_m=0.015)
+CHEAP = {"preset": "coarse", "paths": [ONE_TURN], "env_kwargs": {"off_path_m": 0.02}}
+FINAL_INFO = {"is_success", "waypoints_reached", "mean_cross_track_m", "time_s", "energy_J", "buckling_events",
+              "turns"}
+
+
+def test_import_registers_the_turn_env_and_make_passes_arguments():
+    assert agents.TURN_ENV_ID == "FlagellumTurn-v0"
+    assert agents.TURN_ENV_ID in gym.registry
+    env = gym.make("FlagellumTurn-v0", preset="coarse", paths=[ONE_TURN], limits={"max_dtc_fraction": 0.1},
+                   action_cost=0.5)
+    base = env.unwrapped
+    assert isinstance(base, TurnDecisionEnv)
+    assert env.spec.id == "FlagellumTurn-v0"
+    assert base.observation_space == gym.spaces.Box(-10.0, 10.0, (N_FEATURES,), np.float32)
+    assert base.action_space == gym.spaces.Box(-1.0, 1.0, (2,), np.float32)
+    assert base.planner.limits.max_dtc_fraction == 0.1 and base.planner.limits.max_dphase_deg == 30.0
+    assert base.action_cost == 0.5 and base.paths == [ONE_TURN]
+    env.close()
+
+
+def test_reimporting_does_not_register_twice():
+    spec = gym.registry[agents.TURN_ENV_ID]
+    importlib.reload(agents)
+    assert gym.registry[agents.TURN_ENV_ID] is spec
+
+
+def _fresh_python(code: str) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300,
+                          check=False)
+
+
+def test_import_agents_is_light():
+    # the registration names the entry point only: no env, physics, torch or stable-baselines3 yet
+    r = _fresh_python("import sys\n"
+                      "import agents\n"
+                      "print(sorted(m for m in sys.modules if m.split('.')[0] in ('torch', 'stable_baselines3',"
+                      " 'flagellum_env', 'numba', 'scipy') or m.startswith(('agents.', 'physics.'))))")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "[]"
+
+
+def test_without_a_prior_import_the_module_prefixed_id_works():
+    r = _fresh_python("import gymnasium as gym, sys\n"
+                      "assert 'agents' not in sys.modules\n"
+                      "env = gym.make('agents:FlagellumTurn-v0', preset='coarse')\n"
+                      "print(type(env.unwrapped).__name__)")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "TurnDecisionEnv"
+
+
+def test_gymnasium_check_env_passes():
+    # made through gymnasium.make so that the checker has a spec (render modes, close twice)
+    env = gym.make(agents.TURN_ENV_ID, disable_env_checker=True, **CHEAP).unwrapped
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the checker's warnings count as failures
+        check_env(env, skip_render_check=False)
+    env.close()
+
+
+def test_stable_baselines3_check_env_passes():
+    sb3_env_checker = pytest.importorskip("stable_baselines3.common.env_checker")
+    env = gym.make(agents.TURN_ENV_ID, **CHEAP)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sb3_env_checker.check_env(env, warn=True)
+    env.close()
+
+
+def _recording(env: TurnDecisionEnv) -> list[float]:
+    """The rewards of the base env's control steps, from now on."""
+    rewards: list[float] = []
+    step = env.base.step
+
+    def recorded(action):
+        out = step(action)
+        rewards.append(out[1])
+        return out
+
+    env.base.step = recorded
+    return rewards
+
+
+def test_reward_is_the_base_envs_reward_over_the_steps_less_the_action_cost():
+    env = TurnDecisionEnv(**CHEAP, action_cost=2.0)
+    base_rewards = _recording(env)
+    obs, info = env.reset(seed=0)
+    assert info == {"path": "one_turn"}
+    assert obs.dtype == np.float32 and obs in env.observation_space and obs[0] > 0  # a planned turn
+    before = sum(base_rewards)  # the cruise up to the first planned turn counts in the first step
+    action = np.array([0.5, -0.5], np.float32)
+    obs, reward, terminated, truncated, info = env.step(action)
+    assert terminated and not truncated  # off the path during the burst
+    assert reward == pytest.approx(sum(base_rewards) - 2.0 * 0.5, rel=1e-12)
+    assert before != 0.0 and len(base_rewards) > 1
+    assert set(info) == FINAL_INFO and info["turns"] == 1 and not info["is_success"]
+    assert np.array_equal(obs, np.zeros(N_FEATURES, np.float32))  # no turn waiting at the end
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(action)
+
+
+def test_a_path_without_a_planned_turn_ends_at_the_first_step_whatever_the_action():
+    straight = path_from_waypoints([[0.004, 0.0, 0.0]], name="straight", reach_radius_m=0.002)
+    env = TurnDecisionEnv(preset="coarse", paths=[straight], action_cost=1.0)
+    base_rewards = _recording(env)
+    obs, _ = env.reset(seed=0)
+    assert np.array_equal(obs, np.zeros(N_FEATURES, np.float32))
+    _, reward, terminated, truncated, info = env.step(np.ones(2, np.float32))
+    assert terminated and not truncated and info["is_success"] and info["turns"] == 0
+    assert reward == pytest.approx(sum(base_rewards), rel=1e-12)  # the action is not charged
+
+
+def test_a_seed_fixes_the_drawn_paths_and_reset_without_one_draws_the_next():
+    # 4-6 mm paths within 30 deg of the heading: reached (or timed out) swimming straight, so cheap
+    env = TurnDecisionEnv(preset="coarse", env_kwargs={"reach_radius_m": 0.002},
+                          random_path={"n_waypoints": 1, "segment_length_m": [0.004, 0.006], "max_turn_deg": 30.0})
+
+    def episode(seed: int | None) -> dict:
+        env.reset(seed=seed)
+        return env.step(np.zeros(2, np.float32))[4]
+
+    first, second = episode(1), episode(None)
+    assert first != second
+    assert episode(1) == first and episode(None) == second
