@@ -22,7 +22,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="'square', 'eval' (the 20 evaluation paths shipped with the package), path files (JSON) "
                              "or folders of them")
     parser.add_argument("--controller", action="append", required=True,
-                        help="rule | rule:MAP.json | ppo | ppo:AGENT_DIR (repeatable)")
+                        help="rule | rule:MAP.json | adaptive | adaptive:MAP.json | ppo | ppo:AGENT_DIR (repeatable)")
     parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/evaluate"), help="default out/evaluate")
     parser.add_argument("--workers", metavar="N", help="local worker processes (default: one per core)")
     parser.add_argument("--scheduler", metavar="ADDR", help=SCHEDULER_HELP)
@@ -31,8 +31,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="run nothing: write results.json/.md from the episodes already in DIR")
     parser.add_argument("--randomize", metavar="F",
                         help="model error: each path's swimmer has E, mu and b drawn within +-F (a fraction, e.g. "
-                             "0.05) and the helix within +-0.4 F, while the controllers keep the nominal turn map; "
-                             "the k-th path uses env seed k")
+                             "0.05) and the helix pitch and radius within +-G (--randomize-geometry, default 0.4 F), "
+                             "while the controllers keep the nominal turn map; the k-th path uses env seed k")
+    parser.add_argument("--randomize-geometry", metavar="G",
+                        help="with --randomize: the helix pitch and radius within +-G (a fraction in [0, 0.5]; "
+                             "default 0.4 F)")
     parser.add_argument("--no-progress", action="store_true", help="do not show the progress bar")
 
 
@@ -50,8 +53,16 @@ def run(args: argparse.Namespace) -> int:
         f = parse_number("--randomize", args.randomize, "a fraction in (0, 0.5]", positive=True)
         if f > 0.5:
             raise UsageError(f"--randomize {args.randomize!r} is not allowed; allowed: a fraction in (0, 0.5]")
-        overrides = {"randomize": {"youngs_modulus": f, "viscosity": f, "head_radius": f, "geometry": 0.4 * f,
+        g = 0.4 * f
+        if args.randomize_geometry is not None:
+            g = parse_number("--randomize-geometry", args.randomize_geometry, "a fraction in [0, 0.5]")
+            if not 0.0 <= g <= 0.5:
+                raise UsageError(f"--randomize-geometry {args.randomize_geometry!r} is not allowed; allowed: a "
+                                 "fraction in [0, 0.5]")
+        overrides = {"randomize": {"youngs_modulus": f, "viscosity": f, "head_radius": f, "geometry": g,
                                    "obs_noise_std": 0.0}}
+    elif args.randomize_geometry is not None:
+        raise UsageError("--randomize-geometry needs --randomize")
     try:
         results = evaluate(paths, args.controller, args.preset, args.out, workers=workers, scheduler=scheduler,
                            resume=args.resume, progress=not args.no_progress, report_only=args.report_only,

@@ -196,6 +196,10 @@ def test_pretrained_agent_completes_a_short_path_deterministically():
     (["train", "--resume", "--out", "{tmp}/empty"], "no checkpoint"),
     (["train", "--preset", "paper"], "differs from the config's task.preset"),
     (["evaluate", "--paths", "square", "--controller", "rule", "--randomize", "0.9"], "a fraction in (0, 0.5]"),
+    (["evaluate", "--paths", "square", "--controller", "rule", "--randomize", "0.1", "--randomize-geometry", "-1"],
+     "a fraction in [0, 0.5]"),
+    (["evaluate", "--paths", "square", "--controller", "rule", "--randomize-geometry", "0.1"], "needs --randomize"),
+    (["evaluate", "--paths", "square", "--controller", "adaptiv"], "'adaptive'"),
 ])
 def test_cli_errors_name_the_problem(capsys, tmp_path, argv, fragment):
     argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
