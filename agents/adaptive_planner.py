@@ -111,6 +111,28 @@ class AdaptivePlanner(RulePlanner):
     def _candidate_turns(self, ep):
         return ep.online.candidates(self.control_dt)
 
+    def _continue_burst(self, ep: _AdaptiveEpisode, obs: np.ndarray) -> bool:
+        turn = ep.turns[-1]
+        target = turn.get("target_ratio")
+        if target is None or self.end_slice is None:
+            going = super()._continue_burst(ep, obs)
+            if not going:
+                turn.update(burst_s=(ep.step - turn["burst_step"]) * self.control_dt, stopped_by="time")
+            return going
+        elapsed = (ep.step - turn["burst_step"]) * self.control_dt  # s at omega_h so far
+        ratio = float(obs[self.end_slice][0])
+        prev = turn.get("ratio_seen", ratio)
+        turn["ratio_seen"] = ratio
+        drop = prev - ratio  # per control step
+        stop, why = False, None
+        if elapsed >= 0.5 * turn["t_c"] - 1e-9 and (ratio <= target or (drop > 0.0 and 2.0 * (ratio - target) <= drop)):
+            stop, why = True, "ratio"  # at or nearest to the crossing (the next step would pass it by more)
+        elif elapsed >= turn["max_burst_s"] - 1e-9:
+            stop, why = True, "time"
+        if stop:
+            turn.update(burst_s=elapsed, ratio_end=ratio, stopped_by=why)
+        return not stop
+
     def _plan_turn(self, head, d, target, node, ep=None):
         if not ep.cruise_used and self.reference is not None and not ep.turns and len(ep.strains) >= 3:
             seen = summarise_cruise(np.array(ep.strains), np.array(ep.azimuths), self.control_dt)
@@ -118,8 +140,8 @@ class AdaptivePlanner(RulePlanner):
             ep.cruise_used = True
         plan = super()._plan_turn(head, d, target, node, ep)
         if plan is not None:
-            plan.update(shift_s=ep.online.shift_s, shift_std_s=ep.online.shift_std_s,
-                        psi_offset_deg=math.degrees(ep.online.psi_offset_rad))
+            plan.update(shift_s=ep.online.shift_s, shift_std_s=ep.online.shift_std_s, bias_s=ep.online.bias_s,
+                        psi_offset_deg=math.degrees(ep.online.psi_offset_rad), **ep.online.burst_plan(plan["t_c"]))
         return plan
 
     def _turn_settled(self, ep: _AdaptiveEpisode) -> None:
@@ -132,6 +154,6 @@ class AdaptivePlanner(RulePlanner):
         theta_obs = math.degrees(angle_between(d0, d1))
         predicted = turn["predicted_azimuth"] + math.radians(turn.get("phase_error_deg", 0.0))
         az_err = wrap_angle(azimuth(d1, d0) - predicted)
-        rec = ep.online.observe(turn["t_c"], theta_obs, az_err)
+        rec = ep.online.observe(turn.get("burst_s", turn["t_c"]), theta_obs, az_err, turn.get("ratio_end"))
         turn.update(observed_theta_deg=theta_obs, azimuth_error_deg=math.degrees(az_err),
                     shift_after_s=rec["shift_s"], shift_std_after_s=rec["shift_std_s"])

@@ -19,9 +19,9 @@ the direction offset dpsi by a weighted circular mean of the readings of large t
 
 Planning with it: the candidate turns are the map's, flown ``s`` seconds shorter, and limited to
 map times ``t_map <= t_peak - caution * std(s)`` so that an uncertain swimmer is not sent
-over the branch's peak, where the buckled flagellum tumbles on and the direction flips
-(a large turn is then made in several bursts, each observed). With std(s) -> 0 the cap goes
-to the peak, and the planner is the rule planner on the swimmer's own map.
+over the branch's peak, where the buckled flagellum tumbles on and the direction flips, and
+to turns of at most ``max_turn_deg`` (the direction of larger turns is not predictable on a
+swimmer that differs from the map); a large turn is then made in several bursts, each observed.
 """
 
 from __future__ import annotations
@@ -45,9 +45,21 @@ class OnlineMapConfig:
     theta_noise_deg +
     theta_noise_fraction * theta: standard deviation of a measured turn angle (phase scatter,
     the unrelaxed flagellum of a turn right after another). caution: candidates stay ``caution``
-    standard deviations of s below the branch's peak. min_theta_deg: smaller observed turns
+    standard deviations of s below the branch's peak. max_turn_deg: no single burst is planned
+    to turn more (map angle): across 31 randomised swimmers (``results/online_turn_map/``) the
+    direction of turns up to ~80 deg stayed within ~35 deg of the map's (one 72 deg), while
+    every turn of 94 deg or more came out 35-180 deg off: a large turn's direction is not
+    predictable on a swimmer that differs from the map. min_theta_deg: smaller observed turns
     give no shift reading (the branch is flat there). psi_min_theta_deg: smaller turns give no
     direction reading (their azimuth is ill-defined). max_shift_s: readings are clipped to +-this.
+
+    Flying by L'/L (``fly_by_ratio``): a burst ends when the observed end-to-end ratio reaches the
+    map's ratio at the planned map time (the map records L'/L at each burst's end; below
+    ``ratio_valid`` it falls steadily as the flagellum buckles), so the buckling the swimmer
+    actually does sets the burst's end, not a clock; the burst is cut at ``burst_max_sigmas``
+    standard deviations of the shift past its expected length. The ratio reached and the time it
+    took read the shift (``ratio_shift_std_s``); the angle turned then reads a bias of the
+    ratio-turn relation (prior ``prior_bias_std_s``).
 
     The reading before any turn (``OnlineTurnMap.observe_cruise``): shift = strain_shift_s x
     (relative change of the steady strain L'/L - 1) + rate_shift_s x (relative change of the
@@ -68,12 +80,22 @@ class OnlineMapConfig:
     theta_noise_deg: float = 4.0
     theta_noise_fraction: float = 0.1
     caution: float = 2.0
+    max_turn_deg: float = 80.0
     min_theta_deg: float = 6.0
     psi_min_theta_deg: float = 20.0
     max_shift_s: float = 3.0
+    fly_by_ratio: bool = True
+    ratio_valid: float = 0.98
+    ratio_shift_std_s: float = 0.15
+    prior_bias_std_s: float = 0.3
+    burst_max_sigmas: float = 2.5
 
     def __post_init__(self) -> None:
-        for name in ("prior_shift_std_s", "theta_noise_deg", "max_shift_s", "cruise_residual_std_s"):
+        if not isinstance(self.fly_by_ratio, bool):
+            raise ValueError(f"OnlineMapConfig.fly_by_ratio={self.fly_by_ratio!r} is not allowed; allowed: True or False")
+        require_finite("OnlineMapConfig.ratio_valid", self.ratio_valid, 0.0, 1.0, lo_open=True)
+        for name in ("prior_shift_std_s", "theta_noise_deg", "max_shift_s", "cruise_residual_std_s", "max_turn_deg",
+                     "ratio_shift_std_s", "prior_bias_std_s", "burst_max_sigmas"):
             require_finite(f"OnlineMapConfig.{name}", getattr(self, name), 0.0, lo_open=True)
         for name in ("theta_noise_fraction", "caution", "min_theta_deg", "psi_min_theta_deg", "min_cruise_samples"):
             require_finite(f"OnlineMapConfig.{name}", getattr(self, name), 0.0)
@@ -106,6 +128,30 @@ def shift_reading(t_branch: np.ndarray, theta_branch: np.ndarray, t_c: float, th
     return shift, float(min(std, 10.0 * config.max_shift_s))
 
 
+def ratio_branch(turn_map: TurnMap, t_branch: np.ndarray, ratio_valid: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """(map times s, L'/L at the burst's end) on the rising branch where L'/L has fallen below
+    ``ratio_valid``, made decreasing; None if the map recorded no ratios there (fewer than 2)."""
+    t_out, r_out = [], []
+    for t in t_branch:
+        r = [p.burst_end_ratio for p in turn_map.points if p.t_c == t and p.burst_end_ratio is not None]
+        if t > 0.0 and r:
+            t_out.append(float(t))
+            r_out.append(float(np.mean(r)))
+    if not r_out:
+        return None
+    r = np.minimum.accumulate(np.array(r_out))
+    keep = r < ratio_valid
+    if keep.sum() < 2:
+        return None
+    # the first point below ratio_valid is preceded by the last above it: interpolate the crossing
+    k = int(np.argmax(keep))
+    t, rr = np.array(t_out), r
+    if k > 0:
+        t0 = float(np.interp(ratio_valid, [rr[k], rr[k - 1]], [t[k], t[k - 1]]))
+        return np.concatenate([[t0], t[keep]]), np.concatenate([[ratio_valid], rr[keep]])
+    return t[keep], rr[keep]
+
+
 @dataclass
 class OnlineTurnMap:
     """The turn map with the swimmer's shift and direction offset, learnt from observed turns.
@@ -119,12 +165,15 @@ class OnlineTurnMap:
 
     def __post_init__(self) -> None:
         self._branch = self.turn_map.rising_branch()
+        self._ratio = ratio_branch(self.turn_map, self._branch[0], self.config.ratio_valid)
         self._tables: dict[float, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self.reset()
 
     def reset(self) -> None:
         self.shift_s = 0.0
         self.shift_var = self.config.prior_shift_std_s ** 2
+        self.bias_s = 0.0
+        self.bias_var = self.config.prior_bias_std_s ** 2
         self._psi_sum = 0j
         self._psi_weight = 0.0
         self.readings: list[dict] = []
@@ -132,6 +181,34 @@ class OnlineTurnMap:
     @property
     def shift_std_s(self) -> float:
         return math.sqrt(self.shift_var)
+
+    @property
+    def bias_std_s(self) -> float:
+        return math.sqrt(self.bias_var)
+
+    def ratio_for(self, map_t: float) -> float | None:
+        """The map's L'/L at the end of a burst of map time ``map_t`` (s), or None where the map's
+        ratio is not yet below ``ratio_valid`` (before buckling, or no ratios recorded)."""
+        if self._ratio is None or map_t < self._ratio[0][0] or map_t > self._ratio[0][-1]:
+            return None
+        return float(np.interp(map_t, *self._ratio))
+
+    def map_time_for_ratio(self, ratio: float) -> float | None:
+        """Map time (s) at which the map's L'/L is ``ratio`` (clipped to the branch), or None if
+        ``ratio`` is not below ``ratio_valid``."""
+        if self._ratio is None or not ratio < self.config.ratio_valid:
+            return None
+        t, r = self._ratio
+        return float(np.interp(ratio, r[::-1], t[::-1]))
+
+    def burst_plan(self, t_fly: float) -> dict:
+        """How to fly a candidate chosen with burst length ``t_fly`` (s, from ``candidates``):
+        its map time, the L'/L to stop at (None: fly the time), and the longest burst allowed (s)."""
+        cfg = self.config
+        map_t = t_fly + self.shift_s
+        target = self.ratio_for(map_t - self.bias_s) if cfg.fly_by_ratio else None
+        longest = t_fly - self.bias_s + cfg.burst_max_sigmas * math.hypot(self.shift_std_s, self.bias_std_s)
+        return {"map_t": map_t, "target_ratio": target, "max_burst_s": max(longest, t_fly)}
 
     @property
     def psi_offset_rad(self) -> float:
@@ -172,16 +249,37 @@ class OnlineTurnMap:
         self.readings.append(rec)
         return rec
 
-    def observe(self, t_c: float, theta_obs_deg: float, azimuth_error_rad: float | None = None) -> dict:
+    def observe(self, t_c: float, theta_obs_deg: float, azimuth_error_rad: float | None = None,
+                ratio_end: float | None = None) -> dict:
         """Update from one settled turn: burst ``t_c`` (s) flown, angle ``theta_obs_deg`` turned;
         ``azimuth_error_rad``: observed minus predicted azimuth of the new heading about the old
-        one (the prediction used ``psi_offset_rad`` as it was), or None. Returns the reading."""
-        rec: dict = {"t_c": float(t_c), "theta_obs_deg": float(theta_obs_deg), "shift_before_s": self.shift_s}
-        reading = shift_reading(*self._branch, t_c, theta_obs_deg, self.config)
-        if reading is not None:
-            s, std = reading
-            self._combine(s, std)
-            rec.update(shift_reading_s=s, shift_reading_std_s=std)
+        one (the prediction used ``psi_offset_rad`` as it was), or None; ``ratio_end``: L'/L seen
+        at the burst's end, or None. Returns the reading.
+
+        With a buckled ratio at the end (below ``ratio_valid``), the ratio reads the shift (map time
+        of that ratio minus the time flown) and the angle reads the bias (map time of the angle
+        minus map time of the ratio); otherwise the angle reads the shift."""
+        cfg = self.config
+        rec: dict = {"t_c": float(t_c), "theta_obs_deg": float(theta_obs_deg), "shift_before_s": self.shift_s,
+                     "ratio_end": ratio_end}
+        map_end = self.map_time_for_ratio(ratio_end) if ratio_end is not None else None
+        if map_end is not None:
+            s = float(np.clip(map_end - t_c, -cfg.max_shift_s, cfg.max_shift_s))
+            self._combine(s, cfg.ratio_shift_std_s)
+            rec.update(shift_reading_s=s, shift_reading_std_s=cfg.ratio_shift_std_s)
+            reading = shift_reading(*self._branch, map_end, theta_obs_deg, cfg)
+            if reading is not None:
+                b, std = reading
+                w, w0 = 1.0 / (std * std), 1.0 / self.bias_var
+                self.bias_s = (w0 * self.bias_s + w * b) / (w0 + w)
+                self.bias_var = 1.0 / (w0 + w)
+                rec.update(bias_reading_s=b, bias_reading_std_s=std)
+        else:
+            reading = shift_reading(*self._branch, t_c, theta_obs_deg, cfg)
+            if reading is not None:
+                s, std = reading
+                self._combine(s, std)
+                rec.update(shift_reading_s=s, shift_reading_std_s=std)
         if azimuth_error_rad is not None and theta_obs_deg >= self.config.psi_min_theta_deg:
             # the reading is the total offset: the one already applied plus the error seen
             total = wrap_angle(self.psi_offset_rad + float(azimuth_error_rad))
@@ -189,7 +287,8 @@ class OnlineTurnMap:
             self._psi_sum += wt * complex(math.cos(total), math.sin(total))
             self._psi_weight += wt
             rec["psi_reading_deg"] = math.degrees(total)
-        rec.update(shift_s=self.shift_s, shift_std_s=self.shift_std_s, psi_offset_deg=math.degrees(self.psi_offset_rad))
+        rec.update(shift_s=self.shift_s, shift_std_s=self.shift_std_s, bias_s=self.bias_s, bias_std_s=self.bias_std_s,
+                   psi_offset_deg=math.degrees(self.psi_offset_rad))
         self.readings.append(rec)
         return rec
 
@@ -201,13 +300,26 @@ class OnlineTurnMap:
         """
         t_branch, theta_branch = self._branch
         grid, psi_deg, off = self._table(control_dt)
-        cap = self.t_peak_s - self.config.caution * self.shift_std_s
+        # flying by L'/L, what can carry a burst over the peak is the ratio-turn bias, not the timing
+        std = self.bias_std_s if (self.config.fly_by_ratio and self._ratio is not None) else self.shift_std_s
+        cap = min(self.t_peak_s - self.config.caution * std, self._t_for_theta(self.config.max_turn_deg))
         t_lo = max(control_dt, control_dt + self.shift_s)
         t_map = np.arange(t_lo, max(cap, t_lo) + 1e-9, control_dt)
         theta = np.radians(np.interp(t_map, t_branch, theta_branch))
         psi = np.radians(np.interp(t_map, grid, psi_deg)) + self.psi_offset_rad
         offset = np.stack([np.interp(t_map, grid, off[:, k]) for k in range(3)], axis=1)
         return t_map - self.shift_s, theta, psi, offset
+
+    def _t_for_theta(self, theta_deg: float) -> float:
+        """Map time of the first point of the rising branch that turns ``theta_deg`` (the peak's if none)."""
+        t_branch, theta_branch = self._branch
+        k = int(np.searchsorted(theta_branch, theta_deg, side="left"))
+        if k >= len(t_branch):
+            return float(t_branch[-1])
+        if k == 0:
+            return float(t_branch[0])
+        y0, y1 = theta_branch[k - 1], theta_branch[k]
+        return float(t_branch[k - 1] + (theta_deg - y0) / (y1 - y0) * (t_branch[k] - t_branch[k - 1]))
 
     def _table(self, control_dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The map's psi (deg, unwrapped) and offset (m) on a grid of map times (cached per step)."""

@@ -203,8 +203,7 @@ class RulePlanner:
         wl, wh = tm.omega_l_rpm, tm.omega_h_rpm
 
         if ep.mode == "burst":
-            if ep.burst_left > 0:
-                ep.burst_left -= 1
+            if self._continue_burst(ep, obs):
                 return wh
             ep.mode, ep.low_since = "relax", ep.step
             return wl
@@ -250,6 +249,14 @@ class RulePlanner:
     def _new_episode(self) -> _Episode:
         """The memory of a new episode (subclasses may remember more)."""
         return _Episode()
+
+    def _continue_burst(self, ep: _Episode, obs: np.ndarray) -> bool:
+        """During a burst: True to stay at omega_h for the next control step. The rule planner
+        flies the planned number of steps; ``agents.adaptive_planner`` watches L'/L."""
+        if ep.burst_left > 0:
+            ep.burst_left -= 1
+            return True
+        return False
 
     def _turn_settled(self, ep: _Episode) -> None:
         """Called once the heading after the last turn (``ep.turns[-1]``) is steady (or the wait

@@ -72,7 +72,7 @@ def test_direction_offset_is_a_circular_mean(faithful_map):
 
 
 def test_candidates_are_shifted_and_capped_below_the_peak(faithful_map):
-    cfg = OnlineMapConfig(caution=2.0, prior_shift_std_s=0.6)
+    cfg = OnlineMapConfig(caution=2.0, prior_shift_std_s=0.6, max_turn_deg=180.0, fly_by_ratio=False)
     om = OnlineTurnMap(faithful_map, cfg)
     dt = 0.1
     t0, th0, psi0, off0 = om.candidates(dt)
@@ -154,3 +154,67 @@ def test_adaptive_planner_reads_the_nominal_swimmer_as_nominal_and_learns_from_i
     assert turns and "observed_theta_deg" in turns[0]
     assert len(readings) == 1 + sum("observed_theta_deg" in t for t in turns)
     assert turns[0]["shift_std_s"] < OnlineMapConfig().prior_shift_std_s  # the cruise reading informed it
+
+
+def test_candidates_never_plan_more_than_max_turn(faithful_map):
+    om = OnlineTurnMap(faithful_map, OnlineMapConfig(max_turn_deg=60.0))
+    om.shift_var = 1e-8  # certain: only the angle cap binds
+    _, theta, _, _ = om.candidates(0.1)
+    assert math.degrees(theta.max()) <= 60.0 + 1e-9 and math.degrees(theta.max()) > 50.0
+
+
+def test_ratio_branch_inverts_and_a_burst_plan_targets_it(faithful_map):
+    om = OnlineTurnMap(faithful_map)
+    t, r = om._ratio
+    assert r[0] == pytest.approx(OnlineMapConfig().ratio_valid) and np.all(np.diff(r) < 0.0)
+    for m in (5.5, 6.5, 7.2):
+        assert om.map_time_for_ratio(om.ratio_for(m)) == pytest.approx(m)
+    assert om.ratio_for(3.0) is None and om.map_time_for_ratio(1.01) is None  # not buckled yet
+    om.shift_s, om.bias_s = 0.4, 0.1
+    plan = om.burst_plan(6.0)
+    assert plan["map_t"] == pytest.approx(6.4)
+    assert plan["target_ratio"] == pytest.approx(om.ratio_for(6.3))
+    assert plan["max_burst_s"] > 6.0 - 0.1
+
+
+def test_turn_flown_by_ratio_reads_shift_from_ratio_and_bias_from_angle(faithful_map):
+    om = OnlineTurnMap(faithful_map)
+    t_b, th_b = faithful_map.rising_branch()
+    # the swimmer reached the map's ratio of 6.5 s after 6.0 s (buckles 0.5 s early) and turned
+    # the map's angle at 6.7 s (the ratio-turn relation is off by 0.2 s)
+    rec = om.observe(6.0, float(np.interp(6.7, t_b, th_b)), None, ratio_end=om.ratio_for(6.5))
+    assert rec["shift_reading_s"] == pytest.approx(0.5, abs=1e-6)
+    assert rec["bias_reading_s"] == pytest.approx(0.2, abs=1e-6)
+    assert 0.4 < om.shift_s < 0.5 and 0.0 < om.bias_s < 0.2
+    # without a buckled ratio the angle reads the shift, as before
+    plain = OnlineTurnMap(faithful_map)
+    rec = plain.observe(6.0, float(np.interp(6.7, t_b, th_b)), None, ratio_end=1.02)
+    assert rec["shift_reading_s"] == pytest.approx(0.7, abs=1e-6) and "bias_reading_s" not in rec
+
+
+def _burst_planner(faithful_map):
+    from agents.adaptive_planner import AdaptivePlanner
+    from agents.turn_planner import ObservationLayout
+
+    layout = ObservationLayout(slice(1, 4), slice(4, 13), slice(13, 37), 0.13, 1)
+    return AdaptivePlanner(faithful_map, layout, 0.1, 0.015, lambda rpm: rpm, end_slice=slice(0, 1))
+
+
+@pytest.mark.parametrize("t_c, ratios, target, stop_after, why", [
+    (0.6, [1.0, 0.9, 0.8, 0.7, 0.6, 0.5], 0.71, 4, "ratio"),      # 0.70 is nearest to 0.71
+    (0.6, [1.0, 0.9, 0.8, 0.7, 0.6, 0.5], 0.76, 3, "ratio"),      # 0.80 is nearer to 0.76 than 0.70 would be
+    (1.0, [1.0] * 20, 0.7, 12, "time"),                           # never buckles: cut at the longest burst
+    (1.0, [0.5] * 20, 0.7, 5, "ratio"),                           # low from the start: not before half the plan
+])
+def test_burst_ends_at_the_ratio_crossing_or_the_longest_burst(faithful_map, t_c, ratios, target, stop_after, why):
+    planner = _burst_planner(faithful_map)
+    ep = planner._new_episode()
+    ep.turns.append({"t_c": t_c, "burst_step": 0, "target_ratio": target, "max_burst_s": 1.2})
+    obs = np.zeros(37)
+    for k, r in enumerate(ratios, start=1):
+        ep.step = k
+        obs[0] = r
+        if not planner._continue_burst(ep, obs):
+            break
+    assert (k, ep.turns[-1]["stopped_by"]) == (stop_after, why)
+    assert ep.turns[-1]["burst_s"] == pytest.approx(0.1 * stop_after)
