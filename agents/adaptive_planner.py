@@ -23,7 +23,7 @@ import numpy as np
 
 from agents.online_turn_map import OnlineMapConfig, OnlineTurnMap
 from agents.turn_map import TurnMap
-from agents.turn_planner import PlannerConfig, RulePlanner, _Episode
+from agents.turn_planner import PlannerConfig, RulePlanner, _Episode, graded_line_miss
 from flagellum_env.turn_geometry import angle_between, azimuth, wrap_angle
 from flagellum_env.turn_measurement import CruiseObservables, cruise_observables, summarise_cruise
 
@@ -107,6 +107,11 @@ class AdaptivePlanner(RulePlanner):
             ep.strains.append(float(obs[self.end_slice][0]) - 1.0)
             ep.azimuths.append(azimuth(node, ep.axis))
         return super()._decide(ep, obs)
+
+    @staticmethod
+    def _line_miss(starts, directions, target):
+        # capped turns: a target behind needs several bursts, each must count as progress
+        return graded_line_miss(starts, directions, target)
 
     def _candidate_turns(self, ep):
         return ep.online.candidates(self.control_dt)

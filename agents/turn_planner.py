@@ -291,7 +291,7 @@ class RulePlanner:
         is behind.
         """
         cfg = self.config
-        miss0 = _line_miss(head[None, :], d[None, :], target)[0]
+        miss0 = self._line_miss(head[None, :], d[None, :], target)[0]
         if miss0 < cfg.hit_fraction * self.reach_radius_m:
             return None  # on course
         if math.degrees(angle_between(d, target - head)) < cfg.min_turn_deg:
@@ -306,7 +306,7 @@ class RulePlanner:
         heading = np.cos(theta)[:, None, None] * d + np.sin(theta)[:, None, None] * across
         after = (head + off[:, 0, None, None] * d + off[:, 1, None, None] * e_ref[None]
                  + off[:, 2, None, None] * e_perp[None])
-        miss = _line_miss(after.reshape(-1, 3), heading.reshape(-1, 3), target).reshape(after.shape[:2])
+        miss = self._line_miss(after.reshape(-1, 3), heading.reshape(-1, 3), target).reshape(after.shape[:2])
         i, j = np.unravel_index(int(np.argmin(miss)), miss.shape)
         if miss[i, j] > miss0 - cfg.improvement_m:
             return None
@@ -314,6 +314,11 @@ class RulePlanner:
                 "predicted_azimuth": wrap_angle(beta[j] + psi[i]),
                 "predicted_miss_m": float(miss[i, j]), "miss_straight_m": float(miss0),
                 "heading": d.tolist(), "head": head.tolist()}
+
+    @staticmethod
+    def _line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """How far each straight line misses the target, (k,) m (``_line_miss``)."""
+        return _line_miss(starts, directions, target)
 
     def _candidate_turns(self, ep: _Episode | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The turns a plan chooses from in this episode: (t_c s, theta rad, psi rad, offset (T, 3) m)."""
@@ -329,6 +334,18 @@ class RulePlanner:
         psi = np.radians([tm.psi_for(t) for t in t_c])
         off = np.array([tm.offset_for(t) for t in t_c])
         return t_c, theta, psi, off
+
+
+def graded_line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray, behind_penalty: float = 0.05
+                     ) -> np.ndarray:
+    """Like ``_line_miss``, but a target behind costs its distance plus ``behind_penalty`` times
+    the cosine of how far behind it is (0 abeam, the whole penalty straight behind), so that a
+    partial turn towards a target behind counts as progress (turns too large for one burst)."""
+    rel = target - starts
+    along = np.einsum("ij,ij->i", rel, directions)
+    dist = np.linalg.norm(rel, axis=1)
+    lateral = np.linalg.norm(rel - along[:, None] * directions, axis=1)
+    return np.where(along > 0.0, lateral, dist - behind_penalty * along / np.maximum(dist, 1e-12))
 
 
 def _line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray, behind_penalty: float = 0.05
