@@ -336,11 +336,13 @@ class RulePlanner:
         return t_c, theta, psi, off
 
 
-def graded_line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray, behind_penalty: float = 0.05
+def graded_line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray, behind_penalty: float = 0.2
                      ) -> np.ndarray:
-    """Like ``_line_miss``, but a target behind costs its distance plus ``behind_penalty`` times
+    """Like ``_line_miss``, but a target behind costs its distance plus ``behind_penalty`` (m) times
     the cosine of how far behind it is (0 abeam, the whole penalty straight behind), so that a
-    partial turn towards a target behind counts as progress (turns too large for one burst)."""
+    partial turn towards a target behind counts as progress (turns too large for one burst). The
+    penalty outweighs the several centimetres a turn displaces the head (the map's offsets), or
+    a swimmer that has passed its target would never turn back."""
     rel = target - starts
     along = np.einsum("ij,ij->i", rel, directions)
     dist = np.linalg.norm(rel, axis=1)
