@@ -13,6 +13,9 @@ Inputs (each made by a committed command):
       flagellum evaluate --paths eval --controller rule --controller ppo --preset fast
                          --randomize 0.05 --out results/eval/fast_randomized
   (held-out paths: seeds 1000-1009; training drew its paths from other seeds, validation used 900-903).
+- results/agents/raw_ppo_faithful/progress.csv, meta.json, learning_curve.png (the from-scratch baseline)
+      python scripts/train_raw_ppo.py --out results/agents/raw_ppo_faithful --n-envs 1 --timesteps 100000 \
+          --max-wall-min 50
 Missing inputs are reported as not measured.
 """
 
@@ -330,6 +333,49 @@ def paired_lines(res: dict[str, Any], ppo: str = "ppo") -> list[str]:
             f"{won or 'none'}."]
 
 
+RAW_PPO = RESULT_AGENTS / "raw_ppo_faithful"
+
+
+def raw_ppo_section(lines: list[str]) -> None:
+    """From-scratch PPO on the raw env (scripts/train_raw_ppo.py): cost and learning curve."""
+    import csv
+    import shutil
+
+    lines += ["## From-scratch PPO on the raw `FlagellumSteer-v0` (baseline)", ""]
+    progress = RAW_PPO / "progress.csv"
+    if not progress.is_file():
+        lines += ["Not measured.", ""]
+        return
+    with progress.open(newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    meta = json.loads((RAW_PPO / "meta.json").read_text(encoding="utf-8")) if (RAW_PPO / "meta.json").is_file() else {}
+    cfg = meta.get("config", {})
+    if not rows:
+        lines += ["Started, but no PPO update finished.", ""]
+        return
+    last = rows[-1]
+    steps, wall = int(float(last["env_steps"])), float(last["wall_s"])
+    eps = int(float(last["episodes_total"] or 0))
+    succ = int(float(last["successes_total"] or 0))
+    loads = [float(r["load1"]) for r in rows if r.get("load1")]
+    lines += [f"`python scripts/train_raw_ppo.py --out {RAW_PPO} --n-envs {cfg.get('n_envs', '?')} --timesteps 100000 "
+              f"--max-wall-min {meta.get('max_wall_min', '?')}` (preset `{cfg.get('preset', '?')}`, control_dt "
+              f"{cfg.get('control_dt', '?')} s, one-turn planar paths, SB3 PPO `MlpPolicy` from scratch, the motor "
+              f"speed as the action; no planner, no turn map): {steps} env steps in {wall / 60:.0f} min of wall time "
+              f"({steps / wall:.2f} env steps/s over the run; the machine's 1-min load "
+              f"{min(loads):.1f}-{max(loads):.1f} while evaluations shared the cores), {len(rows)} PPO updates, "
+              f"{eps} training episodes finished, {succ} of them reached the waypoint.", ""]
+    fig = RAW_PPO / "learning_curve.png"
+    if fig.is_file():
+        shutil.copyfile(fig, DOCS / "figures" / "raw_ppo_faithful.png")
+        lines += ["![raw PPO learning curve](figures/raw_ppo_faithful.png)", ""]
+    per_step = wall / max(steps, 1)
+    lines += [f"At {1 / per_step:.2f} env steps/s, 10⁵ steps (a small budget for PPO on a continuous-control task "
+              f"with delayed reward) would take {1e5 * per_step / 3600:.0f} h on this machine. This is what the raw "
+              "env costs at the default preset; the turn-level env (`FlagellumTurn-v0`, docs/env.md) and the "
+              "planners exist because of it.", ""]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--agent", type=Path, default=Path("agents/pretrained/ppo_residual_coarse"),
@@ -344,6 +390,12 @@ def main() -> None:
     found = evaluation_section(lines)
     verdict_section(found, args.agent, lines)
     square_section(lines)
+    lines += ["## A swimmer that differs from the model", "",
+              "The adaptive planner (controller `adaptive`: the turn map corrected online from the cruise and from "
+              "every turn, each burst flown by L'/L) against the rule planner on held-out paths with randomised "
+              "swimmers at the default preset: docs/robust_steering.md (`python scripts/robust_steering_report.py`).",
+              ""]
+    raw_ppo_section(lines)
     first_design_section(lines)
     (DOCS / "agents.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
     print(f"wrote {DOCS / 'agents.md'}")
