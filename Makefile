@@ -20,11 +20,11 @@ $(STAMP): pyproject.toml
 test: install
 	OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -q -n 2 --durations=10
 
-# The rule-based planner and the pretrained PPO agent steer the swimmer around the paper's 0.25 m square
-# (the default preset, faithful), side by side:
-# out/demo/summary.json, path.png (target vs achieved) and omega.png (the control signal).
+# The rule-based planner and the adaptive planner (the same planner correcting its turn map online from
+# what the swimmer does) steer the swimmer around the paper's 0.25 m square (the default preset,
+# faithful), side by side: out/demo/summary.json, path.png (target vs achieved) and omega.png (the control signal).
 demo: install
-	OPENBLAS_NUM_THREADS=1 $(BIN)/flagellum follow --path square --controller rule --controller ppo --out out/demo
+	OPENBLAS_NUM_THREADS=1 $(BIN)/flagellum follow --path square --controller rule --controller adaptive --out out/demo
 
 clean:
 	rm -rf $(VENV) out build *.egg-info .pytest_cache
