@@ -193,11 +193,11 @@ def comparison_lines(res: dict[str, Any], ppo: str = "ppo") -> list[str]:
 
 
 def first_design_section(lines: list[str]) -> None:
-    agent = Path("results/agents/ppo_residual_coarse_randomized")
+    agent = Path("results/agents/ppo_residual_fast_randomized")  # trained when `coarse` was called `fast`
     lines += ["## The first design (kept for the record)", "",
               "Trained with a randomised swimmer (E, μ, b ±5 %, helix ±2 %), corrections of up to 20 % of the "
               "burst and 30° of phase, and no price on a correction. Its files and config are in "
-              f"`{agent}` (the config was then named `ppo_residual_coarse.yml`; it is now "
+              f"`{agent}` (the config was then named `ppo_residual_fast.yml`; it is now "
               "`agents/configs/ppo_residual_coarse_randomized.yml`).", ""]
     training_section(agent, lines, "### Its training", "ppo_training_randomized.png")
     f = Path("results/eval/ppo_randomized_fast/results.json")
@@ -260,7 +260,7 @@ def verdict_section(found: dict[str, Any], agent: Path, lines: list[str]) -> Non
     """The issue's targets, checked against the measured files, and what was tried."""
     lines += ["## Against the targets", ""]
     minutes = []
-    for a in (agent, Path("results/agents/ppo_residual_coarse_randomized")):
+    for a in (agent, Path("results/agents/ppo_residual_fast_randomized")):
         f = a / "meta.json"
         if f.is_file():
             minutes.append(json.loads(f.read_text(encoding="utf-8"))["wall_time_s"] / 60)
