@@ -178,6 +178,16 @@ def targets_section(found: dict[str, dict[str, Any]], lines: list[str]) -> None:
         errors = sum(1 for r in res["per_path"] if r.get("error"))
         lines.append(f"- `{level}`: best success {100 * rate:.0f} % ({best}), target ≥ {100 * need:.0f} % — "
                      f"{'reached' if rate >= need else 'not reached'}; episodes ending in an error: {errors}.")
+    nominal = found.get("nominal")
+    if nominal is not None and all(c in nominal["aggregate"] for c, _ in CONTROLLERS):
+        r, a = nominal["aggregate"]["rule"], nominal["aggregate"]["adaptive"]
+        lines.append(f"- nominal swimmer: success {100 * r['success_rate']:.0f} % (rule) and "
+                     f"{100 * a['success_rate']:.0f} % (adaptive); the adaptive planner's mean cross-track is "
+                     f"{a['mean_cross_track_m'] / r['mean_cross_track_m']:.2f} x the rule planner's "
+                     f"({100 * a['mean_cross_track_m']:.2f} vs {100 * r['mean_cross_track_m']:.2f} cm): the price of "
+                     "capping a burst at 80° (large turns in several bursts) on a swimmer the map already fits. The "
+                     "issue's nominal target is for a PPO agent (success ≥ rule's, cross-track ≤ 0.8 x rule's): no "
+                     "agent was trained at the default preset (below).")
     lines.append("")
 
 
