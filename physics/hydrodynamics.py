@@ -53,12 +53,14 @@ _INVERSE_AFTER_SOLVES = 60
 class ResistanceOperator:
     """R = D + B^T C B applied matrix-free from the Cholesky factor of A_reg (see module doc).
 
-    Built at one geometry; ``apply(V)`` costs two triangular solves, ``dense()`` forms R.
+    Built at one geometry; ``apply(V)`` costs two triangular solves, ``dense()`` forms R. With
+    ``factorize_lazily`` the Cholesky factor is only formed when a solve first needs it (the mobility
+    form of ``newton_krylov`` uses ``a``, ``H``, ``g``, ``K`` and the drags, and never solves).
     """
 
     def __init__(self, nodes: np.ndarray, mu: float, delta: float, head_radius: float,
                  head_spins: bool, smoothing: float, head_coupling: bool = True,
-                 near_radius: float = 0.0, printed_head: bool = False) -> None:
+                 near_radius: float = 0.0, printed_head: bool = False, factorize_lazily: bool = False) -> None:
         nodes = np.ascontiguousarray(nodes, dtype=np.float64)
         self.has_head = head_radius > 0.0
         self.spin = head_spins and self.has_head
@@ -68,14 +70,12 @@ class ResistanceOperator:
         flag = np.ascontiguousarray(nodes[1:]) if self.has_head else nodes
         a = lsbt_mobility(flag, node_tangents(flag), mu, delta, smoothing, near_radius)
         self.m3 = a.shape[0]
+        self.a = a  # the mobility A_reg (3M, 3M), m/(N s): all that the mobility form needs
         self._inv: np.ndarray | None = None
-        if smoothing > 0.0:
-            c, info = lapack.dpotrf(a, lower=0, clean=1, overwrite_a=0)
-            if info != 0:
-                raise HydroError(f"LSBT mobility is not positive definite (Cholesky failed at pivot {info})")
-            self._chol = (c, False)
-        else:  # plain eqn (8): indefinite, use an explicit inverse
-            self._inv = np.linalg.inv(a)
+        self._chol: tuple[np.ndarray, bool] | None = None
+        self._smoothing = smoothing
+        if not factorize_lazily:
+            self._factorize()
         if self.has_head:
             e0 = nodes[1] - nodes[0]
             axis = e0 / math.sqrt(e0 @ e0)
@@ -94,8 +94,20 @@ class ResistanceOperator:
         self.nv = self.m3 + (3 if self.has_head else 0) + (1 if self.spin else 0)
         self._applies = 0
 
+    def _factorize(self) -> None:
+        """Cholesky of A_reg (or, for the indefinite plain eqn (8), its explicit inverse)."""
+        if self._smoothing > 0.0:
+            c, info = lapack.dpotrf(self.a, lower=0, clean=1, overwrite_a=0)
+            if info != 0:
+                raise HydroError(f"LSBT mobility is not positive definite (Cholesky failed at pivot {info})")
+            self._chol = (c, False)
+        else:  # plain eqn (8): indefinite, use an explicit inverse
+            self._inv = np.linalg.inv(self.a)
+
     def solve(self, b: np.ndarray) -> np.ndarray:
         """C b = A_reg^{-1} b (two triangular solves; a matvec once the inverse is kept)."""
+        if self._inv is None and self._chol is None:
+            self._factorize()
         if self._inv is not None:
             return self._inv @ b
         self._applies += 1
@@ -109,6 +121,8 @@ class ResistanceOperator:
 
     def inverse(self) -> np.ndarray:
         """C = A_reg^{-1}, (3M,3M); computed once and kept (matvecs are cheaper than solves)."""
+        if self._inv is None and self._chol is None:
+            self._factorize()
         if self._inv is None:
             inv, info = lapack.dpotri(self._chol[0], lower=0)
             if info != 0:

@@ -127,8 +127,10 @@ class NumericsConfig:
     dt: float = _f(1e-3, "s", "time step h (paper: 1 ms); with step_tol > 0 the step of the simulator's "
                    "step() (sampling and motor updates), inside which the adaptive steps are taken", 0.0, 1.0, True)
     integrator: str = _f("euler", "-", "implicit scheme of eqn (6): euler (implicit Euler, first order, as in the "
-                         "paper) or bdf2 (variable-step BDF2, second order, L-stable; physics/time_integrator.py)",
-                         choices=("euler", "bdf2"))
+                         "paper), or variable-step BDF up to order 2, 3 or 4: bdf2 (L-stable), bdf3, bdf4 (stable on the "
+                         "overdamped modes of this rod; the order ramps up after every restart; "
+                         "physics/time_integrator.py)",
+                         choices=("euler", "bdf2", "bdf3", "bdf4"))
     step_tol: float = _f(0.0, "-", "adaptive time stepping: the local error of each step is kept below this "
                          "fraction of the rod radius (positions) and radians (twists); 0 = fixed steps of dt",
                          0.0, 1.0)
@@ -149,6 +151,10 @@ class NumericsConfig:
                                "stall (only when the chord iteration stops contracting) or resistance (also "
                                "whenever the hydrodynamic resistance is rebuilt, i.e. the shape has changed)",
                                choices=("stall", "resistance"))
+    newton_krylov: bool = _f(False, "-", "solve the steps at which the hydrodynamic resistance is rebuilt (the shape "
+                             "has changed: buckling, relaxation) by Newton-Krylov in the mobility form "
+                             "(physics/newton_krylov.py: no dense factorisation); the other steps keep the chord "
+                             "iteration on the reused factorisation (lsbt only)")
     single_iteration: bool = _f(False, "-", "take exactly one Newton iteration per step (linearly implicit "
                                 "Euler): fastest, first-order accurate, no convergence check")
     anderson_depth: int = _f(4, "-", "Anderson acceleration depth of the Newton/chord iteration (0 = off)", 0, 20)

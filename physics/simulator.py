@@ -40,11 +40,16 @@ from physics.errors import SimulationError
 from physics.geometry import initial_nodes, layout_for, nodes_of, pack_q
 from physics.anderson import AndersonMixing
 from physics.contact import ContactModel
-from physics.implicit_residual import assemble_residual, block_max_abs
+from physics.implicit_residual import assemble_residual, block_max_abs, generalised_velocity
 from physics.params import NumericsConfig, SwimmerParams
 from physics.step_solvers import BandedNewtonSolver, DenseChordSolver, StepFailed
 from physics.time_integrator import (SAFETY, SHRINK_MIN, History, StepBase, error_norm, next_step, split_remaining,
                                      step_base, step_spans, velocity_of)
+
+
+_EYE3 = np.eye(3)
+_NO_CONTACT_NODES = np.zeros((0, 4), dtype=np.int64)
+_NO_CONTACT_BLOCKS = np.zeros((0, 12, 12))
 
 
 @dataclass
@@ -54,7 +59,10 @@ class StepStats:
     steps: int = 0
     newton_iterations: int = 0
     resistance_refreshes: int = 0
-    jacobian_factorisations: int = 0
+    jacobian_factorisations: int = 0  # dense LUs (direct solver) or banded Newton solves (rft)
+    preconditioner_factorisations: int = 0  # banded LUs of the Newton-Krylov preconditioner
+    krylov_iterations: int = 0  # GMRES iterations of the Newton-Krylov steps
+    krylov_steps: int = 0  # steps solved by Newton-Krylov (the rest by the chord iteration)
     halvings: int = 0
     substeps: int = 0  # accepted integration steps (= steps with fixed steps and no halving)
     rejected_steps: int = 0  # adaptive steps retried smaller (error too large or Newton failure)
@@ -284,7 +292,8 @@ class Simulator:
                                              self.numerics.contact_margin, self.numerics.contact_stiffness)
         return model.gaps(self.nodes)
 
-    def _residual(self, q: np.ndarray, h: float):
+    def internal_forces(self, q: np.ndarray):
+        """(gradient of the elastic and contact energies at q (ndof,) N and N m, frames (t, d1, rt) at q)."""
         t0 = time.perf_counter()
         t, d1, d2, rt, m1, m2 = self.frames_at(q)
         grad = elastic_gradient_kernel(q, d1, d2, rt, m1, m2, *self.rest_arrays)
@@ -302,14 +311,31 @@ class Simulator:
                         grad[k::4] += g_c[k::3]
                 self._last_contact = (e_c, nodes_c.shape[0])
             self.stats.time_contact += time.perf_counter() - tc
+        self.stats.time_elastic += time.perf_counter() - t0
+        return grad, (t, d1, rt)
+
+    def contact_hessian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Active contact interactions at q: node quadruples (A, 4) and Hessian blocks (A, 12, 12), N/m."""
+        if self.contact is None or self._contact_none:
+            return _NO_CONTACT_NODES, _NO_CONTACT_BLOCKS
+        _, _, nodes_c, blocks_c = self.contact_terms(q)
+        return nodes_c, blocks_c
+
+    def generalised_velocity(self, q: np.ndarray, h: float) -> np.ndarray:
+        """V = P (q - q^) / h - omega e_s of this step (lab frame), (nv,): node velocities, then the spin rate."""
+        return generalised_velocity(q, self._base.q_hat, h, self.vdofs, self.head_spins, self.omega, _EYE3)
+
+    nodes_at = staticmethod(nodes_of)
+
+    def _residual(self, q: np.ndarray, h: float):
+        grad, frames = self.internal_forces(q)
         t1 = time.perf_counter()
         G, Q = self._solver.hydro_force(q, h)
-        self.stats.time_elastic += t1 - t0
         self.stats.time_hydro += time.perf_counter() - t1
         b = self._base
         r, f, inertia = assemble_residual(q, b.q_hat, b.v_hat, b.h_eff, self.mass, grad, G, Q, self.vdofs,
                                           self.head_spins, self.prescribed)
-        return r, grad, f, inertia, (t, d1, rt)
+        return r, grad, f, inertia, frames
 
     def _converged(self, r, grad, f, inertia) -> bool:
         tol = self.numerics.newton_tol
@@ -337,6 +363,10 @@ class Simulator:
             self._contact_broad_phase(q)
             self._contact_q = q.copy()
         self._solver.begin_step(q, h)
+        if self._solver.krylov:  # the resistance was rebuilt: Newton-Krylov in the mobility form
+            self.stats.krylov_steps += 1
+            first = 1 if p.has_head else 0
+            return self._solver.mobility.solve(q, -self.node_forces[first:].ravel(), h)
         hist = [math.inf, math.inf]
         accel = AndersonMixing(self._anderson_weights, self.numerics.anderson_depth)
         step_scale = max(block_max_abs(q - self.q, self._pos), 1e-6 * p.rod_radius)
@@ -449,7 +479,7 @@ class Simulator:
         self.tangent, self.d1, self.ref_twist = t, d1, rt
         self.time = self.time + h if t_new is None else t_new
         self.stats.substeps += 1
-        if self.numerics.integrator == "bdf2" or self.numerics.step_tol > 0.0:
+        if self.numerics.integrator != "euler" or self.numerics.step_tol > 0.0:
             self._history.push(self.time, self.q, self.v)
         self.motor_angle += h * self.omega
         self._solver.end_step()

@@ -30,6 +30,7 @@ from physics.contact import add_blocks_to_dense
 from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel
 from physics.geometry import nodes_of
 from physics.hydrodynamics import HydroError, ResistanceOperator
+from physics.newton_krylov import KrylovFailed, MobilityStep
 from physics.implicit_residual import (assemble_dense_jacobian, generalised_velocity, rotate_dense_blocks,
                                        rotate_node_blocks)
 from physics.rft import apply_blocks, rft_blocks, rft_coefficients
@@ -76,9 +77,11 @@ class DenseChordSolver:
 
     def __init__(self, sim: StepSystem) -> None:
         self.sim = sim
+        self.mobility = MobilityStep(sim, rft_coefficients(sim.params, "lighthill"))
         self.reset()
 
     def reset(self) -> None:
+        self.krylov = False  # this step is solved by Newton-Krylov (``newton_krylov``)
         self.hyd: ResistanceOperator | None = None
         self.x_hyd: np.ndarray | None = None
         self.since_hydro = 0
@@ -89,7 +92,7 @@ class DenseChordSolver:
         self.jac_fresh = False
         self.contact_set: frozenset | None = None
 
-    def _refresh_hydro(self, q: np.ndarray) -> None:
+    def _refresh_hydro(self, q: np.ndarray, lazy: bool = False) -> None:
         sim = self.sim
         p, nm = sim.params, sim.numerics
         t0 = time.perf_counter()
@@ -98,7 +101,7 @@ class DenseChordSolver:
             self.hyd = ResistanceOperator(x, p.viscosity, p.cutoff_length, p.head_radius, sim.head_spins,
                                           nm.lsbt_smoothing, head_coupling=nm.head_model == "higdon",
                                           near_radius=nm.near_field_radius * p.rod_radius,
-                                          printed_head=p.head_rotation == "paper")
+                                          printed_head=p.head_rotation == "paper", factorize_lazily=lazy)
         except HydroError as exc:
             raise StepFailed("hydrodynamic mobility", str(exc)) from None
         self.x_hyd = x
@@ -110,15 +113,18 @@ class DenseChordSolver:
         """Factorise J = M/h^2 + K + P^T R P / h at q (with the resistance rebuilt at q unless kept; a kept
         one is rotated to q's orientation unless ``rotate`` is false, i.e. it was built at q)."""
         sim = self.sim
-        if keep_resistance and self.hyd is not None and not rotate:
-            Rq = self.hyd.dense()
-        elif keep_resistance and self.hyd is not None:
-            R = self.hyd.dense()
-            Q = best_fit_rotation(self.x_hyd, nodes_of(q))[0]
-            Rq = rotate_dense_blocks(R, Q, self.hyd.spin)
-        else:
-            self._refresh_hydro(q)
-            Rq = self.hyd.dense()
+        try:
+            if keep_resistance and self.hyd is not None and not rotate:
+                Rq = self.hyd.dense()
+            elif keep_resistance and self.hyd is not None:
+                R = self.hyd.dense()
+                Q = best_fit_rotation(self.x_hyd, nodes_of(q))[0]
+                Rq = rotate_dense_blocks(R, Q, self.hyd.spin)
+            else:
+                self._refresh_hydro(q)
+                Rq = self.hyd.dense()
+        except HydroError as exc:
+            raise StepFailed("hydrodynamic mobility", str(exc)) from None
         t0 = time.perf_counter()
         J = self.dense_jacobian(q, h, Rq)
         if not np.all(np.isfinite(J)):
@@ -151,6 +157,19 @@ class DenseChordSolver:
         nm, p = self.sim.numerics, self.sim.params
         x_pred = nodes_of(q_pred)
         self.jac_fresh = False
+        self.krylov = False
+        if nm.newton_krylov and self.hyd is not None and not nm.single_iteration:
+            Qh, dev = best_fit_rotation(self.x_hyd, x_pred)
+            if self.since_hydro >= nm.hydro_refresh_max_steps or dev > nm.hydro_refresh_tol * p.rod_radius:
+                # the shape has changed: rebuild the resistance at x_pred and solve this step by Newton-Krylov
+                self._refresh_hydro(q_pred, lazy=True)
+                try:
+                    self.mobility.begin(self.hyd, q_pred, h)
+                except KrylovFailed as exc:
+                    raise StepFailed("preconditioner", str(exc)) from None
+                self.krylov = True
+                self.Qh = _EYE
+                return
         if self.lu is None or not _H_REUSE[0] <= h / self.lu_h <= _H_REUSE[1]:
             self._refresh_jacobian(q_pred, h, keep_resistance=False)  # rebuilds the resistance at x_pred
             self.jac_fresh = True
@@ -187,7 +206,10 @@ class DenseChordSolver:
         """(-R V in the resistance's reference frame, the rotation Q back to the lab frame)."""
         sim = self.sim
         V = generalised_velocity(q, sim._base.q_hat, h, sim.vdofs, sim.head_spins, sim.omega, self.Qh)
-        return -self.hyd.apply(V), self.Qh
+        try:
+            return -self.hyd.apply(V), self.Qh
+        except HydroError as exc:
+            raise StepFailed("hydrodynamic mobility", str(exc)) from None
 
     def increment(self, r: np.ndarray, q: np.ndarray, h: float) -> np.ndarray:
         Q = self.Qj
@@ -216,6 +238,8 @@ def _contact_signature(nodes: np.ndarray) -> frozenset:
 
 class BandedNewtonSolver:
     """Local RFT + Stokes head: block-diagonal resistance, exact banded Newton (O(N) per iteration)."""
+
+    krylov = False  # every step is a banded direct solve
 
     def __init__(self, sim: StepSystem) -> None:
         self.sim = sim

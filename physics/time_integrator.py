@@ -61,7 +61,8 @@ class StepBase:
 
 
 class History:
-    """The accepted points (t, q, v) since the last restart, newest last (at most three kept)."""
+    """The accepted points (t, q, v) since the last restart, newest last (at most five kept: BDF4 and its
+    error estimate)."""
 
     def __init__(self) -> None:
         self.points: list[tuple[float, np.ndarray, np.ndarray]] = []
@@ -71,59 +72,99 @@ class History:
 
     def push(self, t: float, q: np.ndarray, v: np.ndarray) -> None:
         self.points.append((t, q, v))
-        if len(self.points) > 3:
+        if len(self.points) > 5:
             del self.points[0]
 
     def __len__(self) -> int:
         return len(self.points)
 
 
+#: the largest order of each scheme (``NumericsConfig.integrator``)
+SCHEME_ORDER = {"euler": 1, "bdf2": 2, "bdf3": 3, "bdf4": 4}
+
+
+def bdf_coefficients(t_new: float, times: list[float]) -> np.ndarray:
+    """alpha_j of the variable-step BDF formula q'(t_new) ~ sum_j alpha_j q(tau_j) over the nodes
+    tau_0 = t_new, tau_j = times[-j] (newest first): the derivative at t_new of the Lagrange basis
+    polynomials (Hairer & Wanner, *Solving ODEs II*, Sec. III.5). (k+1,), 1/s."""
+    tau = [t_new] + list(reversed(times))
+    k = len(tau) - 1
+    alpha = np.empty(k + 1)
+    alpha[0] = sum(1.0 / (tau[0] - tau[m]) for m in range(1, k + 1))
+    for j in range(1, k + 1):
+        num = 1.0
+        for m in range(1, k + 1):
+            if m != j:
+                num *= tau[0] - tau[m]
+        den = 1.0
+        for m in range(k + 1):
+            if m != j:
+                den *= tau[j] - tau[m]
+        alpha[j] = num / den
+    return alpha
+
+
+def scheme_order(scheme: str, npts: int) -> int:
+    """The order of the next step with ``npts`` accepted points since the last restart: implicit Euler
+    first, then BDF2, and an order above 2 only once the step can be checked by the estimate at that
+    order (order + 1 earlier points): the order ramps up by one per step after a restart."""
+    top = SCHEME_ORDER[scheme]
+    if npts == 1 or top == 1:
+        return 1
+    return max(2, min(top, npts - 1))
+
+
 def step_base(history: History, h: float, scheme: str) -> StepBase:
     """The base of a step of length h (s) from the newest point of ``history``.
 
-    ``scheme`` "euler" or "bdf2". BDF2 needs one earlier point (else the step is implicit Euler);
-    the error estimate needs order + 1 of them (see the module doc)."""
-    t0, q0, v0 = history.points[-1]
-    npts = len(history)
-    if scheme == "bdf2" and npts >= 2:
-        t1, q1, v1 = history.points[-2]
-        h1 = t0 - t1
-        w = h / h1
-        a0 = (1.0 + 2.0 * w) / (h * (1.0 + w))
-        a1 = -(1.0 + w) / h
-        a2 = w * w / (h * (1.0 + w))
-        q_hat = -(a1 * q0 + a2 * q1) / a0
-        v_hat = -(a1 * v0 + a2 * v1) / a0
-        order, h_eff = 2, 1.0 / a0
+    ``scheme`` "euler", "bdf2", "bdf3" or "bdf4" (its largest order; ``scheme_order`` gives the order of this
+    step). BDF-p is v_{n+1} = sum_j alpha_j q_{n+1-j} (``bdf_coefficients``), the same formula for the
+    acceleration from the velocities, so h_e = 1/alpha_0, q^ = -sum_{j>=1} alpha_j q_{n+1-j} / alpha_0 and
+    likewise v^. The error estimate needs order + 1 earlier points (see the module doc)."""
+    pts = history.points
+    order = scheme_order(scheme, len(pts))
+    t0, q0, v0 = pts[-1]
+    if order == 1:
+        q_hat, v_hat, h_eff = q0, v0, h
     else:
-        q_hat, v_hat, order, h_eff = q0, v0, 1, h
+        use = pts[-order:]
+        alpha = bdf_coefficients(t0 + h, [p[0] for p in use])
+        q_hat = np.zeros_like(q0)
+        v_hat = np.zeros_like(v0)
+        for j in range(1, order + 1):
+            _, qj, vj = use[-j]
+            q_hat -= (alpha[j] / alpha[0]) * qj
+            v_hat -= (alpha[j] / alpha[0]) * vj
+        h_eff = 1.0 / alpha[0]
     q_pred, ratio = _predict(history, h, order)
     return StepBase(h, h_eff, q_hat, v_hat, q_pred, order, ratio)
 
 
 def _predict(history: History, h: float, order: int) -> tuple[np.ndarray, float | None]:
     """Polynomial extrapolation through the last order + 1 points to t_n + h, and the error ratio
-    k = E_c / E_p of the corrector of that order (None with too few points: then a lower-degree
-    extrapolation or q_n + h v_n, with no estimate)."""
+    k = E_c / E_p of the corrector of that order (None with too few points: then the extrapolation through
+    the points there are, or q_n + h v_n, with no estimate).
+
+    With S_m = sum_{j<m} 1 / (t_{n+1} - t_{n-j}): the predictor misses by E_p = c pi(t_{n+1}), the corrector
+    by E_c = E_p (1 - S_{p+1} / S_p) (c = q^{(p+1)} / (p+1)!, pi the node polynomial of the p + 1 earlier
+    points), so k = S_{p+1} / S_p - 1: 1/2 (Euler), 2/9 (BDF2), 3/22 (BDF3), 12/125 (BDF4) at constant steps."""
     pts = history.points
     t0, q0, v0 = pts[-1]
-    if len(pts) >= order + 1:
-        if order == 1:
-            t1, q1, _ = pts[-2]
-            h1 = t0 - t1
-            return q0 + (h / h1) * (q0 - q1), h / (h + h1)
-        (t2, q2, _), (t1, q1, _) = pts[-3], pts[-2]
-        h1, h2 = t0 - t1, t1 - t2
-        x = h
-        l0 = (x + h1) * (x + h1 + h2) / (h1 * (h1 + h2))
-        l1 = -x * (x + h1 + h2) / (h1 * h2)
-        l2 = x * (x + h1) / ((h1 + h2) * h2)
-        k = h * (h + h1) / ((2.0 * h + h1) * (h + h1 + h2))
-        return l0 * q0 + l1 * q1 + l2 * q2, k
-    if len(pts) >= 2:  # BDF2 right after a restart: linear extrapolation, no estimate
-        t1, q1, _ = pts[-2]
-        return q0 + (h / (t0 - t1)) * (q0 - q1), None
-    return q0 + h * v0, None
+    if len(pts) < 2:
+        return q0 + h * v0, None
+    use = pts[-(order + 1):]
+    t_new = t0 + h
+    q_pred = np.zeros_like(q0)
+    for i, (ti, qi, _) in enumerate(use):
+        w = 1.0
+        for m, (tm, _, _) in enumerate(use):
+            if m != i:
+                w *= (t_new - tm) / (ti - tm)
+        q_pred += w * qi
+    if len(pts) < order + 1:  # BDF2 right after a restart: linear extrapolation, no estimate
+        return q_pred, None
+    s = [1.0 / (t_new - p[0]) for p in reversed(use)]
+    return q_pred, sum(s) / sum(s[:-1]) - 1.0
 
 
 def error_norm(q_new: np.ndarray, base: StepBase, weights: np.ndarray, tol: float) -> float:

@@ -1,0 +1,423 @@
+"""Newton-Krylov solve of one implicit step in the mobility form (no dense factorisation at all).
+
+The implicit step of eqn (6) with the hydrodynamic force implicit in the velocity (``physics.simulator``)
+needs the LSBT resistance C = A^{-1} (eqn 9). The direct solver forms it (Cholesky of the mobility A,
+its inverse, a dense LU of the Newton Jacobian): ~3 ms per step, paid at every step while the shape
+changes (buckling, relaxation). Here the flagellum's forces y (3M,) are unknowns beside q, so only A
+itself is needed, as a matrix-vector product (``hydrodynamics``, eqns 8-13):
+
+    r_q(q, y) = M (q - q^ - h v^) / h^2 + grad E(q) + P^T (D V + B_out^T y) = 0     (eqn 6; N, N m)
+    r_y(q, y) = sigma (A y - B V) = 0                                            (eqns 8-10; N)
+
+with V = P (q - q^) / h - omega e_s the generalised velocities (node velocities, head spin rate),
+B V = u - H U - g s the flagellum velocities minus the head's flow (eqn 10), B_out^T y the forces the
+flagellum's Stokeslets put on the nodes and the head (eqns 11-13: -H^T y or, as printed, K y; the
+axial torque -g.y), D the head's own drag (eqn 12), and sigma = 8 pi mu 2 delta a scale that gives
+r_y the units of a force. At the solution y = C B V: exactly the reduced step's hydrodynamic force.
+
+Newton on (q, y) with the exact Jacobian applied matrix-free,
+
+    J = [[M/h^2 + K(q) + K_c(q) + P^T D P / h,   P^T B_out^T],
+         [-sigma B P / h,                        sigma A    ]],
+
+each direction from GMRES (right-preconditioned, Saad & Schultz 1986) to a relative ``GMRES_RTOL``.
+The preconditioner is the block factorisation of J with A^{-1} replaced by the local resistance R_loc
+of resistive-force theory (``rft``, Lighthill's coefficients) and the head's flow coupling dropped,
+so its Schur complement S = M/h^2 + K + K_c + (D + P_f^T R_loc P_f) / h is banded (half-bandwidth 10,
+contact blocks where they fall inside the band): one banded LU per step (LAPACK gbtrf), two banded
+solves and two block-diagonal products per application.
+
+Prescribed DOFs (the motor's Dirichlet twist) are identity rows and columns, as in the direct solver.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import numpy as np
+from numba import njit
+from physics.banded_lu import banded_lu, banded_solve
+from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel
+from physics.implicit_residual import assemble_residual, block_max_abs
+
+#: relative residual reduction asked of GMRES for each Newton direction
+GMRES_RTOL = 1e-3
+#: the preconditioner keeps the mobility's entries between nodes at most this many apart
+MOBILITY_BAND_NODES = 3
+#: Krylov iterations before a direction is given up (the step then fails and is retried shorter)
+GMRES_MAX_ITER = 60
+
+
+class KrylovFailed(Exception):
+    """GMRES did not reach its tolerance (the caller turns it into a failed step)."""
+
+
+@njit(cache=True)
+def banded_matvec_add(ab: np.ndarray, v: np.ndarray, out: np.ndarray) -> None:
+    """out += A v for A in general-banded storage ab (2 bw + 1, n), ab[bw + i - j, j] = A[i, j]."""
+    bw = (ab.shape[0] - 1) // 2
+    n = ab.shape[1]
+    for j in range(n):
+        vj = v[j]
+        if vj == 0.0:
+            continue
+        for i in range(max(0, j - bw), min(n, j + bw + 1)):
+            out[i] += ab[bw + i - j, j] * vj
+
+
+@njit(cache=True)
+def contact_matvec_add(nodes: np.ndarray, blocks: np.ndarray, v: np.ndarray, out: np.ndarray) -> None:
+    """out += K_c v for contact Hessian blocks (A, 12, 12) over node quadruples (A, 4), DOF layout (stride 4)."""
+    for a in range(nodes.shape[0]):
+        for p in range(4):
+            for k in range(3):
+                acc = 0.0
+                for q in range(4):
+                    for m in range(3):
+                        acc += blocks[a, 3 * p + k, 3 * q + m] * v[4 * nodes[a, q] + m]
+                out[4 * nodes[a, p] + k] += acc
+
+
+@njit(cache=True)
+def block_diag_apply(blocks: np.ndarray, u: np.ndarray, scale: float) -> np.ndarray:
+    """scale * blockdiag(blocks) u for blocks (M, 3, 3) and u (3M,)."""
+    out = np.empty_like(u)
+    for j in range(blocks.shape[0]):
+        for p in range(3):
+            out[3 * j + p] = scale * (blocks[j, p, 0] * u[3 * j] + blocks[j, p, 1] * u[3 * j + 1]
+                                      + blocks[j, p, 2] * u[3 * j + 2])
+    return out
+
+
+@njit(cache=True)
+def preconditioner_band(ab: np.ndarray, mass: np.ndarray, h: float, rloc: np.ndarray, first: int,
+                        head_t: float, head_r: float, nodes: np.ndarray, blocks: np.ndarray,
+                        prescribed: np.ndarray) -> np.ndarray:
+    """S = K + M/h^2 + (D + R_loc)/h (+ the contact blocks inside the band), prescribed DOFs as identity,
+    in the storage of ``banded_lu``: (n, 3 bw + 1), s[j, 2 bw + i - j] = S[i, j].
+
+    ab: elastic Hessian (2 bw + 1, n); rloc (M, 3, 3) N s/m for the flagellum nodes, the first of which is
+    node ``first``; head_t, head_r: head drag N s/m and N m s (0 without a head / spin)."""
+    bw = (ab.shape[0] - 1) // 2
+    n = ab.shape[1]
+    s = np.zeros((n, 3 * bw + 1))
+    d = 2 * bw
+    for j in range(n):
+        for r in range(2 * bw + 1):
+            s[j, bw + r] = ab[r, j]
+        s[j, d] += mass[j] / (h * h)
+    for j in range(rloc.shape[0]):
+        base = 4 * (j + first)
+        for p in range(3):
+            for k in range(3):
+                s[base + k, d + p - k] += rloc[j, p, k] / h
+    if first:
+        for k in range(3):
+            s[k, d] += head_t / h
+        s[3, d] += head_r / h
+    for a in range(nodes.shape[0]):
+        for p in range(4):
+            for q in range(4):
+                for k in range(3):
+                    for m in range(3):
+                        i = 4 * nodes[a, p] + k
+                        jj = 4 * nodes[a, q] + m
+                        if abs(i - jj) <= bw:
+                            s[jj, d + i - jj] += blocks[a, 3 * p + k, 3 * q + m]
+    for kk in range(prescribed.shape[0]):
+        k = prescribed[kk]
+        for j in range(max(0, k - bw), min(n, k + bw + 1)):
+            s[j, d + k - j] = 0.0
+        for i in range(max(0, k - bw), min(n, k + bw + 1)):
+            s[k, d + i - k] = 0.0
+        s[k, d] = 1.0
+    return s
+
+
+@njit(cache=True)
+def band_of(A: np.ndarray, bw: int) -> np.ndarray:
+    """The entries of the dense A (n, n) within bw of the diagonal, in the storage of ``banded_lu``."""
+    n = A.shape[0]
+    s = np.zeros((n, 3 * bw + 1))
+    for j in range(n):
+        for i in range(max(0, j - bw), min(n, j + bw + 1)):
+            s[j, 2 * bw + i - j] = A[i, j]
+    return s
+
+
+@njit(cache=True)
+def head_flow_apply(V: np.ndarray, H: np.ndarray, g: np.ndarray, has_head: bool, spin: bool) -> np.ndarray:
+    """B V = u - H U - g s (3M,), m/s: the flagellum's velocities minus the head's flow (eqn 10)."""
+    m3 = H.shape[0] if has_head else V.shape[0]
+    out = np.empty(m3)
+    if not has_head:
+        out[:] = V
+        return out
+    s = V[V.shape[0] - 1] if spin else 0.0
+    for i in range(m3):
+        out[i] = V[3 + i] - (H[i, 0] * V[0] + H[i, 1] * V[1] + H[i, 2] * V[2]) - g[i] * s
+    return out
+
+
+@njit(cache=True)
+def drag_and_coupling(V: np.ndarray, y: np.ndarray, Kh: np.ndarray, g: np.ndarray, drag_t: float,
+                      drag_r: float, has_head: bool, spin: bool) -> np.ndarray:
+    """D V + B_out^T y (nv,): minus the hydrodynamic generalised force for flagellum forces y (3M,) N: the
+    head's own drag (eqn 12), the Stokeslets' force on the head Kh y (eqn 11; Kh = -H^T, or K as printed),
+    the flagellum forces, the axial torque -g.y (eqn 13)."""
+    nv = V.shape[0]
+    out = np.empty(nv)
+    if not has_head:
+        out[:] = y
+        return out
+    m3 = y.shape[0]
+    for k in range(3):
+        acc = 0.0
+        for i in range(m3):
+            acc += Kh[k, i] * y[i]
+        out[k] = drag_t * V[k] + acc
+    out[3:3 + m3] = y
+    if spin:
+        acc = 0.0
+        for i in range(m3):
+            acc += g[i] * y[i]
+        out[nv - 1] = drag_r * V[nv - 1] - acc
+    return out
+
+
+@njit(cache=True)
+def jacobian_vector(z: np.ndarray, nd: int, vdofs: np.ndarray, prescribed: np.ndarray, mass_h2: np.ndarray,
+                    ab: np.ndarray, cnodes: np.ndarray, cblocks: np.ndarray, h: float, sigma: float,
+                    A: np.ndarray, H: np.ndarray, g: np.ndarray, Kh: np.ndarray, drag_t: float, drag_r: float,
+                    has_head: bool, spin: bool) -> np.ndarray:
+    """J z for the stacked vector z = (dq (nd,), dy (3M,)) (see the module doc for J)."""
+    v = z[:nd].copy()
+    w = z[nd:]
+    for k in prescribed:
+        v[k] = 0.0
+    out = np.empty_like(z)
+    oq = mass_h2 * v
+    banded_matvec_add(ab, v, oq)
+    if cnodes.shape[0]:
+        contact_matvec_add(cnodes, cblocks, v, oq)
+    nv = vdofs.shape[0]
+    V = np.empty(nv)
+    for a in range(nv):
+        V[a] = v[vdofs[a]] / h
+    c = drag_and_coupling(V, w, Kh, g, drag_t, drag_r, has_head, spin)
+    for a in range(nv):
+        oq[vdofs[a]] += c[a]
+    for k in prescribed:
+        oq[k] = z[k]
+    out[:nd] = oq
+    out[nd:] = sigma * (A @ w - head_flow_apply(V, H, g, has_head, spin))
+    return out
+
+
+@njit(cache=True)
+def precondition(z: np.ndarray, nd: int, vdofs: np.ndarray, prescribed: np.ndarray, lu: np.ndarray,
+                 piv: np.ndarray, alu: np.ndarray, apiv: np.ndarray, abw: int, h: float, sigma: float,
+                 H: np.ndarray, g: np.ndarray, Kh: np.ndarray, has_head: bool, spin: bool) -> np.ndarray:
+    """~J^{-1} z: the block factorisation of J with A replaced by its band (``alu``: LU of the entries within
+    ``abw`` of the diagonal) and the Schur complement by the banded S (``lu``)."""
+    a = z[:nd]
+    b = z[nd:]
+    t = banded_solve(alu, abw, abw, apiv, b) / sigma
+    nv = vdofs.shape[0]
+    c = drag_and_coupling(np.zeros(nv), t, Kh, g, 0.0, 0.0, has_head, spin)
+    rhs = a.copy()
+    for i in range(nv):
+        rhs[vdofs[i]] -= c[i]
+    for k in prescribed:
+        rhs[k] = a[k]
+    x = banded_solve(lu, BANDWIDTH, BANDWIDTH, piv, rhs)
+    V = np.empty(nv)
+    for i in range(nv):
+        V[i] = x[vdofs[i]] / h
+    for k in prescribed:  # prescribed DOFs have no velocity in J's columns
+        for i in range(nv):
+            if vdofs[i] == k:
+                V[i] = 0.0
+    y = t + banded_solve(alu, abw, abw, apiv, head_flow_apply(V, H, g, has_head, spin))
+    out = np.empty_like(z)
+    out[:nd] = x
+    out[nd:] = y
+    return out
+
+
+@njit(cache=True)
+def krylov_direction(b: np.ndarray, rtol: float, max_iter: int, nd: int, vdofs: np.ndarray,
+                     prescribed: np.ndarray, mass_h2: np.ndarray, ab: np.ndarray, cnodes: np.ndarray,
+                     cblocks: np.ndarray, h: float, sigma: float, A: np.ndarray, H: np.ndarray, g: np.ndarray,
+                     Kh: np.ndarray, drag_t: float, drag_r: float, has_head: bool, spin: bool, lu: np.ndarray,
+                     piv: np.ndarray, alu: np.ndarray, apiv: np.ndarray, abw: int) -> tuple[np.ndarray, int, float]:
+    """J^{-1} b by right-preconditioned GMRES (Saad & Schultz 1986; modified Gram-Schmidt, Givens rotations)
+    from 0, no restart, to ||b - J x|| <= rtol ||b||. Returns (x, iterations, reached relative residual):
+    iterations = -1 if ``max_iter`` did not reach rtol."""
+    n = b.shape[0]
+    beta = math.sqrt(b @ b)
+    if beta == 0.0:
+        return np.zeros(n), 0, 0.0
+    V = np.empty((max_iter + 1, n))
+    Z = np.empty((max_iter, n))
+    Hm = np.zeros((max_iter + 1, max_iter))
+    cs = np.zeros(max_iter)
+    sn = np.zeros(max_iter)
+    gv = np.zeros(max_iter + 1)
+    gv[0] = beta
+    V[0] = b / beta
+    target = rtol * beta
+    for k in range(max_iter):
+        Z[k] = precondition(V[k], nd, vdofs, prescribed, lu, piv, alu, apiv, abw, h, sigma, H, g, Kh, has_head,
+                            spin)
+        w = jacobian_vector(Z[k], nd, vdofs, prescribed, mass_h2, ab, cnodes, cblocks, h, sigma, A, H, g, Kh,
+                            drag_t, drag_r, has_head, spin)
+        for i in range(k + 1):
+            hik = w @ V[i]
+            Hm[i, k] = hik
+            w -= hik * V[i]
+        hn = math.sqrt(w @ w)
+        Hm[k + 1, k] = hn
+        breakdown = hn <= 1e-14 * beta  # the Krylov space holds the solution
+        if not breakdown:
+            V[k + 1] = w / hn
+        for i in range(k):
+            t = cs[i] * Hm[i, k] + sn[i] * Hm[i + 1, k]
+            Hm[i + 1, k] = -sn[i] * Hm[i, k] + cs[i] * Hm[i + 1, k]
+            Hm[i, k] = t
+        r = math.hypot(Hm[k, k], Hm[k + 1, k])
+        cs[k] = Hm[k, k] / r
+        sn[k] = Hm[k + 1, k] / r
+        Hm[k, k] = r
+        Hm[k + 1, k] = 0.0
+        gv[k + 1] = -sn[k] * gv[k]
+        gv[k] = cs[k] * gv[k]
+        if abs(gv[k + 1]) <= target or breakdown:
+            m = k + 1
+            yk = np.zeros(m)
+            for i in range(m - 1, -1, -1):  # back substitution with the triangular Hessenberg factor
+                acc = gv[i]
+                for j in range(i + 1, m):
+                    acc -= Hm[i, j] * yk[j]
+                yk[i] = acc / Hm[i, i]
+            x = np.zeros(n)
+            for i in range(m):
+                x += yk[i] * Z[i]
+            return x, m, abs(gv[k + 1]) / beta
+    return np.zeros(n), -1, abs(gv[max_iter]) / beta
+
+
+class MobilityStep:
+    """The mobility-form system of one step: the resistance operator's pieces (A, H, g, head drag) at the
+    predicted geometry, the local resistance and the banded preconditioner. Built by ``begin``;
+    ``solve`` runs the Newton-Krylov iteration from the predictor (each direction one compiled call)."""
+
+    def __init__(self, sim: Any, rloc_coefficients: tuple[float, float]) -> None:
+        self.sim = sim
+        p = sim.params
+        self.zeta = rloc_coefficients
+        self.first = 1 if p.has_head else 0
+        self.sigma = 8.0 * math.pi * p.viscosity * 2.0 * p.cutoff_length
+        self.hyd = None
+
+    def begin(self, hyd: Any, q_pred: np.ndarray, h: float) -> None:
+        """Take the resistance operator ``hyd`` (built at q_pred) and factorise the preconditioner at q_pred, h."""
+        from physics.rft import rft_blocks
+
+        sim = self.sim
+        self.hyd = hyd
+        t0 = time.perf_counter()
+        m3 = hyd.m3
+        if hyd.has_head:
+            self.H, self.g = hyd.H, (hyd.g if hyd.spin else np.zeros(m3))
+            self.Kh = np.ascontiguousarray(hyd.K if hyd.printed else -hyd.H.T)
+            self.drag_t, self.drag_r = hyd.drag_t, (hyd.drag_r if hyd.spin else 0.0)
+        else:
+            self.H, self.g, self.Kh = np.zeros((m3, 3)), np.zeros(m3), np.zeros((3, m3))
+            self.drag_t = self.drag_r = 0.0
+        x = np.ascontiguousarray(sim.nodes_at(q_pred)[self.first:])
+        self.rloc = rft_blocks(x, *self.zeta)
+        t, d1, d2, rt, m1, m2 = sim.frames_at(q_pred)
+        ab = elastic_hessian_banded_kernel(q_pred, d1, d2, rt, m1, m2, *sim.rest_arrays)
+        nodes_c, blocks_c = sim.contact_hessian(q_pred)
+        s = preconditioner_band(ab, sim.mass, h, self.rloc, self.first, self.drag_t, self.drag_r, nodes_c,
+                                blocks_c, sim.prescribed)
+        self.piv, info = banded_lu(s, BANDWIDTH, BANDWIDTH)
+        if info != 0:
+            raise KrylovFailed(f"banded preconditioner is singular (pivot {info} is zero)")
+        self.lu, self.h = s, h
+        self.abw = 3 * MOBILITY_BAND_NODES + 2
+        self.alu = band_of(hyd.a, self.abw)
+        self.apiv, info = banded_lu(self.alu, self.abw, self.abw)
+        if info != 0:
+            raise KrylovFailed(f"banded mobility of the preconditioner is singular (pivot {info} is zero)")
+        sim.stats.preconditioner_factorisations += 1
+        sim.stats.time_jacobian_refresh += time.perf_counter() - t0
+
+    def residual(self, q: np.ndarray, y: np.ndarray, h: float):
+        """(r_q (ndof,) N / N m, r_y (3M,) N, grad (ndof,), f (ndof,), inertia (ndof,), frames) at (q, y)."""
+        sim, hyd = self.sim, self.hyd
+        grad, frames = sim.internal_forces(q)
+        b = sim._base
+        V = sim.generalised_velocity(q, h)
+        G = -drag_and_coupling(V, y, self.Kh, self.g, self.drag_t, self.drag_r, hyd.has_head, hyd.spin)
+        r, f, inertia = assemble_residual(q, b.q_hat, b.v_hat, b.h_eff, sim.mass, grad, G, _EYE, sim.vdofs,
+                                          sim.head_spins, sim.prescribed)
+        r_y = self.sigma * (hyd.a @ y - head_flow_apply(V, self.H, self.g, hyd.has_head, hyd.spin))
+        return r, r_y, grad, f, inertia, frames
+
+    def _jacobian_arrays(self, q: np.ndarray, h: float) -> tuple:
+        sim, hyd = self.sim, self.hyd
+        t, d1, d2, rt, m1, m2 = sim.frames_at(q)
+        ab = elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *sim.rest_arrays)
+        nodes_c, blocks_c = sim.contact_hessian(q)
+        return (q.size, sim.vdofs, sim.prescribed, sim.mass / (h * h), ab, nodes_c, blocks_c, h, self.sigma,
+                hyd.a, self.H, self.g, self.Kh, self.drag_t, self.drag_r, hyd.has_head, hyd.spin)
+
+    def jacobian_vector(self, q: np.ndarray, h: float, z: np.ndarray) -> np.ndarray:
+        """J z at q (the elastic and contact Hessians at q) for z = (dq (ndof,), dy (3M,))."""
+        return jacobian_vector(z, *self._jacobian_arrays(q, h))
+
+    def direction(self, q: np.ndarray, h: float, rhs: np.ndarray, rtol: float = GMRES_RTOL,
+                  max_iter: int = GMRES_MAX_ITER) -> tuple[np.ndarray, int, float]:
+        """GMRES for J z = rhs at q: (z, iterations (-1: not converged), relative residual reached)."""
+        return krylov_direction(rhs, rtol, max_iter, *self._jacobian_arrays(q, h), self.lu, self.piv, self.alu,
+                                self.apiv, self.abw)
+
+    def solve(self, q: np.ndarray, y: np.ndarray, h: float):
+        """Newton-Krylov from (q, y): (q, r, grad, f, frames) at convergence; ``StepFailed`` otherwise."""
+        from physics.step_solvers import StepFailed
+
+        sim = self.sim
+        nm, p = sim.numerics, sim.params
+        nd = q.size
+        step_scale = max(block_max_abs(q - sim.q, sim._pos), 1e-6 * p.rod_radius)
+        for it in range(nm.newton_max_iter):
+            r, r_y, grad, f, inertia, frames = self.residual(q, y, h)
+            sim.stats.newton_iterations += 1
+            if not (np.all(np.isfinite(r)) and np.all(np.isfinite(r_y))):
+                raise StepFailed("residual", "non-finite (NaN/inf) force residual")
+            y_scale = max(float(np.abs(f).max()), sim._f_floor)
+            if sim._converged(r, grad, f, inertia) and float(np.abs(r_y).max()) <= nm.newton_tol * y_scale:
+                return q, r, grad, f, frames
+            t0 = time.perf_counter()
+            z, its, reached = self.direction(q, h, np.concatenate([r, r_y]))
+            sim.stats.time_linear_solve += time.perf_counter() - t0
+            if its < 0:
+                raise StepFailed("Newton-Krylov", f"GMRES reached {reached:.2e} of the initial residual after "
+                                                  f"{GMRES_MAX_ITER} iterations (asked {GMRES_RTOL:g})")
+            sim.stats.krylov_iterations += its
+            q = q - z[:nd]
+            y = y - z[nd:]
+            dz = block_max_abs(z[:nd], sim._pos)
+            if (it >= 1 and dz <= max(nm.newton_tol * step_scale, 1e-10 * p.rod_radius)
+                    and block_max_abs(z[:nd], sim._twist) <= max(nm.newton_tol, 1e-10)):
+                r, r_y, grad, f, inertia, frames = self.residual(q, y, h)
+                return q, r, grad, f, frames
+        raise StepFailed("Newton", f"Newton-Krylov did not converge after {nm.newton_max_iter} iterations "
+                                   f"(max force residual {np.abs(r).max():.3e})")
+
+
+_EYE = np.eye(3)
