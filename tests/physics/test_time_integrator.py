@@ -232,3 +232,48 @@ def test_compiled_jacobian_assembly_is_bit_identical_to_the_numpy_form():
     for i in range((R.shape[0] - 1) // 3):
         T[3 * i:3 * i + 3, 3 * i:3 * i + 3] = Q
     np.testing.assert_allclose(rotate_dense_blocks(R, Q, True), T @ R @ T.T, rtol=0, atol=1e-13 * np.abs(R).max())
+
+
+@pytest.mark.parametrize("scheme,order", [("bdf3", 3), ("bdf4", 4)])
+def test_higher_order_bdf_is_exact_for_polynomials_of_its_order_with_variable_steps(scheme, order):
+    poly = lambda t: np.array([t**order - 2.0 * t + 1.0, 0.3 * t ** (order - 1), -t])  # noqa: E731
+    dpoly = lambda t: np.array([order * t ** (order - 1) - 2.0, 0.3 * (order - 1) * t ** (order - 2), -1.0])  # noqa: E731
+    times = list(np.cumsum([0.0, 0.3, 0.1, 0.25, 0.15, 0.2])[: order + 2])
+    hist = _history(times, poly)
+    base = step_base(hist, 0.17, scheme)
+    assert base.order == order
+    t = times[-1] + 0.17
+    np.testing.assert_allclose(velocity_of(poly(t), base), dpoly(t), rtol=1e-10, atol=1e-10)
+    np.testing.assert_allclose(base.q_pred, poly(t), atol=1e-10)  # the predictor is exact too
+
+
+def test_error_ratios_of_higher_orders_are_the_classic_constants_and_the_order_ramps_up():
+    """k = |C_{p+1}| of BDF-p over the predictor's constant: 3/22 (BDF3), 12/125 (BDF4) at constant steps; after a
+    restart the order climbs 1, 2, 2, 3, 4 (an order above 2 only with its estimate)."""
+    f = lambda t: np.array([t**5])  # noqa: E731
+    assert step_base(_history([0.0, 0.1, 0.2, 0.3], f), 0.1, "bdf3").error_ratio == pytest.approx(3.0 / 22.0)
+    assert step_base(_history([0.0, 0.1, 0.2, 0.3, 0.4], f), 0.1, "bdf4").error_ratio == pytest.approx(12.0 / 125.0)
+    orders = [step_base(_history([0.1 * k for k in range(npts)], f), 0.1, "bdf4").order for npts in range(1, 6)]
+    assert orders == [1, 2, 2, 3, 4]
+
+
+@pytest.mark.parametrize("scheme,order", [("bdf3", 3), ("bdf4", 4)])
+def test_estimate_matches_the_true_local_error_of_higher_orders(scheme, order):
+    """For q = t^(p+1) the true local error of a BDF-p step and the Milne estimate agree (constant steps)."""
+    h = 0.01
+    f = lambda t: np.array([t ** (order + 1)])  # noqa: E731
+    hist = _history([k * h for k in range(order + 1)], f)
+    base = step_base(hist, h, scheme)
+    t = (order + 1) * h
+    q_new = base.q_hat + base.h_eff * (order + 1) * t**order  # the step solved exactly for q' = (p+1) t^p
+    true_err = abs(q_new[0] - f(t)[0])
+    assert error_norm(q_new, base, np.ones(1), 1.0) == pytest.approx(true_err, rel=1e-6)
+
+
+@pytest.mark.parametrize("scheme,order", [("bdf3", 3), ("bdf4", 4)])
+def test_adaptive_error_of_higher_orders_falls_with_the_tolerance(burst_reference, scheme, order):
+    """Held at tol per step, a p-th order scheme's error goes as tol^(p/(p+1)): dividing tol by 8 must divide the
+    burst's error by at least 3 (BDF3: 4.8 expected, BDF4: 5.3)."""
+    e1 = float(np.abs(_burst_end(scheme, 0.1, 8e-3) - burst_reference).max())
+    e2 = float(np.abs(_burst_end(scheme, 0.1, 1e-3) - burst_reference).max())
+    assert e1 / e2 > 3.0, (e1, e2)

@@ -1,0 +1,165 @@
+"""Newton-Krylov in the mobility form (physics/newton_krylov.py): the matrix-free Jacobian against the
+assembled direct-solver Jacobian and against central differences of the residual, GMRES on buckled
+snapshots with and without contact, the step it takes against the direct step, the compiled banded LU
+against LAPACK, and a diverging run still ending in SimulationError."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.linalg import lapack
+
+from physics import Simulator, SimulationError, advance, configure
+from physics.banded_lu import banded_lu, banded_solve
+from physics.elastic import elastic_gradient_kernel, elastic_hessian_banded_kernel
+from physics.newton_krylov import banded_matvec_add, head_flow_apply
+from physics.params import RPM_TO_RAD_S
+
+
+def _buckled(contact: bool, n_nodes: int = 40, seconds: float = 1.8) -> Simulator:
+    """A fixed-head swimmer at 300 rpm (the stress corner), buckled and (with contact) touching itself."""
+    p, n = configure("faithful", {"n_nodes": n_nodes, "head_rotation": "fixed", "integrator": "bdf3",
+                                  "newton_krylov": True, "contact": contact})
+    sim = Simulator(p, n)
+    sim.set_motor_speed(300 * RPM_TO_RAD_S)
+    advance(sim, seconds)
+    return sim
+
+
+def _torque_free(n_nodes: int = 24) -> Simulator:
+    p, n = configure("faithful", {"n_nodes": n_nodes, "integrator": "bdf3", "newton_krylov": True})
+    sim = Simulator(p, n)
+    sim.set_motor_speed(150 * RPM_TO_RAD_S)
+    advance(sim, 0.5)
+    return sim
+
+
+def _open_step(sim: Simulator, h: float = 0.01):
+    """Set up the mobility system of a step of h from the current state, as the simulator does."""
+    base = sim._base_for(h)
+    sim._base = base
+    q = base.q_pred.copy()
+    q[sim.prescribed] = sim.q[sim.prescribed] + base.h * sim.omega
+    if sim.contact is not None:
+        sim._contact_broad_phase(q)
+        sim._contact_q = q.copy()
+    solver = sim._solver
+    solver._refresh_hydro(q, lazy=True)
+    solver.Qh = np.eye(3)
+    ms = solver.mobility
+    ms.begin(solver.hyd, q, base.h_eff)
+    first = 1 if sim.params.has_head else 0
+    y = -sim.node_forces[first:].ravel()
+    return ms, q, y, base.h_eff
+
+
+@pytest.mark.parametrize("make", [_torque_free, lambda: _buckled(True)], ids=["torque-free head", "buckled, contact"])
+def test_jacobian_vector_product_matches_the_assembled_jacobian(make):
+    """With w = C B P v / h (the forces the velocity v/h induces), J (v, w) = (J_direct v, 0): the mobility form
+    is the direct solver's Newton system with the forces eliminated."""
+    sim = make()
+    ms, q, y, h = _open_step(sim)
+    J = sim._solver.dense_jacobian(q, h, sim._solver.hyd.dense())
+    rng = np.random.default_rng(1)
+    v = rng.normal(size=q.size) * np.where(np.arange(q.size) % 4 == 3, 1.0, sim.params.rod_radius)
+    v[sim.prescribed] = 0.0
+    V = v[sim.vdofs] / h
+    w = sim._solver.hyd.solve(head_flow_apply(V, ms.H, ms.g, sim._solver.hyd.has_head, sim._solver.hyd.spin))
+    out = ms.jacobian_vector(q, h, np.concatenate([v, w]))
+    ref = J @ v
+    assert np.abs(out[:q.size] - ref).max() < 1e-9 * np.abs(ref).max()
+    assert np.abs(out[q.size:]).max() < 1e-9 * ms.sigma * np.abs(sim._solver.hyd.a @ w).max()
+
+
+@pytest.mark.parametrize("contact", [True, False], ids=["contact", "no contact"])
+def test_jacobian_vector_product_matches_central_differences_of_the_residual(contact):
+    """J z against (r(q + e z) - r(q - e z)) / 2e for the stacked residual (r_q, r_y) of a buckled snapshot:
+    exactly for everything but the elastic Hessian K, which is the symmetric part of the gradient's derivative
+    (checked against finite differences in tests/physics/test_time_integrator.py and test_rod_energy.py)."""
+    sim = _buckled(contact)
+    ms, q, y, h = _open_step(sim)
+    rng = np.random.default_rng(2)
+    dq = rng.normal(size=q.size) * np.where(np.arange(q.size) % 4 == 3, 1.0, sim.params.rod_radius)
+    dq[sim.prescribed] = 0.0
+    dy = rng.normal(size=y.size) * np.abs(y).max()
+    z = np.concatenate([dq, dy])
+    eps = 1e-6
+
+    def stacked_without_elastic(qq, yy):
+        r, r_y, grad, *_ = ms.residual(qq, yy, h)
+        t, d1, d2, rt, m1, m2 = sim.frames_at(qq)
+        return np.concatenate([r - elastic_gradient_kernel(qq, d1, d2, rt, m1, m2, *sim.rest_arrays), r_y])
+
+    fd = (stacked_without_elastic(q + eps * dq, y + eps * dy)
+          - stacked_without_elastic(q - eps * dq, y - eps * dy)) / (2 * eps)
+    t, d1, d2, rt, m1, m2 = sim.frames_at(q)
+    kv = np.zeros(z.size)
+    banded_matvec_add(elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *sim.rest_arrays), dq, kv[:q.size])
+    jz = ms.jacobian_vector(q, h, z) - kv
+    free = np.setdiff1d(np.arange(z.size), sim.prescribed)
+    np.testing.assert_allclose(jz[free], fd[free], atol=1e-7 * np.abs(fd).max())
+    if contact:
+        assert sim.contact_count > 0
+
+
+@pytest.mark.parametrize("contact", [True, False], ids=["contact", "no contact"])
+def test_gmres_converges_on_a_buckled_snapshot(contact):
+    sim = _buckled(contact)
+    if contact:
+        assert sim.contact_count > 0  # the snapshot has the rod touching itself
+    assert sim.end_to_end_ratio() < 0.8  # and it is buckled
+    ms, q, y, h = _open_step(sim)
+    r, r_y, *_ = ms.residual(q, y, h)
+    b = np.concatenate([r, r_y])
+    for rtol in (1e-3, 1e-8):
+        z, its, reached = ms.direction(q, h, b, rtol, 120)
+        assert 0 < its <= 60, (rtol, its, reached)
+        true = np.linalg.norm(ms.jacobian_vector(q, h, z) - b) / np.linalg.norm(b)
+        assert true <= 1.01 * rtol and reached <= rtol
+    assert ms.direction(q, h, b, 1e-3, 120)[1] <= 15  # the preconditioner keeps the count small
+
+
+def test_newton_krylov_step_equals_the_direct_step():
+    """The same step (same state, same h) by the direct chord iteration and by Newton-Krylov, both to a tight
+    tolerance: the same new configuration."""
+    ends = {}
+    for nk in (False, True):
+        p, n = configure("faithful", {"n_nodes": 40, "integrator": "bdf3", "newton_krylov": nk,
+                                      "newton_tol": 1e-10, "hydro_refresh_tol": 0.0})
+        sim = Simulator(p, n)
+        sim.set_motor_speed(150 * RPM_TO_RAD_S)
+        advance(sim, 0.3)
+        ends[nk] = (sim.q.copy(), sim.stats.krylov_steps)
+    assert ends[True][1] > 0 and ends[False][1] == 0
+    dx = np.abs(ends[True][0] - ends[False][0])
+    pos = np.arange(dx.size) % 4 != 3
+    assert dx[pos].max() < 1e-6 * 1e-3 and dx[~pos].max() < 1e-6
+
+
+def test_compiled_banded_lu_is_lapacks():
+    rng = np.random.default_rng(3)
+    kl = 10
+    for shift in (5.0, 0.1):  # diagonally dominant, and one that pivots
+        ab = np.zeros((3 * kl + 1, 200))
+        ab[kl:] = rng.normal(size=(2 * kl + 1, 200))
+        ab[2 * kl] += shift
+        lub, piv, info = lapack.dgbtrf(ab, kl, kl)
+        b = rng.normal(size=200)
+        x_ref, _ = lapack.dgbtrs(lub, kl, kl, b, piv)
+        s = np.ascontiguousarray(ab.T)
+        p2, info2 = banded_lu(s, kl, kl)
+        assert info2 == info == 0 and np.array_equal(p2, piv)
+        np.testing.assert_allclose(banded_solve(s, kl, kl, p2, b), x_ref, rtol=1e-12, atol=1e-12 * np.abs(x_ref).max())
+
+
+def test_a_run_that_cannot_meet_its_tolerance_raises_simulation_error_with_newton_krylov():
+    p, n = configure("faithful", {"n_nodes": 20, "integrator": "bdf3", "newton_krylov": True, "step_tol": 1e-12,
+                                  "h_start": 1e-3, "h_min": 5e-4})
+    sim = Simulator(p, n)
+    sim.set_motor_speed(150 * RPM_TO_RAD_S)
+    with pytest.raises(SimulationError) as info:
+        advance(sim, 1.0)
+    err = info.value
+    assert err.quantity == "local error" and math.isfinite(err.time_s) and f"step {err.step}" in str(err)
