@@ -87,7 +87,14 @@ BURST_RPM = 150.0
 BURST_TC = 7.5
 #: The held-out path of the episode metric (a start and 3 waypoints, from the committed eval set).
 EPISODE_PATH = "planar_1000.json"
-QUICK_PRESET_METRICS = ("swim_per_turn_10rpm", "burst", "episode")
+QUICK_PRESET_METRICS = ("swim_per_turn_10rpm", "burst", "episode", "env_random")
+#: the steady cruise is measured after this many seconds more at 10 rpm (6 s start + 20 s: the helix has settled)
+SETTLE_S = 20.0
+#: env steps of the quick protocol: ``FlagellumSteer-v0`` at its default control step, random actions (seed 0)
+ENV_CONTROL_DT = 2.0
+ENV_RANDOM_STEPS = 40
+#: the configuration every quick row's errors are measured against (``physics.presets``)
+QUICK_REFERENCE = "reference"
 #: value -> name of the error in the quick rows
 QUICK_ERRORS = {"swim_per_turn_10rpm": "swim_per_turn", "theta_burst": "theta", "phi_burst": "phi",
                 "lratio_burst": "lratio_end_of_burst"}
@@ -100,9 +107,11 @@ def quick_configs() -> tuple[FidelityConfig, ...]:
 
 
 def quick_tasks(configs: tuple[FidelityConfig, ...]) -> list[tuple[FidelityConfig, str]]:
-    """(config, metric) of the quick protocol: every metric for every preset but ``paper``'s episode (its
-    episode belongs to the full ladder: ~10 min)."""
-    return [(c, m) for m in QUICK_PRESET_METRICS for c in configs if not (c.name == "paper" and m == "episode")]
+    """(config, metric) of the quick protocol: every metric for every preset, but the episode and the random-policy
+    env only for the presets users swim with (not ``paper`` and ``reference``: minutes each)."""
+    slow = ("paper", QUICK_REFERENCE)
+    return [(c, m) for m in QUICK_PRESET_METRICS for c in configs
+            if not (c.name in slow and m in ("episode", "env_random"))]
 
 
 def quick_rows(done: dict[tuple[str, str], dict], configs: tuple[FidelityConfig, ...]) -> list[dict[str, Any]]:
@@ -128,11 +137,14 @@ def quick_rows(done: dict[tuple[str, str], dict], configs: tuple[FidelityConfig,
                      "real_time_factor_cpu": rtf.get("swim_per_turn_10rpm", (None, None))[1],
                      "burst_real_time_factor": rtf.get("burst", (None, None))[0],
                      "burst_real_time_factor_cpu": rtf.get("burst", (None, None))[1],
+                     "relax_real_time_factor_cpu": vals.get("relax_rtf_cpu"),
                      "episode_wall_s": vals.get("episode_wall_s"), "episode_cpu_s": vals.get("episode_cpu_s"),
+                     "env_steps_per_s_rule": vals.get("env_steps_per_s_rule"),
+                     "env_steps_per_s_random": vals.get("env_steps_per_s_random"),
                      "values": vals, "failures": failures,
                      "measured": sorted({rec.get("measured") or "undated" for (name, _), rec in done.items()
                                          if name == c.name})})
-    ref = values.get("paper", {})
+    ref = values.get(QUICK_REFERENCE, {})
     for row in rows:
         row["errors"] = {QUICK_ERRORS[k]: relative_error(k, v, ref[k])
                          for k, v in row["values"].items()
@@ -177,6 +189,7 @@ def run_metric(cfg: FidelityConfig, metric: str) -> dict[str, Any]:
         from physics import advance
 
         sim = _steady(cfg)
+        advance(sim, SETTLE_S)  # the helix settles: the steady cruise is measured after it
         x0 = sim.head_position
         t0, c0 = time.perf_counter(), time.process_time()
         advance(sim, 12.0)
@@ -205,6 +218,8 @@ def run_metric(cfg: FidelityConfig, metric: str) -> dict[str, Any]:
                    straight=res.straight)
         out["rtf"] = BURST_TC / res.burst_wall_s
         out["rtf_cpu"] = BURST_TC / max(res.burst_cpu_s, 1e-9)
+        out["relax_s"] = res.relax_s
+        out["relax_rtf_cpu"] = res.relax_s / max(res.relax_cpu_s, 1e-9)
     elif metric == "episode":
         from agents.assets import eval_paths_dir
         from agents.path_following import EpisodeTask
@@ -215,10 +230,32 @@ def run_metric(cfg: FidelityConfig, metric: str) -> dict[str, Any]:
         rec = EpisodeTask("rule", path, cfg.preset).execute().record
         if rec["status"] != "ok":
             raise RuntimeError(f"episode failed: {rec['error']}")
-        out.update(episode_wall_s=rec["wall_time_s"], episode_cpu_s=time.process_time() - c0,
+        cpu = time.process_time() - c0
+        out.update(episode_wall_s=rec["wall_time_s"], episode_cpu_s=cpu,
                    episode_success=rec["success"], episode_mean_cross_track_m=rec["mean_cross_track_m"],
                    episode_time_s=rec["time_s"])
         out["rtf"] = rec["time_s"] / rec["wall_time_s"]
+        # the same swimming as env steps of the default control_dt (2 s) per CPU second
+        out["env_steps_per_s_rule"] = rec["time_s"] / ENV_CONTROL_DT / cpu
+    elif metric == "env_random":
+        import gymnasium as gym
+
+        import flagellum_env  # noqa: F401  (registers the ids)
+
+        env = gym.make("FlagellumSteer-v0", preset=cfg.preset, control_dt=ENV_CONTROL_DT)
+        env.reset(seed=0)
+        env.action_space.seed(0)
+        buckled = 0
+        c0 = time.process_time()
+        for _ in range(ENV_RANDOM_STEPS):
+            _, _, terminated, truncated, info = env.step(env.action_space.sample())
+            buckled += int(env.unwrapped.simulator.end_to_end_ratio() < 0.9)
+            if terminated or truncated:
+                env.reset()
+        cpu = time.process_time() - c0
+        env.close()
+        out.update(env_steps_per_s_random=ENV_RANDOM_STEPS / cpu, env_random_buckled_steps=buckled)
+        out["rtf_cpu"] = ENV_RANDOM_STEPS * ENV_CONTROL_DT / cpu
     elif metric == "omega_b":
         lo, hi = 50.0, 130.0
         evals = []

@@ -118,7 +118,7 @@ def write_report(rows: list[dict[str, Any]], json_path: Path, md_path: Path | No
 
 
 def quick_markdown(rows: list[dict[str, Any]], wall_s: float, missing: list[str]) -> str:
-    """The report of ``flagellum bench --quick``: speed and errors against paper, one row per preset."""
+    """The report of ``flagellum bench --quick``: speed by phase and errors against ``reference``, one row per preset."""
     import os
     import platform
     import time as _time
@@ -127,21 +127,27 @@ def quick_markdown(rows: list[dict[str, Any]], wall_s: float, missing: list[str]
     err_keys = ("swim_per_turn", "theta", "phi", "lratio_end_of_burst")
     lines = [f"# flagellum bench --quick ({_time.strftime('%Y-%m-%d %H:%M UTC', _time.gmtime())})", "",
              f"{platform.node()}, {os.cpu_count()} cores, load average {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} "
-             f"at the end; {wall_s:.0f} s in all. Real-time factor = simulated s per wall s (CPU s in brackets), one "
-             "task per core. Steady: 12 s at 10 rpm after 6 s of start-up. Burst: 7.5 s at 150 rpm from steady "
-             "10 rpm, then 10 rpm until the heading settles (θ, φ: the paper's turn angles; L'/L at the burst's end). "
-             "Episode: the rule planner on agents/eval_paths/planar_1000.json (not run for paper). Errors: "
-             "|x - x_paper| / max(|x_paper|, floor), floor 10° for angles.", "",
-             "| preset | steady RTF | burst RTF | episode wall s | " + " | ".join(f"error {k}" for k in err_keys)
-             + " |", "|---" * (4 + len(err_keys)) + "|"]
+             f"at the end; {wall_s:.0f} s in all. Real-time factor = simulated s per CPU s (`time.process_time`; "
+             "wall-clock in brackets where measured), one task per core. Steady: 12 s at 10 rpm after 26 s of "
+             "start-up (the helix has settled). Burst: 7.5 s at 150 rpm from 6 s of 10 rpm; relaxation: 10 rpm "
+             "after it until the heading settles (θ, φ: the paper's turn angles; L'/L at the burst's end). "
+             "Episode: the rule planner on agents/eval_paths/planar_1000.json; env (rule): the episode's simulated "
+             "time in env steps of 2 s per CPU s; env (random): `FlagellumSteer-v0`, control_dt 2 s, 40 random "
+             "actions (seed 0). Episode and env are not run for paper and reference. Errors: "
+             "|x - x_ref| / max(|x_ref|, floor) against the `reference` preset, floor 10° for angles.", "",
+             "| preset | steady RTF | burst RTF | relaxation RTF | episode CPU s | env steps/s (rule) "
+             "| env steps/s (random) | " + " | ".join(f"error {k}" for k in err_keys)
+             + " |", "|---" * (7 + len(err_keys)) + "|"]
 
     def pair(a, b):
-        return "—" if a is None else f"{a:.3g} ({_fmt(b)})"
+        return "—" if a is None else f"{_fmt(b)} ({a:.3g})"
 
     for r in rows:
         lines.append(f"| {r['config']} | {pair(r['real_time_factor'], r['real_time_factor_cpu'])} | "
                      f"{pair(r['burst_real_time_factor'], r['burst_real_time_factor_cpu'])} | "
-                     f"{pair(r['episode_wall_s'], r['episode_cpu_s'])} | "
+                     f"{_fmt(r.get('relax_real_time_factor_cpu'))} | "
+                     f"{pair(r['episode_wall_s'], r['episode_cpu_s'])} | {_fmt(r.get('env_steps_per_s_rule'))} | "
+                     f"{_fmt(r.get('env_steps_per_s_random'))} | "
                      + " | ".join(f"{100 * r['errors'][k]:.2f} %" if k in r["errors"] else "—" for k in err_keys)
                      + " |")
     lines += ["", "Values:", "", "| preset | swim per turn (mm) | θ (deg) | φ (deg) | L'/L end of burst | episode |",

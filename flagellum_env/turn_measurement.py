@@ -51,6 +51,7 @@ class TurnResult:
     # wall and CPU seconds the burst took (benchmarks; not part of the result's identity)
     burst_wall_s: float | None = field(default=None, compare=False)
     burst_cpu_s: float | None = field(default=None, compare=False)
+    relax_cpu_s: float | None = field(default=None, compare=False)  # CPU seconds of the relaxation
 
 
 def rotation_rate(sim: Any, phase_node: int, duration_s: float = 1.0) -> float:
@@ -142,7 +143,7 @@ def measure_turn(sim: Any, omega_l_rpm: float, omega_h_rpm: float, t_c: float, p
         burst_wall, burst_cpu = time.perf_counter() - w0, time.process_time() - c0
         burst_end_ratio = float(sim.end_to_end_ratio())
         sim.set_motor_speed(omega_l_rpm * RPM_TO_RAD_S)
-    t_relax0 = sim.time
+    t_relax0, c_relax0 = sim.time, time.process_time()
     prev = heading(sim, period)
     straight = False
     while sim.time - t_relax0 < relax_max_s:
@@ -159,4 +160,5 @@ def measure_turn(sim: Any, omega_l_rpm: float, omega_h_rpm: float, t_c: float, p
     offset = (float(disp @ d0), float(disp @ e_ref), float(disp @ np.cross(d0, e_ref)))
     return TurnResult(t_c=float(t_c), phase_deg=float(phase_deg), theta_deg=theta, phi_deg=phi, psi_deg=psi,
                       relax_s=sim.time - t_relax0, straight=straight, period_s=period, offset_m=offset,
-                      burst_end_ratio=burst_end_ratio, burst_wall_s=burst_wall, burst_cpu_s=burst_cpu)
+                      burst_end_ratio=burst_end_ratio, burst_wall_s=burst_wall, burst_cpu_s=burst_cpu,
+                      relax_cpu_s=time.process_time() - c_relax0)

@@ -41,9 +41,10 @@ from numba import njit
 from physics.banded_lu import banded_lu, banded_solve
 from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel
 from physics.implicit_residual import assemble_residual, block_max_abs
+from physics.time_integrator import ContractionRate
 
 #: relative residual reduction asked of GMRES for each Newton direction
-GMRES_RTOL = 1e-3
+GMRES_RTOL = 1e-4
 #: the preconditioner keeps the mobility's entries between nodes at most this many apart
 MOBILITY_BAND_NODES = 3
 #: Krylov iterations before a direction is given up (the step then fails and is retried shorter)
@@ -321,6 +322,7 @@ class MobilityStep:
         self.first = 1 if p.has_head else 0
         self.sigma = 8.0 * math.pi * p.viscosity * 2.0 * p.cutoff_length
         self.hyd = None
+        self.contraction = ContractionRate()  # the Newton iteration's convergence test (adaptive steps)
 
     def begin(self, hyd: Any, q_pred: np.ndarray, h: float) -> None:
         """Take the resistance operator ``hyd`` (built at q_pred) and factorise the preconditioner at q_pred, h."""
@@ -394,6 +396,9 @@ class MobilityStep:
         nm, p = sim.numerics, sim.params
         nd = q.size
         step_scale = max(block_max_abs(q - sim.q, sim._pos), 1e-6 * p.rod_radius)
+        rate = self.contraction if nm.step_tol > 0.0 else None
+        if rate is not None:
+            rate.start()
         for it in range(nm.newton_max_iter):
             r, r_y, grad, f, inertia, frames = self.residual(q, y, h)
             sim.stats.newton_iterations += 1
@@ -412,8 +417,11 @@ class MobilityStep:
             q = q - z[:nd]
             y = y - z[nd:]
             dz = block_max_abs(z[:nd], sim._pos)
-            if (it >= 1 and dz <= max(nm.newton_tol * step_scale, 1e-10 * p.rod_radius)
-                    and block_max_abs(z[:nd], sim._twist) <= max(nm.newton_tol, 1e-10)):
+            converged = (it >= 1 and dz <= max(nm.newton_tol * step_scale, 1e-10 * p.rod_radius)
+                         and block_max_abs(z[:nd], sim._twist) <= max(nm.newton_tol, 1e-10))
+            if rate is not None and not converged:
+                converged = rate.converged(sim.correction_size(z[:nd]) / nm.step_tol)
+            if converged:
                 r, r_y, grad, f, inertia, frames = self.residual(q, y, h)
                 return q, r, grad, f, frames
         raise StepFailed("Newton", f"Newton-Krylov did not converge after {nm.newton_max_iter} iterations "

@@ -1,18 +1,23 @@
 """Named speed/accuracy presets, selectable everywhere (CLI ``--preset``, API, environment).
 
-``paper`` is the reference: the paper's discretisation (N = 122, edges 2 delta, LSBT + Higdon
-head) and scheme (implicit Euler, eqn 6) at the paper's h = 1 ms, Newton tolerance 1e-6, with
-the resistance refreshed whenever the shape has changed by more than 0.03 r0.
+``paper`` is the paper's discretisation (N = 122, edges 2 delta, LSBT + Higdon head) and scheme
+(implicit Euler, eqn 6) at the paper's h = 1 ms, Newton tolerance 1e-6, with the resistance
+refreshed whenever the shape has changed by more than 0.03 r0 (first order in h: ~1.4 % off the
+converged turn angle, docs/time_integration.md).
 
 ``faithful`` (the default everywhere: ``DEFAULT_PRESET``) is the paper's swimmer on the paper's
-grid, integrated by variable-step BDF2 with the local error per step held below ``step_tol``
-(``physics.time_integrator``), the Newton Jacobian refactorised whenever the resistance is
-rebuilt; ``dt`` = 0.1 s is the sampling / control step inside which the adaptive steps are taken.
-``fast`` is the same grid and scheme with a looser error tolerance and a lazier resistance.
-``coarse`` (N = 45, h = 10 ms implicit Euler; called ``fast`` before 2026-12-02) swims like
-``paper`` but buckles later and turns differently: its turns are its own, and so is its turn map.
+grid, integrated by variable-step BDF3 with the local error per step held below ``step_tol``
+(``physics.time_integrator``); steps at which the shape has changed (the resistance is rebuilt:
+buckling, relaxation) are solved by Newton-Krylov in the mobility form (``physics.newton_krylov``),
+the others by the chord iteration on the reused dense factorisation; ``dt`` = 0.1 s is the sampling /
+control step inside which the adaptive steps are taken. ``fast`` is the same grid and scheme with a
+looser error tolerance. ``reference`` is the converged swimmer every preset's error is measured against:
+the same model at step_tol 1e-7, Newton 1e-8 and the resistance rebuilt at 0.003 r0 of deformation
+(its convergence: docs/time_integration.md). ``coarse`` (N = 45, h = 10 ms implicit Euler; called
+``fast`` before 2026-12-02) swims like ``paper`` but buckles later and turns differently: its turns are
+its own, and so is its turn map.
 
-Measured costs and errors against ``paper``: docs/fidelity.md (``flagellum bench --quick`` and
+Measured costs and errors against ``reference``: docs/fidelity.md (``flagellum bench --quick`` and
 scripts/bench_fidelity.py).
 """
 
@@ -27,17 +32,24 @@ from physics.params import NumericsConfig, SwimmerParams, apply_overrides
 #: The preset of every command, the environment and the agents unless told otherwise.
 DEFAULT_PRESET = "faithful"
 
-_ADAPTIVE = {"dt": 0.1, "integrator": "bdf2", "jacobian_refresh": "resistance", "hydro_model": "lsbt",
-             "head_model": "higdon"}
+#: the error-controlled presets: Newton-Krylov where the shape changes, the plain chord iteration elsewhere (Anderson
+#: mixing cost more than it saved there: steady 10 rpm 38x -> 53x real time, same iteration count)
+_ADAPTIVE = {"dt": 0.1, "jacobian_refresh": "resistance", "hydro_model": "lsbt", "head_model": "higdon",
+             "newton_krylov": True, "anderson_depth": 0}
 
 PRESETS: dict[str, dict[str, dict[str, Any]]] = {
+    "reference": {"params": {"n_nodes": 122},
+                  "numerics": {**_ADAPTIVE, "integrator": "bdf3", "step_tol": 1e-7, "hydro_refresh_tol": 0.003,
+                               "newton_tol": 1e-8}},
     "paper": {"params": {"n_nodes": 122},
               "numerics": {"dt": 1e-3, "hydro_model": "lsbt", "head_model": "higdon",
                            "hydro_refresh_tol": 0.03, "newton_tol": 1e-6}},
     "faithful": {"params": {"n_nodes": 122},
-                 "numerics": {**_ADAPTIVE, "step_tol": 1e-4, "hydro_refresh_tol": 0.03, "newton_tol": 1e-5}},
+                 "numerics": {**_ADAPTIVE, "integrator": "bdf3", "step_tol": 1e-4, "hydro_refresh_tol": 0.03,
+                              "newton_tol": 1e-5}},
     "fast": {"params": {"n_nodes": 122},
-             "numerics": {**_ADAPTIVE, "step_tol": 1e-3, "hydro_refresh_tol": 0.03, "newton_tol": 1e-5}},
+             "numerics": {**_ADAPTIVE, "integrator": "bdf3", "step_tol": 1e-3, "hydro_refresh_tol": 0.03,
+                          "newton_tol": 1e-5}},
     "coarse": {"params": {"n_nodes": 45},
                "numerics": {"dt": 1e-2, "hydro_model": "lsbt", "head_model": "higdon",
                             "hydro_refresh_tol": 0.1, "newton_tol": 1e-5}},

@@ -1,16 +1,23 @@
 """The swimmer simulator: a thin stateful shell around the pure physics functions.
 
-Time stepping is implicit Euler, eqn (6) of Huang & Jawed 2020,
+Time stepping discretises eqn (6) of Huang & Jawed 2020 implicitly,
 
-    M (q_{k+1} - q_k - h v_k) / h^2 + grad E(q_{k+1}) + P^T R (P (q_{k+1} - q_k)/h - omega e_s) = 0,
+    M (q_{k+1} - q^ - h_e v^) / h_e^2 + grad E(q_{k+1}) + P^T R (P (q_{k+1} - q^)/h_e - omega e_s) = 0,
 
 with the hydrodynamic force *implicit in the velocity* (the paper lags it, eqn 7, which is
-unstable at h = 1 ms for this rod: h * drag / mass ~ 8 > 2). R is the generalised resistance
-(``hydrodynamics`` for LSBT + head, ``rft`` for local drag) evaluated at the predicted geometry
-q_k + h v_k. The nonlinear system is solved by Newton-type iterations on the full residual, so a
-converged step solves eqn (6) up to the resistance's geometry lag; how the linear algebra is
-done (and reused) is the job of ``step_solvers``. A failing step is halved up to
-``max_substeps`` times before a ``SimulationError`` names the step, time and quantity.
+unstable at h = 1 ms for this rod: h * drag / mass ~ 8 > 2). The base values q^, v^ and the
+effective step h_e come from the scheme (``physics.time_integrator``): implicit Euler (the paper's,
+``integrator="euler"``) or variable-step BDF of order up to 2, 3 or 4 (``bdf2``, ``bdf3``, ``bdf4``;
+the presets ``faithful`` and ``fast`` use BDF3), with error-controlled steps inside each ``dt`` when
+``step_tol`` > 0. R is the generalised resistance (``hydrodynamics`` for LSBT + head, ``rft`` for
+local drag) evaluated at the predicted geometry. The nonlinear system is solved by Newton-type
+iterations on the full residual, so a converged step solves eqn (6) up to the resistance's geometry
+lag. Two regimes (``step_solvers``): while the resistance is reused through a rigid rotation (steady
+swimming), the chord iteration on the reused dense factorisation; when it is rebuilt (the shape has
+changed: buckling, relaxation) and ``newton_krylov`` is on, Newton-Krylov in the mobility form
+(``newton_krylov``: GMRES with a banded preconditioner, no dense factorisation). A failing fixed step
+is halved up to ``max_substeps`` times, a failing adaptive step retried at a quarter, before a
+``SimulationError`` names the step, time and quantity.
 
 Contact (``physics.contact``, on unless ``numerics.contact`` is false): head-rod and rod-rod
 penalty energies join the elastic energy in eqn (6): their gradient is in the residual, their
@@ -43,7 +50,8 @@ from physics.contact import ContactModel
 from physics.implicit_residual import assemble_residual, block_max_abs, generalised_velocity
 from physics.params import NumericsConfig, SwimmerParams
 from physics.step_solvers import BandedNewtonSolver, DenseChordSolver, StepFailed
-from physics.time_integrator import (SAFETY, SHRINK_MIN, History, StepBase, error_norm, next_step, split_remaining,
+from physics.time_integrator import (SAFETY, SHRINK_MIN, ContractionRate, History, StepBase, error_norm, next_step,
+                                     split_remaining,
                                      step_base, step_spans, velocity_of)
 
 
@@ -147,6 +155,7 @@ class Simulator:
         self._restart = True
         self._h = self.numerics.h_start  # the adaptive controller's next step, s
         self._base: StepBase | None = None
+        self.contraction = ContractionRate()  # the nonlinear iteration's convergence test (adaptive steps)
         # observables of the last step
         self.node_forces = np.zeros((n, 3))  # hydrodynamic force on each node, N
         self.head_axial_torque = 0.0
@@ -327,6 +336,11 @@ class Simulator:
 
     nodes_at = staticmethod(nodes_of)
 
+    def correction_size(self, z: np.ndarray) -> float:
+        """The weighted max norm of a correction of q (ndof,): positions in r0, twists in rad (the error
+        estimate's units, ``time_integrator.error_norm``)."""
+        return float(np.max(np.abs(z) * self._anderson_weights))
+
     def _residual(self, q: np.ndarray, h: float):
         grad, frames = self.internal_forces(q)
         t1 = time.perf_counter()
@@ -370,6 +384,9 @@ class Simulator:
         hist = [math.inf, math.inf]
         accel = AndersonMixing(self._anderson_weights, self.numerics.anderson_depth)
         step_scale = max(block_max_abs(q - self.q, self._pos), 1e-6 * p.rod_radius)
+        rate = self.contraction if nm.step_tol > 0.0 else None
+        if rate is not None:
+            rate.start()
         for it in range(nm.newton_max_iter * 2):
             r, grad, f, inertia, frames = self._residual(q, h)
             self.stats.newton_iterations += 1
@@ -396,6 +413,10 @@ class Simulator:
             dz = block_max_abs(z, self._pos)
             if (it >= 1 and dz <= max(nm.newton_tol * step_scale, 1e-10 * p.rod_radius)
                     and block_max_abs(z, self._twist) <= max(nm.newton_tol, 1e-10)):
+                return q, r, grad, f, frames
+            if rate is not None and rate.converged(self.correction_size(z) / nm.step_tol):
+                r, grad, f, inertia, frames = self._residual(q, h)  # the forces at the accepted iterate
+                self.stats.newton_iterations += 1
                 return q, r, grad, f, frames
         raise StepFailed("Newton", f"Newton did not converge after {it + 1} iterations "
                                    f"(max force residual {np.abs(r).max():.3e})")

@@ -189,6 +189,43 @@ def next_step(h: float, err: float, order: int) -> float:
     return h * fac
 
 
+#: CVODE's test of the nonlinear iteration of an error-controlled step (Hindmarsh et al., ACM TOMS 31, 2005,
+#: Sec. 2.1): converged when the last correction, times the estimated contraction rate, is below this
+#: fraction of the local error tolerance (both in the estimate's units: r0 for positions, rad for twists)
+NONLINEAR_ERROR_FRACTION = 0.1
+
+
+class ContractionRate:
+    """The convergence test of the Newton / chord iteration of an error-controlled step (CVODE's): the rate
+    rho = max(0.3 rho_old, |dz_m| / |dz_{m-1}|), measured whenever a step takes two corrections or more, is
+    carried from step to step (1 at the start), and the iteration stops after a correction dz (weighted max
+    norm / step_tol) with |dz| min(1, rho) <= NONLINEAR_ERROR_FRACTION: the error left in the iterate is then a
+    tenth of what the step's error test allows. A rate not measured for ``MAX_AGE`` steps counts as 1 (the next
+    step takes two corrections and measures it again). One instance per iteration scheme (the chord iteration
+    and Newton-Krylov contract at very different rates)."""
+
+    MAX_AGE = 10
+
+    def __init__(self) -> None:
+        self.rho = 1.0
+        self._prev: float | None = None
+        self._age = self.MAX_AGE
+
+    def start(self) -> None:
+        """A new step's iteration begins (its first correction cannot measure a rate)."""
+        self._prev = None
+        self._age += 1
+
+    def converged(self, dz_over_tol: float) -> bool:
+        """After a correction of weighted size ``dz_over_tol`` (in units of step_tol): is the iterate converged?"""
+        if self._prev is not None and self._prev > 0.0:
+            self.rho = max(0.3 * self.rho, dz_over_tol / self._prev)
+            self._age = 0
+        self._prev = dz_over_tol
+        rho = self.rho if self._age < self.MAX_AGE else 1.0
+        return dz_over_tol * min(1.0, rho) <= NONLINEAR_ERROR_FRACTION
+
+
 def split_remaining(h: float, remaining: float, stretch: bool = True) -> float:
     """A step no longer than ``remaining`` (s) that avoids a sliver at the end: the whole rest if it is
     within 30 % of h (within h if not ``stretch``: right after a rejected step), half of it if it is

@@ -148,7 +148,10 @@ def test_bench_runs_its_tasks_on_a_dask_cluster_with_scheduler(tmp_path, monkeyp
              "burst": {"theta_burst": 80.0, "phi_burst": 80.0, "lratio_burst": 0.5, "straight": True, "rtf": 1.0,
                        "rtf_cpu": 1.0, "wall_s": 1.0},
              "episode": {"episode_wall_s": 9.0, "episode_cpu_s": 9.0, "episode_success": True,
-                         "episode_mean_cross_track_m": 0.01, "episode_time_s": 300.0, "rtf": 30.0, "wall_s": 9.0}}
+                         "episode_mean_cross_track_m": 0.01, "episode_time_s": 300.0, "rtf": 30.0, "wall_s": 9.0,
+                         "env_steps_per_s_rule": 16.7},
+             "env_random": {"env_steps_per_s_random": 4.0, "env_random_buckled_steps": 10, "rtf_cpu": 8.0,
+                            "wall_s": 10.0}}
     results = tmp_path / "quick.results.jsonl"
     results.write_text("".join(
         json.dumps({"config": c.name, "metric": m, "result": stubs[m], "error": None,
@@ -166,6 +169,9 @@ def test_bench_runs_its_tasks_on_a_dask_cluster_with_scheduler(tmp_path, monkeyp
     rows = json.loads((tmp_path / "quick.json").read_text())
     assert [r["config"] for r in rows] == [c.name for c in configs]
     row = next(r for r in rows if r["config"] == "faithful")
-    assert set(row) >= {"config", "preset", "real_time_factor", "burst_real_time_factor", "episode_wall_s", "errors"}
-    assert row["errors"]["theta"] == 0.0 and row["episode_wall_s"] == 9.0  # the stubs equal paper's
+    assert set(row) >= {"config", "preset", "real_time_factor", "burst_real_time_factor", "episode_wall_s", "errors",
+                        "relax_real_time_factor_cpu", "env_steps_per_s_rule", "env_steps_per_s_random"}
+    assert row["errors"]["theta"] == 0.0 and row["episode_wall_s"] == 9.0  # the stubs equal reference's
+    assert row["env_steps_per_s_random"] == 4.0
+    assert next(r for r in rows if r["config"] == "reference")["episode_wall_s"] is None  # not run for reference
     assert "coarse" in (tmp_path / "quick.md").read_text()

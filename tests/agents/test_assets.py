@@ -18,6 +18,8 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def test_every_preset_has_a_shipped_turn_map_that_loads():
     for preset in preset_names():
+        if preset == "reference":  # the converged yardstick of the benchmarks, not a swimmer to steer
+            continue
         tmap = TurnMap.load(packaged_turn_map(preset))
         assert tmap.max_theta_deg > 0
 

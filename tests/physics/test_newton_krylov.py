@@ -118,16 +118,16 @@ def test_gmres_converges_on_a_buckled_snapshot(contact):
         assert 0 < its <= 60, (rtol, its, reached)
         true = np.linalg.norm(ms.jacobian_vector(q, h, z) - b) / np.linalg.norm(b)
         assert true <= 1.01 * rtol and reached <= rtol
-    assert ms.direction(q, h, b, 1e-3, 120)[1] <= 15  # the preconditioner keeps the count small
+    assert ms.direction(q, h, b, 1e-4, 120)[1] <= 20  # the preconditioner keeps the count small
 
 
 def test_newton_krylov_step_equals_the_direct_step():
-    """The same step (same state, same h) by the direct chord iteration and by Newton-Krylov, both to a tight
-    tolerance: the same new configuration."""
+    """The same steps (fixed BDF3 steps of 5 ms from the same state) by the direct chord iteration and by
+    Newton-Krylov, both to a tight Newton tolerance: the same configuration after 0.3 s at 150 rpm."""
     ends = {}
     for nk in (False, True):
-        p, n = configure("faithful", {"n_nodes": 40, "integrator": "bdf3", "newton_krylov": nk,
-                                      "newton_tol": 1e-10, "hydro_refresh_tol": 0.0})
+        p, n = configure("faithful", {"n_nodes": 40, "integrator": "bdf3", "newton_krylov": nk, "step_tol": 0.0,
+                                      "dt": 0.005, "newton_tol": 1e-10, "hydro_refresh_tol": 0.0})
         sim = Simulator(p, n)
         sim.set_motor_speed(150 * RPM_TO_RAD_S)
         advance(sim, 0.3)
