@@ -2,23 +2,27 @@
 
 The dense linear algebra of a step is on ~500 x 500 matrices, where multi-threaded BLAS only adds
 overhead and oversubscribes the cores when simulations run side by side (sweeps, vectorised
-environments). ``physics.run.advance`` (the run loop under the environment, the CLI and
-``run_simulation``) therefore holds BLAS at ``BLAS_THREADS`` threads while it steps and gives the
-caller's setting back afterwards. Nothing here touches environment variables: importing the
+environments). ``Simulator.step`` / ``Simulator.advance`` and ``physics.run.advance`` (the run loop under the
+environment, the CLI and ``run_simulation``) therefore hold BLAS at ``BLAS_THREADS`` threads while they
+step and give the caller's setting back afterwards (a step also gives the same numbers whoever calls it). Nothing here touches environment variables: importing the
 package leaves ``OPENBLAS_NUM_THREADS`` and friends as the user set them (the batch worker
 processes, which are ours, set them for themselves: ``batch.worker``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import functools
+import threading
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import Any
+from typing import Any, TypeVar
 
 #: BLAS threads while the run loop steps (None: leave the caller's setting alone).
 BLAS_THREADS: int | None = 1
 
 _controller: Any = None
+_depth = threading.local()  # blocks entered in this thread: only the outermost one sets and restores
+F = TypeVar("F", bound=Callable[..., Any])
 
 
 def _blas_controller() -> Any:
@@ -36,9 +40,29 @@ def _blas_controller() -> Any:
 
 @contextmanager
 def simulation_threads() -> Iterator[None]:
-    """Within the block, BLAS uses ``BLAS_THREADS`` threads; afterwards, what it used before."""
-    if BLAS_THREADS is None:
-        yield
+    """Within the block, BLAS uses ``BLAS_THREADS`` threads; afterwards, what it used before. Nested blocks
+    cost nothing (the outermost one holds the limit)."""
+    depth = getattr(_depth, "n", 0)
+    if BLAS_THREADS is None or depth:
+        _depth.n = depth + 1
+        try:
+            yield
+        finally:
+            _depth.n = depth
         return
     with _blas_controller().limit(limits=BLAS_THREADS, user_api="blas"):
-        yield
+        _depth.n = 1
+        try:
+            yield
+        finally:
+            _depth.n = 0
+
+
+def one_blas_thread(func: F) -> F:
+    """Decorator: ``func`` runs inside ``simulation_threads()`` (``Simulator.step`` and ``advance``, so a step
+    gives the same numbers whoever calls it: BLAS sums in another order with more threads)."""
+    @functools.wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        with simulation_threads():
+            return func(*args, **kwargs)
+    return wrapper  # type: ignore[return-value]

@@ -51,3 +51,23 @@ def test_the_run_loop_holds_blas_at_one_thread_and_restores_the_callers_setting(
         advance(sim, steps=2, on_step=lambda s, k: seen.append(_blas_threads()))
         assert _blas_threads() == {2}  # the caller's setting is back
     assert seen == [{1}, {1}]
+
+
+def test_a_direct_step_is_held_at_one_thread_too_and_gives_the_run_loops_numbers():
+    import numpy as np
+
+    from physics.params import RPM_TO_RAD_S
+    from physics.threads import one_blas_thread
+
+    seen: list[set[int]] = []
+    probe = one_blas_thread(lambda: seen.append(_blas_threads()))
+    a, b = (Simulator(*configure("coarse", {"n_nodes": 25})) for _ in range(2))
+    for sim in (a, b):
+        sim.set_motor_speed(30 * RPM_TO_RAD_S)
+    with threadpool_limits(limits=2, user_api="blas"):
+        probe()
+        for _ in range(3):
+            a.step()  # the caller's 2 threads outside the step
+        advance(b, steps=3)
+        assert _blas_threads() == {2}
+    assert seen == [{1}] and np.array_equal(a.q, b.q)
