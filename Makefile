@@ -3,6 +3,9 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+# The PyTorch this repository is tested with, installed before the package: the CPU build (a plain `torch`
+# would pull a multi-GB CUDA build). The package's [rl] extra asks only for a range (pyproject.toml).
+TORCH_PIN := torch==2.13.0
 
 .PHONY: install test demo clean
 
@@ -12,8 +15,7 @@ install: $(STAMP)
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --upgrade pip
-	# the pinned CPU build of PyTorch first (a plain `torch` would pull a multi-GB CUDA build)
-	$(BIN)/python -m pip install torch==2.13.0
+	$(BIN)/python -m pip install $(TORCH_PIN)
 	$(BIN)/python -m pip install -e ".[test,rl]"
 	touch $(STAMP)
 

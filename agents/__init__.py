@@ -1,27 +1,21 @@
 """Controllers that steer the swimmer: the paper's rule-based turn planner and PPO agents.
 
-``import agents`` registers ``FlagellumTurn-v0``, the residual agent's training env
-(``agents.turn_decision_env.TurnDecisionEnv``: one step = one turn the planner plans)::
+The turn-level env of the residual agent (``agents.turn_decision_env.TurnDecisionEnv``: one step =
+one turn the planner plans) is registered with every other id by ``import flagellum_env``
+(``flagellum_env.registration``), which ``import agents`` runs too::
 
     import gymnasium as gym
-    import agents  # noqa: F401  (registers the env)
+    import flagellum_env  # noqa: F401  (registers the ids)
 
-    env = gym.make("FlagellumTurn-v0", preset="coarse")
+    env = gym.make("FlagellumTurn-coarse-v0")  # the shipped agent's env
 
-``gym.make("agents:FlagellumTurn-v0", ...)`` imports the package itself. The registration only
-names the entry point: ``import agents`` loads Gymnasium, not the env, the physics, torch or
-stable-baselines3.
+``gym.make("flagellum_env:FlagellumTurn-v0", ...)`` imports the registering package itself. The
+registration only names the entry points: ``import agents`` loads Gymnasium, not the env, the
+physics, torch or stable-baselines3.
 """
 
 from __future__ import annotations
 
-import physics  # noqa: F401  (first: it asks for single-threaded BLAS before NumPy is loaded)
+from flagellum_env.registration import TURN_COARSE_ENV_ID, TURN_ENV_ID, TURN_FAST_ENV_ID
 
-import gymnasium as gym
-
-TURN_ENV_ID = "FlagellumTurn-v0"
-
-if TURN_ENV_ID not in gym.registry:
-    gym.register(id=TURN_ENV_ID, entry_point="agents.turn_decision_env:TurnDecisionEnv")
-
-__all__ = ["TURN_ENV_ID"]
+__all__ = ["TURN_COARSE_ENV_ID", "TURN_ENV_ID", "TURN_FAST_ENV_ID"]

@@ -4,6 +4,20 @@ An agent is a folder written by ``flagellum train`` (``agents.ppo_training``): `
 ``vecnormalize.pkl``, ``meta.json`` and ``config.yml``. ``PATH`` may be that folder or its
 ``model.zip``; without it, the pretrained agent shipped with the package (``PRETRAINED_DIR``) is used.
 
+With plain stable-baselines3, the agent on its own env (``meta.json`` stores the env as a registered id
+and its ``gymnasium.make`` arguments; tests/agents/test_shipped_agent_env.py)::
+
+    import json, flagellum_env  # registers the ids
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    meta = json.load(open(f"{folder}/meta.json"))
+    venv = VecNormalize.load(f"{folder}/vecnormalize.pkl",
+                             make_vec_env(meta["env_id"], env_kwargs=meta["make_kwargs"]))
+    venv.training, venv.norm_reward = False, False
+    model = PPO.load(f"{folder}/model.zip", env=venv)
+
 The agent is residual (``meta["mode"] == "residual"``): a ``ResidualPlanner`` whose planned turns
 are corrected by the policy, with the turn map of the env's preset. Its corrections are on the
 map's turning angle, so an agent trained on one preset drives another through that preset's map.

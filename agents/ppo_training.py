@@ -8,7 +8,8 @@ the curriculum; checkpoints with their VecNormalize statistics; tensorboard logs
 a wall-time budget. ``out_dir`` receives::
 
     config.yml          the configuration trained from
-    meta.json           mode, preset, commit, decisions, wall time, versions (updated at each save)
+    meta.json           mode, preset, commit, decisions, wall time, versions (updated at each save), and the
+                        agent's env: ``env_id`` and ``make_kwargs`` (``gymnasium.make(env_id, **make_kwargs)``)
     model.zip           the final policy          vecnormalize.pkl  its normalisation statistics
     episodes.csv        one row per training episode (appended; survives resume)
     eval/evaluations.npz  EvalCallback's log (kept across resume)
@@ -24,6 +25,7 @@ meta.json then records the agent it started from, with that agent's own decision
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import re
 import shutil
@@ -37,6 +39,7 @@ import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 
 from agents.ppo_config import TrainConfig
+from agents.residual_planner import ResidualLimits
 from batch.provenance import git_commit
 
 MODE = "residual"
@@ -51,6 +54,19 @@ class TrainResult:
     decisions: int
     wall_time_s: float
     stopped_by_budget: bool
+
+
+def agent_env(config: TrainConfig) -> tuple[str, dict[str, Any]]:
+    """The trained agent's env as a registered id and its ``gymnasium.make`` arguments (every one explicit, so
+    that later changes of the defaults do not change it): the config's task on the last curriculum stage's
+    paths, nominal or randomised as trained. ``PPO.load`` and ``VecNormalize.load`` of the agent's files on
+    ``make_vec_env(env_id, env_kwargs=make_kwargs)`` reproduce it with plain stable-baselines3."""
+    from flagellum_env.registration import TURN_COARSE_ENV_ID, TURN_ENV_ID, TURN_FAST_ENV_ID
+
+    env_id = {"fast": TURN_FAST_ENV_ID, "coarse": TURN_COARSE_ENV_ID}.get(config.preset, TURN_ENV_ID)
+    return env_id, {"preset": config.preset, "turn_map": config.turn_map, "env_kwargs": dict(config.env_kwargs),
+                    "limits": dataclasses.asdict(ResidualLimits(**config.limits)), "action_cost": config.action_cost,
+                    "random_path": dict(config.curriculum[-1].random_path)}
 
 
 def _make_env(config: TrainConfig, rank: int, paths=None):
@@ -230,11 +246,12 @@ class _Bookkeeping(BaseCallback):
         import stable_baselines3
         import torch
 
+        env_id, make_kwargs = agent_env(self.config)
         self.meta.update({
             "name": self.config.name, "mode": MODE, "preset": self.config.preset, "turn_map": self.config.turn_map,
             "config": self.config.source, "n_envs": self.config.n_envs,
             "limits": dict(self.config.limits), "action_cost": self.config.action_cost,
-            "env_kwargs": dict(self.config.env_kwargs),
+            "env_kwargs": dict(self.config.env_kwargs), "env_id": env_id, "make_kwargs": make_kwargs,
             "decisions": int(self.num_timesteps), "wall_time_s": round(self.elapsed(), 1),
             "stopped_by_wall_time_budget": self.stopped, "finished": final,
             "commit": self.meta.get("commit") or git_commit(), "last_commit": git_commit(),

@@ -49,10 +49,13 @@ FEATURE_LENGTH_M = 0.1
 @dataclass(frozen=True)
 class ResidualLimits:
     """How far the residual may move a planned turn: the burst length by up to the fraction
-    ``max_dtc_fraction`` (in (0, 1)), the burst phase by up to ``max_dphase_deg`` (degrees, > 0)."""
+    ``max_dtc_fraction`` (in (0, 1)), the burst phase by up to ``max_dphase_deg`` (degrees, > 0).
 
-    max_dtc_fraction: float = 0.25
-    max_dphase_deg: float = 30.0
+    The defaults are the shipped agent's (agents/pretrained/ppo_residual_coarse/config.yml): 5 % of the
+    burst and 15 degrees (until 2026-12-02 they were 25 % and 30 degrees, which no shipped agent used)."""
+
+    max_dtc_fraction: float = 0.05
+    max_dphase_deg: float = 15.0
 
     def __post_init__(self) -> None:
         for name, hi in (("max_dtc_fraction", 1.0), ("max_dphase_deg", 180.0)):

@@ -1,85 +1,161 @@
 """Training environment of the residual PPO agent: one step = one turn the planner plans.
 
-``TurnDecisionEnv`` runs ``FlagellumSteer-v0`` under a ``ResidualPlanner`` (0.1 s control steps,
-the rule planner's). Whenever the planner plans a turn it stops and hands the turn's features
-to the agent (the observation); the agent's action corrects the turn (``ResidualLimits``); the
-env then runs on until the next planned turn or the end of the episode. The reward of a step is
-the sum of ``FlagellumSteer-v0``'s rewards over the control steps it covered (progress, cross-track
-error, energy, waypoints, penalties; weights from ``env_kwargs["reward"]``) less ``action_cost``
-times |a|^2, so with ``action_cost = 0`` the return of an episode is the base env's return.
+``TurnDecisionEnv`` (``FlagellumTurn-v0``; ``-fast`` and ``-coarse`` variants, all registered by
+``import flagellum_env``) runs ``FlagellumSteer-v0`` under a ``ResidualPlanner`` (0.1 s control steps,
+the rule planner's). Whenever the planner plans a turn it stops and hands the turn's features to the
+agent (the observation); the agent's action corrects the turn (``ResidualLimits``); the env then
+runs on until the next planned turn or the end of the episode. The reward of a step is the sum of
+``FlagellumSteer-v0``'s rewards over the control steps it covered (progress, cross-track error,
+energy, waypoints, penalties; weights from ``env_kwargs["reward"]``) less ``action_cost`` times
+|a|^2, so with ``action_cost = 0`` the return of an episode is the base env's return.
 
 An episode is one path: from ``paths`` in turn (validation), else drawn from this env's seeded
 generator with ``random_path`` (training paths; ``planar`` may be a list to alternate planar
 and 3-D paths). If a path ends without any planned turn (rare: reached by swimming straight),
 the next ``step`` ends the episode with that path's return, whatever the action.
 
-Final ``info`` (the step that ends the episode): ``is_success``, ``waypoints_reached``,
-``mean_cross_track_m`` (over the control steps), ``time_s``, ``energy_J``, ``buckling_events``
-and ``turns`` (decisions taken).
+``info`` (``reset`` and every step): ``path`` (its name), ``is_success``, ``waypoints_reached``,
+``mean_cross_track_m`` (over the control steps so far), ``time_s``, ``energy_J``,
+``buckling_events`` and ``turns`` (decisions taken), so far in the episode; ``error`` after a
+simulation error.
 """
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping, Sequence
-from typing import Any
+from dataclasses import fields
+from pathlib import Path
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from agents.assets import default_turn_map, missing_turn_map_message
 from agents.path_following import CONTROLLER_ENV_DEFAULTS
 from agents.residual_planner import N_FEATURES, ResidualLimits, ResidualPlanner
-from agents.assets import default_turn_map
 from agents.turn_map import TurnMap
+from flagellum_env.config import resolve_path
 from flagellum_env.paths import RandomPathConfig, WaypointPath
 from flagellum_env.paths import random_path as draw_random_path
+from flagellum_env.registration import TURN_COARSE_ENV_ID, TURN_ENV_ID, TURN_FAST_ENV_ID
 from flagellum_env.steer_env import FlagellumSteerEnv
-from physics.presets import DEFAULT_PRESET
+from physics.presets import DEFAULT_PRESET, preset_names
 from physics.validation import require_finite
+
+#: The shipped agent's env settings (agents/pretrained/ppo_residual_coarse/config.yml: its task and last
+#: curriculum stage) are the defaults of every ``FlagellumTurn`` id; ``FlagellumTurn-coarse-v0`` is that
+#: agent's env with no argument at all. The correction limits are ``ResidualLimits()``'s defaults.
+DEFAULT_ACTION_COST = 5.0
+DEFAULT_ENV_KWARGS: dict[str, Any] = {"reward": {"cross_track_per_cm_s": 0.05}}
+DEFAULT_RANDOM_PATH: dict[str, Any] = {"n_waypoints": 3, "segment_length_m": [0.12, 0.2], "min_turn_deg": 30.0,
+                                       "max_turn_deg": 150.0, "planar": [True, False]}
+RESET_OPTIONS = ("path",)
+INFO_KEYS = ("path", "is_success", "waypoints_reached", "mean_cross_track_m", "time_s", "energy_J",
+             "buckling_events", "turns")
 
 
 class TurnDecisionEnv(gym.Env):
-    """Gymnasium env over the residual planner's turn decisions (module docstring).
+    """
+    ## Description
 
-    preset: physics preset of the swimmer; turn_map: a map file (default: the preset's committed
-    map); env_kwargs: further ``FlagellumSteer-v0`` arguments (e.g. ``randomize``, ``reward``);
-    paths: fixed paths, used in turn; random_path: ``RandomPathConfig`` fields for drawn paths
-    (``planar`` may be a list, cycled per episode); limits: ``ResidualLimits`` or its fields;
-    action_cost: c >= 0, the reward of a decision is lowered by c |a|^2 (the price of leaving the
-    planner's turn: a residual policy should move it only where that pays).
+    The residual agent's task (module docstring): the rule planner steers ``FlagellumSteer-v0``
+    through waypoints and, at each turn it plans, asks for a correction of that turn.
 
-    Observation: ``Box(-10, 10, (N_FEATURES,), float32)`` (``residual_planner.turn_features``).
-    Action: ``Box(-1, 1, (2,), float32)``: correction of the turning angle and of the burst phase.
+    ## Spaces
+
+    Observation: ``Box(-10, 10, (N_FEATURES,), float32)``, the planned turn's features
+    (``agents.residual_planner.turn_features``). Action: ``Box(-1, 1, (2,), float32)``: the correction
+    of the burst length (a_0 x ``max_dtc_fraction``) and of the burst phase (a_1 x ``max_dphase_deg``).
+    An action that is not two finite numbers raises ``ValueError``; entries outside [-1, 1] are clipped.
+
+    ## Episode End
+
+    The base env's: the last waypoint reached (``info["is_success"]``), off the path, a simulation
+    error (``info["error"]``), or its time budget (truncation). No ``max_episode_steps`` at
+    registration: an episode is a few to some tens of decisions.
+
+    ## Arguments
+
+    | Argument    | Default                          | Meaning                                               |
+    |-------------|----------------------------------|-------------------------------------------------------|
+    | preset      | "faithful" (the id's)            | physics preset: "paper", "faithful", "fast", "coarse" |
+    | turn_map    | None                             | a turn-map file (None: the preset's, ``agents.assets.default_turn_map``) |
+    | env_kwargs  | {"reward": {"cross_track_per_cm_s": 0.05}} | further ``FlagellumSteer-v0`` arguments (not ``path``); a dict given replaces the default |
+    | paths       | None                             | fixed paths used in turn (any form of ``FlagellumSteer-v0``'s ``path`` but "random") |
+    | random_path | 3 waypoints, 12-20 cm, turns 30-150 deg, planar and 3-D alternating | ``RandomPathConfig`` fields of the drawn paths; ``planar`` may be a list |
+    | limits      | 0.05, 15 deg (``ResidualLimits()``) | ``ResidualLimits`` or a dict of its fields          |
+    | action_cost | 5.0                              | c >= 0: a decision's reward is lowered by c |a|^2     |
+    | render_mode | None                             | None or "rgb_array" (the base env's frame after the step) |
+
+    The defaults are the shipped agent's settings (agents/pretrained/ppo_residual_coarse), so
+    ``FlagellumTurn-coarse-v0`` with no argument is that agent's env, and ``PPO.load`` plus
+    ``VecNormalize.load`` of its files on that id reproduce it (its ``meta.json`` also stores
+    ``env_id`` and ``env_kwargs``). Invalid values raise ``ValueError`` naming the argument and the
+    value, at construction. ``reset(options={"path": ...})`` replaces the path for one episode.
+
+    ## Variants
+
+    ``FlagellumTurn-fast-v0`` (``TurnDecisionFastEnv``) and ``FlagellumTurn-coarse-v0``
+    (``TurnDecisionCoarseEnv``): preset "fast" and "coarse". The coarse swimmer turns differently
+    (``FlagellumSteerCoarseEnv``), with its own turn map; at the default preset a decision costs
+    minutes of wall time, at coarse seconds.
+
+    ## Version History
+
+    - v0: initial version; ``render_mode``, ``info`` on every step, validation at construction, the
+      shipped agent's settings as defaults and the ``-fast`` / ``-coarse`` variants added.
     """
 
-    metadata: dict[str, Any] = {"render_modes": []}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 2}
+    env_id: ClassVar[str] = TURN_ENV_ID
+    default_preset: ClassVar[str] = DEFAULT_PRESET
 
-    def __init__(self, preset: str = DEFAULT_PRESET, turn_map: str | None = None, env_kwargs: Mapping[str, Any] | None = None,
-                 paths: Sequence[WaypointPath] | None = None, random_path: Mapping[str, Any] | None = None,
-                 limits: ResidualLimits | Mapping[str, Any] | None = None, action_cost: float = 0.0) -> None:
-        kwargs = {**CONTROLLER_ENV_DEFAULTS["rule"], "preset": preset, **dict(env_kwargs or {})}
-        if "path" in kwargs:
-            raise ValueError("env_kwargs must not hold 'path'; give paths= or random_path=")
-        self.base = FlagellumSteerEnv(path="random", **kwargs)
-        tmap = TurnMap.load(turn_map or default_turn_map(preset))
-        if isinstance(limits, Mapping):
-            limits = ResidualLimits(**limits)
-        self.planner = ResidualPlanner.for_env(self.base, tmap, limits=limits)
+    def __init__(self, preset: str | None = None, turn_map: str | os.PathLike | None = None,
+                 env_kwargs: Mapping[str, Any] | None = None, paths: Sequence[Any] | None = None,
+                 random_path: Mapping[str, Any] | None = None, limits: ResidualLimits | Mapping[str, Any] | None = None,
+                 action_cost: float = DEFAULT_ACTION_COST, render_mode: str | None = None) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode={render_mode!r} is not allowed; choose one of "
+                             f"{[None] + self.metadata['render_modes']}")
+        self.render_mode = render_mode
+        preset = self.default_preset if preset is None else preset
+        if preset not in preset_names():
+            raise ValueError(f"preset={preset!r} is not allowed; choose one of {preset_names()}")
+        self.preset = preset
+        env_kwargs = DEFAULT_ENV_KWARGS if env_kwargs is None else env_kwargs
+        if not isinstance(env_kwargs, Mapping):
+            raise ValueError(f"env_kwargs={env_kwargs!r} must be a dict of FlagellumSteer-v0 arguments or None")
+        for name, why in (("path", "give paths= or random_path="), ("render_mode", "give render_mode=")):
+            if name in env_kwargs:
+                raise ValueError(f"env_kwargs must not hold {name!r}; {why}")
+        kwargs = {**CONTROLLER_ENV_DEFAULTS["rule"], "preset": preset, **dict(env_kwargs)}
+        try:
+            self.base = FlagellumSteerEnv(path="random", render_mode=render_mode, **kwargs)
+        except ValueError as exc:
+            raise ValueError(f"env_kwargs: {exc}") from None
+        tmap_file = Path(turn_map) if turn_map is not None else default_turn_map(preset)
+        if not tmap_file.is_file():
+            raise ValueError(f"turn_map={str(tmap_file)!r}: " + missing_turn_map_message(tmap_file, preset,
+                                                                                           given=turn_map is not None))
+        tmap = TurnMap.load(tmap_file)
+        self.planner = ResidualPlanner.for_env(self.base, tmap, limits=_limits(limits))
         self.action_cost = require_finite("action_cost", action_cost, 0.0)
-        self.paths = list(paths) if paths else None
-        self.set_random_path(random_path or {})
+        self.paths = _fixed_paths(paths)
+        self.set_random_path(DEFAULT_RANDOM_PATH if random_path is None else random_path)
         self.observation_space = spaces.Box(-10.0, 10.0, (N_FEATURES,), np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         self._episode = 0
         self._obs: np.ndarray | None = None
         self._done = True
+        self._path_name = ""
+        self._last: dict[str, Any] = {}
 
     def set_random_path(self, random_path: Mapping[str, Any]) -> None:
-        """Draw the next episodes' paths with these ``RandomPathConfig`` fields (curriculum)."""
-        rp = dict(random_path)
-        planar = rp.pop("planar", True)
-        cycle = [bool(p) for p in planar] if isinstance(planar, (list, tuple)) else [bool(planar)]
-        self._path_configs = [RandomPathConfig(**{**rp, "planar": p}) for p in cycle]
+        """Draw the next episodes' paths with these ``RandomPathConfig`` fields (curriculum); ``planar``
+        may be a list, cycled per episode. ``ValueError`` naming a bad field or value."""
+        self._path_configs = _random_path_configs(random_path)
 
     def _next_path(self) -> WaypointPath:
         k = self._episode
@@ -90,9 +166,15 @@ class TurnDecisionEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
+        options = dict(options or {})
+        unknown = sorted(set(options) - set(RESET_OPTIONS))
+        if unknown:
+            raise ValueError(f"unknown reset option(s) {unknown}; allowed: {list(RESET_OPTIONS)}")
         if seed is not None:
             self._episode = 0
-        path = (options or {}).get("path") or self._next_path()
+        path = _fixed_path(options["path"], "options['path']") if options.get("path") is not None \
+            else self._next_path()
+        self._path_name = path.name
         self._obs, _ = self.base.reset(seed=seed, options={"path": path})
         self.planner.reset()
         self._start, self._done = True, False
@@ -104,31 +186,47 @@ class TurnDecisionEnv(gym.Env):
             self._pending_reward, self._pending_end = reward, (terminated, truncated, info)
         else:
             self._pending_reward, self._pending_end = reward, None
-        return self._features(), {"path": path.name}
+        return self._features(), self._info(info)
 
     def step(self, action: Any):
         if self._done:
             raise RuntimeError("call reset() before step()")
+        try:
+            a = np.asarray(action, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            a = np.empty(0)
+        if a.size != 2 or not np.all(np.isfinite(a)):
+            raise ValueError(f"action={action!r} must be two finite numbers in [-1, 1] (burst length, phase)")
         reward = self._pending_reward
         self._pending_reward = 0.0
         if self._pending_end is not None:
             terminated, truncated, info = self._pending_end
         else:
-            a = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
+            a = np.clip(a, -1.0, 1.0)
             self.planner.decide(a)
             self._turns += 1
             r, terminated, truncated, info = self._advance()
             reward += r - self.action_cost * float(a @ a)
         self._done = terminated or truncated
-        out_info: dict[str, Any] = {}
-        if self._done:
-            out_info = {"is_success": bool(info["is_success"]), "waypoints_reached": int(info["waypoint_index"]),
-                        "mean_cross_track_m": float(np.mean(self._cross)) if self._cross else 0.0,
-                        "time_s": float(info["sim_time_s"]), "energy_J": float(info["energy_used_j"]),
-                        "buckling_events": int(info["buckling_events"]), "turns": self._turns}
-            if info.get("error"):
-                out_info["error"] = info["error"]
-        return self._features(), float(reward), bool(terminated), bool(truncated), out_info
+        return self._features(), float(reward), bool(terminated), bool(truncated), self._info(info)
+
+    def render(self):
+        """The base env's frame (``render_mode="rgb_array"``): the path, the trail and the swimmer now."""
+        if self.render_mode is None:
+            gym.logger.warn("render() was called without a render_mode; pass render_mode='rgb_array'")
+            return None
+        return self.base.render()
+
+    def _info(self, base_info: dict[str, Any]) -> dict[str, Any]:
+        """The episode so far (module docstring), from the base env's last ``info``."""
+        out = {"path": self._path_name, "is_success": bool(base_info["is_success"]),
+               "waypoints_reached": int(base_info["waypoint_index"]),
+               "mean_cross_track_m": float(np.mean(self._cross)) if self._cross else 0.0,
+               "time_s": float(base_info["sim_time_s"]), "energy_J": float(base_info["energy_used_j"]),
+               "buckling_events": int(base_info["buckling_events"]), "turns": self._turns}
+        if base_info.get("error"):
+            out["error"] = base_info["error"]
+        return out
 
     def _advance(self) -> tuple[float, bool, bool, dict[str, Any]]:
         """Run control steps until the planner waits for a decision or the episode ends."""
@@ -151,3 +249,73 @@ class TurnDecisionEnv(gym.Env):
 
     def close(self) -> None:
         self.base.close()
+
+
+class TurnDecisionFastEnv(TurnDecisionEnv):
+    """``FlagellumTurn-fast-v0``: ``FlagellumTurn-v0`` (``TurnDecisionEnv``, whose docstring is the manual) at
+    the ``fast`` preset (``FlagellumSteerFastEnv``: the paper's grid, a looser error tolerance) with its turn
+    map. Every other argument and default is ``FlagellumTurn-v0``'s."""
+
+    env_id: ClassVar[str] = TURN_FAST_ENV_ID
+    default_preset: ClassVar[str] = "fast"
+
+
+class TurnDecisionCoarseEnv(TurnDecisionEnv):
+    """``FlagellumTurn-coarse-v0``: ``FlagellumTurn-v0`` (``TurnDecisionEnv``, whose docstring is the manual)
+    at the ``coarse`` preset: the shipped PPO agent's env, as it was trained (agents/pretrained/
+    ppo_residual_coarse). The coarse swimmer (N = 45, 10 ms steps) buckles later and **turns differently**
+    from the default preset's (``FlagellumSteerCoarseEnv``) and has its own turn map; a decision costs
+    seconds of wall time instead of minutes. Every other argument and default is ``FlagellumTurn-v0``'s."""
+
+    env_id: ClassVar[str] = TURN_COARSE_ENV_ID
+    default_preset: ClassVar[str] = "coarse"
+
+
+# --- validation ------------------------------------------------------------------------------
+def _limits(value: Any) -> ResidualLimits | None:
+    if value is None or isinstance(value, ResidualLimits):
+        return value
+    if isinstance(value, Mapping):
+        known = [f.name for f in fields(ResidualLimits)]
+        unknown = sorted(set(value) - set(known))
+        if unknown:
+            raise ValueError(f"limits: unknown key(s) {unknown}; allowed keys: {known}")
+        return ResidualLimits(**value)
+    raise ValueError(f"limits={value!r} must be a ResidualLimits, a dict of its fields or None")
+
+
+def _fixed_path(spec: Any, name: str) -> WaypointPath:
+    try:
+        path = resolve_path(spec)
+    except ValueError as exc:
+        raise ValueError(f"{name}: {exc}") from None
+    if path is None:
+        raise ValueError(f"{name}={spec!r}: a fixed path is needed here (a name of a path file, 'square', a "
+                         "list of [x, y, z] waypoints or a WaypointPath); random paths come from random_path=")
+    return path
+
+
+def _fixed_paths(paths: Any) -> list[WaypointPath] | None:
+    if paths is None:
+        return None
+    if isinstance(paths, (str, bytes, os.PathLike, WaypointPath, Mapping)) or not isinstance(paths, Sequence):
+        raise ValueError(f"paths={paths!r} must be a list of paths (each as FlagellumSteer-v0's path argument) "
+                         "or None")
+    if not paths:
+        raise ValueError("paths=[] holds no path; give None to draw random paths")
+    return [_fixed_path(p, f"paths[{k}]") for k, p in enumerate(paths)]
+
+
+def _random_path_configs(random_path: Any) -> list[RandomPathConfig]:
+    if not isinstance(random_path, Mapping):
+        raise ValueError(f"random_path={random_path!r} must be a dict of RandomPathConfig fields")
+    known = [f.name for f in fields(RandomPathConfig)]
+    unknown = sorted(set(random_path) - set(known))
+    if unknown:
+        raise ValueError(f"random_path: unknown key(s) {unknown}; allowed keys: {known}")
+    rp = dict(random_path)
+    planar = rp.pop("planar", True)
+    cycle = list(planar) if isinstance(planar, (list, tuple)) else [planar]
+    if not cycle:
+        raise ValueError("random_path.planar=[] must be True, False or a non-empty list of them")
+    return [RandomPathConfig(**{**rp, "planar": p}) for p in cycle]

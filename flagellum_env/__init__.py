@@ -1,40 +1,65 @@
-"""Gymnasium environment for steering the buckling-flagellum swimmer through waypoints.
+"""Gymnasium environments for steering the buckling-flagellum swimmer through waypoints.
 
-``import flagellum_env`` registers ``FlagellumSteer-v0``::
+``import flagellum_env`` registers every id of the package (``flagellum_env.registration``)::
 
     import gymnasium as gym
-    import flagellum_env  # noqa: F401  (registers the env)
+    import flagellum_env  # noqa: F401  (registers the ids)
 
-    env = gym.make("FlagellumSteer-v0", path="random", control_dt=2.0)
+    env = gym.make("FlagellumSteer-v0", path="random")         # the default preset, faithful
+    env = gym.make("FlagellumSteer-coarse-v0", path="random")  # the cheap one (it turns differently)
 
-``gym.make("flagellum_env:FlagellumSteer-v0")`` imports the package itself. (Gymnasium 1.x has
-no plugin entry points that would register it without an import.)
+| id                         | what                                               | preset   |
+|----------------------------|----------------------------------------------------|----------|
+| ``FlagellumSteer-v0``      | motor speed every ``control_dt`` (2 s)            | faithful |
+| ``FlagellumSteer-fast-v0`` | the same, looser error tolerance                  | fast     |
+| ``FlagellumSteer-coarse-v0`` | the same on the coarse grid                     | coarse   |
+| ``FlagellumTurn-v0``       | one step = one turn the rule planner plans (``agents``) | faithful |
+| ``FlagellumTurn-fast-v0``  | the same                                          | fast     |
+| ``FlagellumTurn-coarse-v0``| the same; the shipped PPO agent's env             | coarse   |
+
+``gym.make("flagellum_env:FlagellumSteer-v0")`` imports the package itself (a worker process that
+did not import it, e.g. a ``SubprocVecEnv`` started with ``spawn``, finds every id this way).
+Gymnasium 1.x has no plugin entry points that would register them without an import.
+
+The registration is light (Gymnasium only); the names below (the env class, its configuration,
+paths) load on first use (PEP 562).
 """
 
 from __future__ import annotations
 
-import physics  # noqa: F401  (first: it asks for single-threaded BLAS before NumPy is loaded)
-
-import gymnasium as gym
-
-from flagellum_env.config import RandomizationConfig, SteerConfig
-from flagellum_env.paths import (
-    RandomPathConfig,
-    WaypointPath,
-    load_path,
-    path_from_waypoints,
-    random_path,
-    save_path,
-    square_path,
+from flagellum_env.registration import (
+    ENV_IDS,
+    STEER_COARSE_ENV_ID,
+    STEER_ENV_ID,
+    STEER_FAST_ENV_ID,
+    TURN_COARSE_ENV_ID,
+    TURN_ENV_ID,
+    TURN_FAST_ENV_ID,
 )
-from flagellum_env.rewards import RewardConfig
-from flagellum_env.steer_env import FlagellumSteerEnv
 
-ENV_ID = "FlagellumSteer-v0"
+ENV_ID = STEER_ENV_ID
 
-if ENV_ID not in gym.registry:
-    gym.register(id=ENV_ID, entry_point="flagellum_env.steer_env:FlagellumSteerEnv")
+#: Public name -> module that defines it (imported on first access).
+_API = {"FlagellumSteerEnv": "flagellum_env.steer_env", "FlagellumSteerFastEnv": "flagellum_env.steer_env",
+        "FlagellumSteerCoarseEnv": "flagellum_env.steer_env",
+        "RandomizationConfig": "flagellum_env.config", "SteerConfig": "flagellum_env.config",
+        "RewardConfig": "flagellum_env.rewards",
+        "RandomPathConfig": "flagellum_env.paths", "WaypointPath": "flagellum_env.paths",
+        "load_path": "flagellum_env.paths", "path_from_waypoints": "flagellum_env.paths",
+        "random_path": "flagellum_env.paths", "save_path": "flagellum_env.paths",
+        "square_path": "flagellum_env.paths"}
 
-__all__ = ["ENV_ID", "FlagellumSteerEnv", "RandomPathConfig", "RandomizationConfig", "RewardConfig",
-           "SteerConfig", "WaypointPath", "load_path", "path_from_waypoints", "random_path", "save_path",
-           "square_path"]
+__all__ = sorted(["ENV_ID", "ENV_IDS", "STEER_ENV_ID", "STEER_FAST_ENV_ID", "STEER_COARSE_ENV_ID", "TURN_ENV_ID",
+                  "TURN_FAST_ENV_ID", "TURN_COARSE_ENV_ID", *_API])
+
+
+def __getattr__(name: str):
+    if name in _API:
+        import importlib
+
+        return getattr(importlib.import_module(_API[name]), name)
+    raise AttributeError(f"module 'flagellum_env' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(list(globals()) + __all__)

@@ -182,6 +182,12 @@ def make_config(**kwargs: Any) -> SteerConfig:
     return SteerConfig(**kwargs)
 
 
+def resolve_path(spec: Any) -> WaypointPath | None:
+    """The fixed path ``spec`` names, in any form the ``path`` argument takes (None for "random");
+    ``ValueError`` naming ``spec`` otherwise."""
+    return _resolve_path(spec)
+
+
 # --- helpers -------------------------------------------------------------------------------
 def _resolve_path(spec: Any) -> WaypointPath | None:
     """The fixed path named by ``spec`` (None for "random"); ValueError otherwise."""

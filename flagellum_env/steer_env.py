@@ -12,6 +12,8 @@ from gymnasium import spaces
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M, SteerConfig, _resolve_path, make_config
 from flagellum_env.observations import ObservationModel
 from flagellum_env.paths import WaypointPath, random_path
+from flagellum_env.registration import (STEER_COARSE_ENV_ID, STEER_ENV_ID, STEER_FAST_ENV_ID,
+                                        registered_max_episode_steps)
 from flagellum_env.render import HumanWindow, Renderer, Scene
 from flagellum_env.rewards import TERMS, reward_terms
 from flagellum_env.start_frame import StartFrame
@@ -26,6 +28,8 @@ from physics.simulator import Simulator
 #: Motor turns at the low speed that make the steady start (when ``settle_time_s`` is None).
 SETTLE_TURNS = 5
 RESET_OPTIONS = ("path",)
+#: Simulated seconds a second of rendered video shows: ``metadata["render_fps"] = PLAYBACK_SPEEDUP / control_dt``.
+PLAYBACK_SPEEDUP = 8.0
 
 
 class FlagellumSteerEnv(gym.Env):
@@ -116,9 +120,14 @@ class FlagellumSteerEnv(gym.Env):
     - Truncation: after ``max_sim_time_s`` simulated seconds (rounded up to whole steps). By
       default ``max_sim_time_s = time_factor * path length / v0`` where v0 is the steady
       straight-swimming speed at the low motor speed (measured on the steady start; about
-      0.045 cm/s at 10 rpm) and ``time_factor = 1.5``: enough to swim the whole path at the low
-      speed. The time limit is the env's own (no ``max_episode_steps`` at registration) as it
-      depends on the path.
+      0.047 cm/s at 10 rpm) and ``time_factor = 1.5``: enough to swim the whole path at the low
+      speed (about 270 steps on a default random path).
+    - ``gymnasium.make`` adds a ``TimeLimit`` at the registered ``max_episode_steps`` = 400: the
+      largest budget of a default random path (3 segments of at most 8 cm), so it never cuts an
+      episode short with the registered defaults. For a longer path (``"square"``: ~1670 steps) or
+      a shorter ``control_dt``, give ``gym.make`` a larger ``max_episode_steps`` or -1 (no
+      ``TimeLimit``); the env warns once when it sees the registered limit would cut its budget
+      (``flagellum_env.registration.steer_max_episode_steps`` computes the bound).
 
     ## Info
 
@@ -159,23 +168,40 @@ class FlagellumSteerEnv(gym.Env):
     | render_mode         | None                 | None, "rgb_array" or "human"                              |
     | render_size         | (640, 480)           | frame (width, height), pixels; frames are (height, width, 3) uint8 |
 
+    ``metadata["render_fps"]`` is ``PLAYBACK_SPEEDUP / control_dt`` (4 at the default 2 s): a video
+    (``gymnasium.wrappers.RecordVideo``) plays 8 simulated seconds per second.
+
+    ## Variants
+
+    Registered ids with other defaults (``flagellum_env.registration``): ``FlagellumSteer-fast-v0``
+    (``FlagellumSteerFastEnv``, preset ``fast``) and ``FlagellumSteer-coarse-v0``
+    (``FlagellumSteerCoarseEnv``, preset ``coarse``). Their docstrings say what each costs and how it
+    differs.
+
     Invalid values raise ``ValueError`` naming the argument and the allowed values.
     ``reset(options={"path": ...})`` replaces the path for one episode (same forms as ``path``).
 
     ## Version History
 
-    - v0: initial version.
+    - v0: initial version; ``max_episode_steps`` at registration, ``render_fps`` from ``control_dt``
+      and the ``-fast`` / ``-coarse`` variants added without changing the dynamics.
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"],
+                                          "render_fps": PLAYBACK_SPEEDUP / 2.0}
+    #: This class's registered id and its defaults (a variant overrides both; ``make`` arguments override them).
+    env_id: ClassVar[str] = STEER_ENV_ID
+    defaults: ClassVar[dict[str, Any]] = {}
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode={render_mode!r} is not allowed; choose one of "
                              f"{[None] + self.metadata['render_modes']}")
         self.render_mode = render_mode
-        self.config: SteerConfig = make_config(**kwargs)
+        self.config: SteerConfig = make_config(**{**self.defaults, **kwargs})
         cfg = self.config
+        self.metadata = {**type(self).metadata, "render_fps": PLAYBACK_SPEEDUP / cfg.control_dt}
+        self._warned_time_limit = False
         self.params, self.numerics = cfg.physics()
         dt = self.numerics.dt
         n_sub = cfg.control_dt / dt
@@ -237,6 +263,7 @@ class FlagellumSteerEnv(gym.Env):
         self.max_sim_time_s = (cfg.max_sim_time_s if cfg.max_sim_time_s is not None
                                else cfg.time_factor * path.length_m / nominal.speed_m_s)
         self.max_steps = max(1, math.ceil(self.max_sim_time_s / cfg.control_dt - 1e-9))
+        self._warn_if_time_limit_cuts(path)
         self.buckling = BucklingMonitor(cfg.buckling_threshold, cfg.buckling_release)
         self.buckling.update(sim.end_to_end_ratio())
         self.steps = 0
@@ -335,6 +362,19 @@ class FlagellumSteerEnv(gym.Env):
             self._window = None
 
     # --- helpers ---------------------------------------------------------------------------
+    def _warn_if_time_limit_cuts(self, path: WaypointPath) -> None:
+        """Made by ``gymnasium.make`` (a spec is set) with a registered ``max_episode_steps`` below this
+        episode's own budget: say so once (the ``TimeLimit`` would end the episode early)."""
+        cap = registered_max_episode_steps(self.spec.id if self.spec is not None else None)
+        if self._warned_time_limit or cap is None or self.max_steps <= cap:
+            return
+        self._warned_time_limit = True
+        gym.logger.warn(
+            f"{self.spec.id}: this episode's time budget is {self.max_steps} steps (path {path.name!r}, "
+            f"{path.length_m:.3g} m, control_dt {self.config.control_dt:g} s) but the id is registered with "
+            f"max_episode_steps={cap}: the TimeLimit of gymnasium.make ends it at step {cap} unless make was "
+            f"given max_episode_steps=-1 (no TimeLimit) or >= {self.max_steps}")
+
     def scene(self) -> Scene:
         """What a rendered frame shows (start frame, m)."""
         sim = self.simulator
@@ -428,3 +468,35 @@ class FlagellumSteerEnv(gym.Env):
         for t in TERMS:
             info[f"reward_{t}"] = float(terms[t])
         return info
+
+
+class FlagellumSteerFastEnv(FlagellumSteerEnv):
+    """``FlagellumSteer-fast-v0``: ``FlagellumSteer-v0`` (``FlagellumSteerEnv``, whose docstring is the
+    manual) at the ``fast`` preset.
+
+    The paper's grid (N = 122) and variable-step BDF2 as ``faithful``, with a ten times looser local error
+    tolerance (``step_tol`` 1e-3): the same swimmer and grid at a lower cost per step, with larger
+    integration errors (docs/fidelity.md measures the presets against ``paper``). Every
+    argument and default is ``FlagellumSteer-v0``'s except ``preset="fast"``; ``max_episode_steps`` = 400
+    at registration as there.
+    """
+
+    env_id: ClassVar[str] = STEER_FAST_ENV_ID
+    defaults: ClassVar[dict[str, Any]] = {"preset": "fast"}
+
+
+class FlagellumSteerCoarseEnv(FlagellumSteerEnv):
+    """``FlagellumSteer-coarse-v0``: ``FlagellumSteer-v0`` (``FlagellumSteerEnv``, whose docstring is the
+    manual) at the ``coarse`` preset, the cheapest.
+
+    A coarser grid (N = 45 nodes instead of the paper's 122) with fixed 10 ms implicit Euler steps: it
+    swims straight like ``paper`` (its steady speed at 10 rpm is within 0.3 % of the others) but **buckles later and turns
+    differently**: a burst at a given speed gives another turning angle than at ``faithful``, so a turn
+    map, a planner's tuning or a policy learnt here does not carry over to the other presets as it is
+    (each preset has its own turn map, agents/turn_maps/). Use it where the physics is not the point
+    (trying code, tests, the shipped PPO agent's training). Every argument and default is
+    ``FlagellumSteer-v0``'s except ``preset="coarse"``; ``max_episode_steps`` = 400 at registration.
+    """
+
+    env_id: ClassVar[str] = STEER_COARSE_ENV_ID
+    defaults: ClassVar[dict[str, Any]] = {"preset": "coarse"}

@@ -21,17 +21,11 @@ Plain NumPy/SciPy with Numba kernels; imports nothing from the layers above it. 
   ``run_simulation`` records a trajectory and a summary on top of it.
 - ``SimulationError`` (``physics.errors``): a step that cannot be taken.
 
+The run loop holds BLAS at one thread while it steps (``physics.threads``, with threadpoolctl);
+importing the package changes no environment variable.
+
 The names load on first use, so ``import physics`` stays light (no NumPy, no Numba).
 """
-
-import os as _os
-
-# The dense linear algebra here is on ~500x500 matrices, where multi-threaded BLAS only adds
-# overhead and oversubscribes the cores when simulations run in parallel (sweeps, vectorised
-# environments). Takes effect when physics is imported before NumPy; override by setting it.
-_os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-_os.environ.setdefault("OMP_NUM_THREADS", "1")
-_os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 #: Public name -> module that defines it (imported on first access, PEP 562).
 _API = {"Simulator": "physics.simulator", "SwimmerParams": "physics.params", "NumericsConfig": "physics.params",

@@ -26,6 +26,7 @@ import numpy as np
 from physics.errors import SimulationError
 from physics.params import RPM_TO_RAD_S, NumericsConfig, SwimmerParams
 from physics.schedule import MotorSchedule
+from physics.threads import simulation_threads
 
 DEFAULT_RECORD_INTERVAL_S = 0.01
 DEFAULT_NODE_RECORD_INTERVAL_S = 0.1
@@ -215,13 +216,14 @@ def advance(sim: Any, duration_s: float | None = None, *, steps: int | None = No
         from physics.time_integrator import step_spans
 
         spans = step_spans(duration_s, sim.numerics)
-    for k, span in enumerate(spans, start=1):
-        if span is None:
-            sim.step()
-        else:
-            sim.step(span)
-        if on_step is not None and on_step(sim, k):
-            return k
+    with simulation_threads():  # one BLAS thread while stepping (physics.threads)
+        for k, span in enumerate(spans, start=1):
+            if span is None:
+                sim.step()
+            else:
+                sim.step(span)
+            if on_step is not None and on_step(sim, k):
+                return k
     return len(spans)
 
 

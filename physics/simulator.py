@@ -50,9 +50,9 @@ from physics.contact import ContactModel
 from physics.implicit_residual import assemble_residual, block_max_abs, generalised_velocity
 from physics.params import NumericsConfig, SwimmerParams
 from physics.step_solvers import BandedNewtonSolver, DenseChordSolver, StepFailed
+from physics.threads import one_blas_thread
 from physics.time_integrator import (SAFETY, SHRINK_MIN, ContractionRate, History, StepBase, error_norm, next_step,
-                                     split_remaining,
-                                     step_base, step_spans, velocity_of)
+                                     split_remaining, step_base, step_spans, velocity_of)
 
 
 _EYE3 = np.eye(3)
@@ -180,6 +180,7 @@ class Simulator:
             self._restart = True  # the motion has a kink here: no multistep formula may cross it
         self.omega = float(omega_rad_s)
 
+    @one_blas_thread
     def step(self, duration_s: float | None = None) -> None:
         """Advance by ``numerics.dt``: one step (halved on Newton failure), or with ``step_tol`` > 0 as many
         error-controlled steps as that takes, the last one ending exactly at the end of dt.
@@ -199,6 +200,7 @@ class Simulator:
         self.step_count += 1
         self.stats.steps += 1
 
+    @one_blas_thread
     def advance(self, duration_s: float) -> None:
         """Advance by ``duration_s`` seconds: rounded to whole steps of dt with fixed steps, exactly with
         adaptive ones (whole steps of dt, then the rest)."""

@@ -6,11 +6,12 @@ Inputs (each made by a committed command):
 - AGENT/meta.json, config.yml, and episodes.csv, eval/evaluations.npz in AGENT or (for the shipped agent)
   in results/agents/<name>/
       flagellum train --config agents/configs/ppo_residual_coarse.yml --out AGENT
-- results/eval/<preset>/results.json for preset fast and paper, holding both controllers
+- results/eval/<folder>/results.json for the presets coarse (folder fast: run when coarse was called fast,
+  before 2026-12-02) and paper, holding both controllers
       flagellum evaluate --paths eval --controller rule --controller ppo --preset <preset>
-                         --out results/eval/<preset> --resume
-- results/eval/fast_randomized/results.json (model error: each path's swimmer off the map by up to 5 %)
-      flagellum evaluate --paths eval --controller rule --controller ppo --preset fast
+                         --out results/eval/<folder> --resume
+- results/eval/fast_randomized/results.json (model error: each path's swimmer off the map by up to 5 %; coarse)
+      flagellum evaluate --paths eval --controller rule --controller ppo --preset coarse
                          --randomize 0.05 --out results/eval/fast_randomized
   (held-out paths: seeds 1000-1009; training drew its paths from other seeds, validation used 900-903).
 - results/agents/raw_ppo_faithful/progress.csv, meta.json, learning_curve.png (the from-scratch baseline)
@@ -34,7 +35,13 @@ from agents.training_plots import read_episodes, training_figure
 DOCS = Path("docs")
 #: training logs of the shipped agent and the earlier agents (moved out of the package)
 RESULT_AGENTS = Path("results/agents")
-PRESETS = ("fast", "paper")
+PRESETS = ("coarse", "paper")
+#: preset -> the folder of its runs under results/eval/ and docs/square/ (the runs at ``coarse`` were made
+#: before 2026-12-02, when it was called ``fast``: their folders keep the name they were made under)
+RUN_FOLDER = {"coarse": "fast", "paper": "paper"}
+#: presets that existed then under other names (runs and configs keep them): old name -> what it is today
+RETIRED = {"fast": "`coarse` (called `fast` until 2026-12-02)",
+           "balanced": "the retired `balanced` preset (N = 122, h = 20 ms implicit Euler; retired on 2026-12-02)"}
 ROWS = (("success rate (%)", "success_rate", 100, 0), ("waypoints reached (mean)", "waypoints_reached", 1, 2),
         ("mean cross-track (cm)", "mean_cross_track_m", 100, 2), ("max cross-track (cm)", "max_cross_track_m", 100, 2),
         ("max Δz/ΔL, planar paths (%)", "max_out_of_plane_ratio", 100, 2), ("time (s)", "time_s", 1, 0),
@@ -62,6 +69,14 @@ def training_section(agent: Path, lines: list[str], heading: str = "## Training"
     logs = logs_dir(agent)
     fig = save(training_figure(logs, f"PPO residual agent {meta['name']}: training on the {meta['preset']} preset"),
                DOCS / "figures" / figure)
+    config = meta.get("config")
+    trained_on = (f" on {RETIRED[meta['preset']]}" if meta.get("preset") in RETIRED else "")
+    if config and not Path(config).is_file() and (agent / "config.yml").is_file():
+        # the config file has gone (renamed or retired with its preset): the copy kept with the agent
+        config_text = (f"`flagellum train --config {agent / 'config.yml'}` (the config as trained, kept with the "
+                       f"agent){trained_on}")
+    else:
+        config_text = f"`flagellum train --config {config}`{trained_on}"
     ep = read_episodes(logs / "episodes.csv")
     stages = _stages(logs / "episodes.csv")
     rnd = meta.get("env_kwargs", {}).get("randomize")
@@ -69,7 +84,7 @@ def training_section(agent: Path, lines: list[str], heading: str = "## Training"
                 else str(rnd)) if rnd else "none"
     budget = " It stopped at the wall-time budget." if meta.get("stopped_by_wall_time_budget") else ""
     lines += [heading, "",
-              f"`flagellum train --config {meta.get('config')}`: **{meta['decisions']} decisions (planned turns) in "
+              f"{config_text}: **{meta['decisions']} decisions (planned turns) in "
               f"{meta['wall_time_s'] / 60:.0f} min** of wall time on this 2-core machine ({meta.get('n_envs')} env "
               f"workers, PyTorch on the CPU), {len(ep['decisions'])} training episodes.{budget} Trained from commit "
               f"`{meta['commit']}` (`-dirty`: result files being written, not code) with stable-baselines3 "
@@ -154,18 +169,20 @@ def _validation_every(agent: Path) -> int | None:
         return None
 
 
-#: the fine-tuned agents (``init_from`` the shipped one, on `balanced`): (folder, label, training figure)
-FINE_TUNES = ((Path("results/agents/ppo_residual_balanced_ft"), "PPO, fine-tuned on balanced",
+#: the fine-tuned agents (``init_from`` the shipped one, on the retired `balanced` preset): (folder, label,
+#: training figure)
+FINE_TUNES = ((Path("results/agents/ppo_residual_balanced_ft"), "PPO, fine-tuned on the retired balanced preset",
                "ppo_training_balanced_ft.png"),
               (Path("results/agents/ppo_residual_balanced_ft_long"),
-               "PPO, fine-tuned on balanced up to the 2-h budget", "ppo_training_balanced_ft_long.png"))
+               "PPO, fine-tuned on the retired balanced preset up to the 2-h budget",
+               "ppo_training_balanced_ft_long.png"))
 FT_AGENT = FINE_TUNES[0][0]
 #: their controller specs as recorded in results/eval (they were run from agents/pretrained/ then)
 FT_KEYS = tuple(f"ppo:agents/pretrained/{agent.name}" for agent, _, _ in FINE_TUNES)
 #: the same agents' controller specs today
 CURRENT_SPEC = {key: f"ppo:{agent}" for key, (agent, _, _) in zip(FT_KEYS, FINE_TUNES)}
 #: the PPO controllers an evaluation folder may hold: (results key, label)
-PPO_CONTROLLERS = (("ppo", "PPO, trained on fast (shipped default)"),
+PPO_CONTROLLERS = (("ppo", "PPO, trained on coarse (shipped default)"),
                    *((key, label) for key, (_, label, _) in zip(FT_KEYS, FINE_TUNES)))
 
 
@@ -202,29 +219,31 @@ def first_design_section(lines: list[str]) -> None:
     training_section(agent, lines, "### Its training", "ppo_training_randomized.png")
     f = Path("results/eval/ppo_randomized_fast/results.json")
     if f.is_file():
-        lines += ["### On the 20 held-out paths, `fast` preset", "",
+        lines += ["### On the 20 held-out paths, `coarse` preset", "",
                   *comparison_lines(json.loads(f.read_text(encoding="utf-8"))), ""]
 
 
 def fine_tune_section(lines: list[str]) -> None:
-    """The shipped agent fine-tuned on the balanced preset (``init_from``)."""
+    """The shipped agent fine-tuned on the retired balanced preset (``init_from``)."""
     if not (FT_AGENT / "meta.json").is_file():
         return
-    lines += ["## Fine-tuning on `balanced`", "",
-              "Why: at `paper` the fast-trained agent was behind the planner (below). `fast` (N = 45) buckles "
+    lines += ["## Fine-tuning on the paper's grid at h = 20 ms (the retired `balanced` preset)", "",
+              "Why: at `paper` the coarse-trained agent was behind the planner (below). `coarse` (N = 45) buckles "
               "about 3 s later than `paper` in a 150 rpm burst, so its turn map and the corrections learnt "
-              "against it are its own; the redefined `balanced` preset (N = 122, h = 20 ms) follows paper's "
+              "against it are its own; the `balanced` preset of the time (N = 122, h = 20 ms implicit Euler, "
+              "retired on 2026-12-02 for `faithful` and `fast`) followed paper's "
               "turns to within ~10 % (docs/fidelity.md, docs/planner.md) at about a fifth of paper's cost. "
-              "`agents/configs/ppo_residual_balanced_ft.yml` starts from the shipped agent's policy and "
+              f"The fine-tune (config `{FT_AGENT}/config.yml`) starts from the shipped agent's policy and "
               "VecNormalize statistics (`init_from`), with the same task, reward and limits, the three-corner "
-              "stage only, and the planner on the balanced turn map; it stopped at its 30-min budget.", ""]
+              "stage only, and the planner on the balanced turn map (`results/turn_maps/balanced_2026-12-01.json`); "
+              "it stopped at its 30-min budget.", ""]
     training_section(FT_AGENT, lines, "### Its training", FINE_TUNES[0][2])
     agent, _, figure = FINE_TUNES[1]
     if (agent / "meta.json").is_file():
         lines += ["### The same fine-tune, continued up to the 2-hour budget", "",
-                  "`agents/configs/ppo_residual_balanced_ft_long.yml`: the run above resumed from its last "
+                  f"`{agent}/config.yml`: the run above resumed from its last "
                   "checkpoint (160 decisions, `flagellum train --resume`) with a budget that brings the chain "
-                  "(fast agent + fine-tune) to 2 h; settings otherwise unchanged. It asks whether more decisions "
+                  "(coarse agent + fine-tune) to 2 h; settings otherwise unchanged. It asks whether more decisions "
                   "on a preset that turns like `paper` close the gap.", ""]
         training_section(agent, lines, "#### Its training", figure)
 
@@ -236,10 +255,11 @@ def evaluation_section(lines: list[str]) -> dict[str, Any]:
               "`flagellum evaluate ... --controller rule --controller ppo`. Means over the paths run. Wall "
               "times compare only episodes run together: at `paper` the rule planner's episodes ran in an "
               "earlier session, with other simulations on the machine and before the LAPACK speed-up "
-              "(dcf6f9e); at `fast` both controllers ran in the same session.", ""]
+              "(dcf6f9e); at `coarse` both controllers ran in the same session. The `coarse` runs were made when "
+              "it was called `fast` (folders `results/eval/fast*`).", ""]
     found: dict[str, Any] = {}
-    for folder, title in [(p, f"`{p}` preset") for p in PRESETS] + [
-            ("fast_randomized", "`fast` preset, swimmer parameters off the turn map's (`--randomize 0.05`)")]:
+    for folder, title in [(RUN_FOLDER[p], f"`{p}` preset") for p in PRESETS] + [
+            ("fast_randomized", "`coarse` preset, swimmer parameters off the turn map's (`--randomize 0.05`)")]:
         f = Path("results/eval") / folder / "results.json"
         res = json.loads(f.read_text(encoding="utf-8")) if f.is_file() else None
         agg = (res or {}).get("aggregate", {})
@@ -272,9 +292,9 @@ def verdict_section(found: dict[str, Any], agent: Path, lines: list[str]) -> Non
             meta = json.loads(ft.read_text(encoding="utf-8"))
             m = meta["wall_time_s"] / 60
             lines.append(f"- {label} ({meta['decisions']} decisions in {m:.0f} min, from the shipped agent): "
-                         f"its own chain (fast agent + fine-tuning) {minutes[0] + m:.0f} min (target ≤ 120 min).")
+                         f"its own chain (coarse agent + fine-tuning) {minutes[0] + m:.0f} min (target ≤ 120 min).")
     for preset in PRESETS:
-        res = found.get(preset)
+        res = found.get(RUN_FOLDER[preset])
         if res is None:
             lines.append(f"- `{preset}`: not measured for both controllers.")
             continue
@@ -296,15 +316,16 @@ def verdict_section(found: dict[str, Any], agent: Path, lines: list[str]) -> Non
 
 
 def square_section(lines: list[str]) -> None:
-    """The demo: both controllers on the paper's square (``make demo``), fast preset."""
+    """Both controllers on the paper's square, coarse preset (run when it was called fast)."""
     f = DOCS / "square" / "compare_fast" / "summary.json"
-    lines += ["## The square path (`make demo`)", ""]
+    lines += ["## The square path, `coarse` preset", ""]
     if not f.is_file():
         lines += ["Not measured: no `docs/square/compare_fast/summary.json`.", ""]
         return
     ctrl = json.loads(f.read_text(encoding="utf-8"))["controllers"]
-    lines += ["`flagellum follow --path square --controller rule --controller ppo --preset fast --out "
-              "docs/square/compare_fast` (the paper's 0.25 m square, Fig. 6; a path of a kind training never saw).", "",
+    lines += ["`flagellum follow --path square --controller rule --controller ppo --preset coarse --out "
+              "docs/square/compare_fast` (run as `--preset fast`, the name of `coarse` until 2026-12-02; the paper's "
+              "0.25 m square, Fig. 6; a path of a kind training never saw).", "",
               "| metric | " + " | ".join(ctrl) + " |", "|---" * (len(ctrl) + 1) + "|"]
     for label, key, scale, digits in ROWS:
         if key == "success_rate":
@@ -401,11 +422,11 @@ def main() -> None:
     print(f"wrote {DOCS / 'agents.md'}")
 
 
-GAP_TEXT = """**The gap between presets.** The agent learns corrections of the `fast` preset's own turn map
-against the `fast` swimmer: where that map predicts a turn too small or too large, or the phase
+GAP_TEXT = """**The gap between presets.** The agent learns corrections of the `coarse` preset's own turn map
+against the `coarse` swimmer: where that map predicts a turn too small or too large, or the phase
 gives a direction error, the policy shifts the burst (the probe above). At `paper` the planner
 uses the paper preset's map, whose errors are different, so the same corrections are noise: the
-paired comparisons above show PPO ahead at `fast` and behind at `paper`, with the same success.
+paired comparisons above show PPO ahead at `coarse` and behind at `paper`, with the same success.
 
 What was tried: a turn-level residual action (per-turn burst-length scale and phase shift) instead
 of the motor speed per step, which allows ~10⁴ steps in the 2-hour budget, too few to discover
@@ -417,11 +438,12 @@ trend within a curriculum stage (the stage table above), and validation success 
 it was measured, so the validation paths cannot tell a useful policy from a harmless one; the
 held-out cross-track error is what separates them.
 
-**Fine-tuning on `balanced`** (the section above) tested the explanation: `fast` buckles about 3 s
+**Fine-tuning on the retired `balanced` preset** (N = 122, h = 20 ms; the section above) tested the
+explanation: `coarse` buckles about 3 s
 later than `paper` in a 150 rpm burst (docs/node_convergence.md explains why: the onset needs the
-paper's grid), while `balanced` turns like `paper`. 160 decisions (30 min) did not help: at `paper` the fine-tuned agent is no closer to the planner than the
-fast-trained one (the `paper` tables above), and its training curve shows no improvement within
-those five PPO updates. Continued to 364 decisions (69 min, so that the chain of fast agent and
+paper's grid), while `balanced` turned like `paper`. 160 decisions (30 min) did not help: at `paper` the fine-tuned agent is no closer to the planner than the
+coarse-trained one (the `paper` tables above), and its training curve shows no improvement within
+those five PPO updates. Continued to 364 decisions (69 min, so that the chain of coarse agent and
 fine-tune takes the whole 2 hours), it is still behind the planner at `paper` (mean cross-track
 0.76 vs 0.69 cm, lower on 9 of the 20 paths: on 7 of the 10 planar ones, 0.66 vs 0.71 cm, but
 only 2 of the 10 3-D ones, 0.85 vs 0.68 cm; a split seen after the fact, not a result), and its
@@ -438,7 +460,7 @@ while the turn is flown, then falls roughly linearly to 0.3-0.4 cm at its end. M
 is set before the turn starts, where a per-turn residual cannot act. Nor does a tighter tolerance
 help: the rule planner with `hit_fraction` 0.3 instead of 0.6 (a corrective turn as soon as the
 predicted miss exceeds 0.45 cm instead of 0.9 cm) had a mean cross-track error of 0.963 cm against
-0.961 cm on the 20 paths at `fast`, with the same buckling events (a one-off run of
+0.961 cm on the 20 paths at `coarse`, with the same buckling events (a one-off run of
 `RulePlanner` with `PlannerConfig(hit_fraction=0.3)`, 2026-12-01). What is left: an agent that
 decides when to start the turn at a corner (the observation holds the waypoint after the next),
 which the planner does not do; a much cheaper preset that still turns like `paper` (the
@@ -457,7 +479,7 @@ DESIGN = """## The agent
   150 rpm burst, the wait for a steady heading and the re-planning stay the planner's; a = 0 is
   the planner. The burst length is scaled because a parameter error rescales time (the viscous
   time μL⁴/EI sets when the flagellum buckles).
-- **Why.** One env step of `FlagellumSteer-v0` at the `fast` preset costs 0.16 s of wall time straight and
+- **Why.** One env step of `FlagellumSteer-v0` at the `coarse` preset costs 0.16 s of wall time straight and
   ~1.7 s buckled (docs/env.md); a 20-cm path is ~450 simulated seconds. Within the 2-hour budget on
   two cores that is ~10⁴ motor-speed steps, far too few for PPO to discover buckling, phase timing
   and burst lengths from scratch. A turn-level action gives several hundred decisions whose
@@ -474,7 +496,7 @@ DESIGN = """## The agent
 - **Curriculum**: paths with one corner first, then three-corner paths of the evaluation
   distribution (other seeds); planar and 3-D alternate. The shipped agent trains on the nominal
   swimmer; the first design (below) trained on randomised swimmers.
-- **Sensitivity that shapes all of this.** θ(t_c) is steep: on the fast preset's map a 7 % longer
+- **Sensitivity that shapes all of this.** θ(t_c) is steep: on the coarse preset's map a 7 % longer
   burst (t_c 9.7 → 10.4 s) takes a 62° turn to 91°, so a correction of a few per cent of the burst
   is already a large one, and so is a swimmer whose viscous time differs from the map's by a few per
   cent (the robustness table below: `--randomize 0.05`)."""

@@ -1,6 +1,10 @@
 """Does the buckled swimmer stay physical, and what does contact cost?
 
     python scripts/contact_check.py [--runs balanced:90:100 paper:90:100 ...] [--workers 2]
+
+A run is PRESET:RPM:SECONDS[:off]; besides today's presets, ``balanced`` is the preset of that name retired on
+2026-12-02 (``paper`` at h = 20 ms, Newton tolerance 1e-5), kept here so the recorded runs can be repeated;
+the runs at ``coarse`` were recorded as ``fast``, its name until then.
                                     [--out docs/contact_check.json]
 
 Each run (PRESET:RPM:SECONDS[:off]) starts from rest at a constant motor speed, with contact on
@@ -25,7 +29,9 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 DEFAULT_RUNS = ["balanced:10:20", "balanced:10:20:off", "balanced:90:100", "balanced:90:100:off",
-                "fast:150:25", "fast:150:25:off", "paper:10:5", "paper:10:5:off", "paper:90:100"]
+                "coarse:150:25", "coarse:150:25:off", "paper:10:5", "paper:10:5:off", "paper:90:100"]
+#: retired presets these runs still use: name -> (today's preset, numerics changed on top of it)
+RETIRED_PRESETS = {"balanced": ("paper", {"dt": 0.02, "newton_tol": 1e-5})}
 
 
 def run_one(spec: str, check_every: int) -> dict:
@@ -41,7 +47,9 @@ def run_one(spec: str, check_every: int) -> dict:
     parts = spec.split(":")
     preset, rpm, duration = parts[0], float(parts[1]), float(parts[2])
     contact = not (len(parts) > 3 and parts[3] == "off")
-    p, n = apply_preset(preset)
+    base, changes = RETIRED_PRESETS.get(preset, (preset, {}))
+    p, n = apply_preset(base)
+    n = n.replace(**changes)
     if not contact:
         n = n.replace(contact=False, near_field_radius=0.0)
     sim = Simulator(p, n)

@@ -5,8 +5,10 @@
 Inputs (each made by a committed command, listed in the report):
 - agents/turn_maps/<preset>.json     flagellum calibrate-turns --preset <preset> --out agents/turn_maps/<preset>.json
 - results/turn_maps/r9_*.json        the paper's protocol (omega_h = 60 rpm), R9
-- docs/square/<preset>/summary.json  flagellum follow --path square --preset <preset> --out docs/square/<preset>
-- results/eval/<preset>/results.json flagellum evaluate --paths eval --controller rule --preset <preset>
+- docs/square/<folder>/summary.json  flagellum follow --path square --preset <preset> --out docs/square/<folder>
+- results/eval/<folder>/results.json flagellum evaluate --paths eval --controller rule --preset <preset>
+  (``RUN_FOLDERS``: the runs at ``coarse`` were made before 2026-12-02, when it was called ``fast``, and their
+  folders keep that name)
 Missing inputs are reported as not measured.
 """
 
@@ -21,7 +23,16 @@ from agents.follow_plots import save, turn_map_figure
 from agents.turn_map import TurnMap
 
 DOCS = Path("docs")
-PRESETS = ("paper", "balanced", "fast")
+PRESETS = ("paper", "faithful", "fast", "coarse")
+#: (preset, folder of its runs under docs/square/ and results/eval/); coarse's were made under its old name
+RUN_FOLDERS = (("paper", "paper"), ("faithful", "faithful"), ("fast", None), ("coarse", "fast"))
+#: controller specs recorded in results/eval that name agents since moved (old -> today's)
+MOVED = {"ppo:agents/pretrained/ppo_residual_balanced_ft": "ppo:results/agents/ppo_residual_balanced_ft"}
+
+
+def preset_today(name: str, n_nodes: int) -> str:
+    """A map's or run's preset under today's name (``coarse``, N = 45, was called ``fast`` until 2026-12-02)."""
+    return "coarse (then called fast)" if name == "fast" and n_nodes == 45 else name
 
 
 def turn_map_section(lines: list[str]) -> None:
@@ -82,16 +93,17 @@ def r9_section(lines: list[str]) -> None:
     for f in files:
         m = TurnMap.load(f)
         tc, th, _ = m.theta_curve()
-        lines.append(f"| `{f.name}` | {m.preset} | {m.params.head_rotation} | {m.omega_h_rpm:g} | "
+        lines.append(f"| `{f.name}` | {preset_today(m.preset, m.params.n_nodes)} | {m.params.head_rotation} | "
+                     f"{m.omega_h_rpm:g} | "
                      f"{', '.join(f'{t:g}' for t in tc)} | {', '.join(f'{x:.1f}' for x in th)} | {th.max():.1f} |")
     lines.append("")
 
 
 def square_section(lines: list[str]) -> None:
     lines += ["## The square path (Fig. 6, R10)", ""]
-    for preset in PRESETS:
-        f = DOCS / "square" / preset / "summary.json"
-        if not f.is_file():
+    for preset, folder in RUN_FOLDERS:
+        f = DOCS / "square" / str(folder) / "summary.json"
+        if folder is None or not f.is_file():
             lines += [f"- `{preset}`: not run.", ""]
             continue
         s = json.loads(f.read_text())
@@ -104,26 +116,33 @@ def square_section(lines: list[str]) -> None:
                       f"{m['time_s']:.0f} s simulated in {m['wall_time_s']:.0f} s wall, "
                       f"{m['buckling_events']} buckling events, {len(m.get('turns', []))} bursts, "
                       f"energy {1e3 * m['energy_J']:.1f} mJ.", "",
-                      f"![square {preset}](square/{preset}/path.png)", "",
-                      f"![omega {preset}](square/{preset}/omega.png)", ""]
+                      *([f"(`docs/square/{folder}`: run as `--preset {folder}`, the name of `{preset}` then.)", ""]
+                        if folder != preset else []),
+                      f"![square {preset}](square/{folder}/path.png)", "",
+                      f"![omega {preset}](square/{folder}/omega.png)", ""]
 
 
 def evaluation_section(lines: list[str]) -> None:
     lines += ["## Random paths (20 seeded: 10 planar, 10 3-D; turns 30°-150°)", ""]
-    for preset in PRESETS:
-        f = Path("results/eval") / preset / "results.json"
-        if not f.is_file():
+    for preset, folder in RUN_FOLDERS:
+        f = Path("results/eval") / str(folder) / "results.json"
+        if folder is None or not f.is_file():
             lines += [f"- `{preset}`: not run.", ""]
             continue
         lines += [f"### `{preset}` preset", ""]
-        lines += (Path("results/eval") / preset / "results.md").read_text().splitlines()[2:]
+        if folder != preset:
+            lines += [f"(`results/eval/{folder}`: run as `--preset {folder}`, the name of `{preset}` then.)", ""]
+        text = (Path("results/eval") / folder / "results.md").read_text()
+        for old, new in MOVED.items():
+            text = text.replace(old, new)
+        lines += text.splitlines()[2:]
         lines.append("")
 
 
 FINDINGS = """## What we found
 
 - **The turn's size does not depend on when the burst starts; its direction does, rigidly.**
-  At the fast preset, four burst phases (quarter turns of the flagellum) give the same theta
+  At the coarse preset, four burst phases (quarter turns of the flagellum) give the same theta
   within about 1 deg and the same psi (direction of the turn relative to the flagellum's phase
   node) within 3 deg for every t_c >= 6 s (where the turn exceeds 5 deg), while phi changes
   with the phase (e.g. t_c =
@@ -132,7 +151,7 @@ FINDINGS = """## What we found
   premise (Fig. 5e) and what lets the planner choose phi by hovering less than one rotation. The
   paper-preset map itself was measured at phase 0 only (CPU time).
 - **theta(t_c) rises steeply, then oscillates.** Once the flagellum buckles the swimmer keeps
-  tumbling: theta peaks (fast: 122 deg at t_c = 11 s; paper: 163 deg at t_c = 8 s) and then
+  tumbling: theta peaks (coarse: 122 deg at t_c = 11 s; paper: 163 deg at t_c = 8 s) and then
   oscillates with t_c while the turn's direction flips. The planner uses only the first rise
   and makes larger turns in several bursts. The rise is steep (paper preset: 58 deg at 7 s,
   90 deg at 7.5 s, 163 deg at 8 s), so the planner steps every 0.1 s and closes the loop.
@@ -140,9 +159,10 @@ FINDINGS = """## What we found
   to the path's segments; the planner predicts every candidate turn with the map's
   displacement and picks the one whose new straight line passes closest to the next waypoint.
 - **The presets turn differently.** The same burst turns the paper-preset swimmer much more
-  than the fast-preset one (t_c = 7 s: 58 vs 12 deg; 8 s: 163 vs 23 deg): N = 45 buckles later
+  than the coarse-preset one (t_c = 7 s: 58 vs 12 deg; 8 s: 163 vs 23 deg): N = 45 buckles later
   than N = 122. Turn maps are therefore per preset (a map refuses other physical parameters),
-  and the fast preset's turning angles are not within 10 % of the paper preset's (issue #4).
+  and the coarse preset's turning angles are not within 10 % of the paper preset's (issue #4).
+  (`coarse` was called `fast` until 2026-12-02; today's `fast` and `faithful` run the paper's grid.)
 - **The paper's 60 rpm burst does not turn this model's torque-free swimmer** (R9): 60 rpm is
   below its buckling threshold (70-90 rpm, docs/validation.md), so the planner bursts at 150 rpm.
 """

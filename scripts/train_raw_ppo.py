@@ -59,8 +59,6 @@ faithful preset one evaluation episode costs minutes, so the curve is the traini
 
 from __future__ import annotations
 
-import physics  # noqa: F401,I001  (first: single-threaded BLAS in this process and the workers, before NumPy)
-
 import argparse
 import csv
 import functools

@@ -6,8 +6,9 @@ in the lab frame, eqns 10-11 as printed; ``head_rotation=paper``).
     python scripts/validate_readings.py [--workers 2] [--out results/validation] [--report-only]
 
 Every run starts from rest at a constant motor speed for 100 s (t_bar = 1.02) on the paper's grid
-(N = 122, edges 2 delta). Time step: ``--dt`` (default 20 ms, the ``balanced`` preset; its
-deviations from h = 1 ms are measured in docs/fidelity.md). omega_b is bisected on
+(N = 122, edges 2 delta). Time step: ``--dt`` (default 20 ms: the ``paper`` preset at h = 20 ms with Newton
+tolerance 1e-5, which was the ``balanced`` preset until 2026-12-02; its deviations from h = 1 ms are measured
+in docs/fidelity.md). omega_b is bisected on
 L'/L(100 s) < 0.98 for each head size, to a 2-rpm bracket for b = 1.2 cm and a 5-rpm bracket for
 the others. R9 follows the paper's protocol (steady 10 rpm, a burst of t_c at 60 rpm, back to
 10 rpm) under the paper's reading. Runs are appended to ``<out>/runs.jsonl`` as they finish
@@ -50,7 +51,8 @@ def run_point(reading: str, b: float, rpm: float, dt: float) -> dict:
 
     from physics.simulator import Simulator
 
-    p, n = apply_preset("balanced")
+    p, n = apply_preset("paper")  # at --dt (below) with the Newton tolerance of the retired `balanced` preset
+    n = n.replace(newton_tol=1e-5)
     p = p.replace(head_radius=b, head_rotation=reading)
     n = n.replace(dt=dt)
     sim = Simulator(p, n)
@@ -98,7 +100,8 @@ def run_turn(reading: str, t_c: float, dt: float) -> dict:
     from physics.presets import apply_preset
     from physics.simulator import Simulator
 
-    p, n = apply_preset("balanced")
+    p, n = apply_preset("paper")  # at --dt with the Newton tolerance of the retired `balanced` preset
+    n = n.replace(newton_tol=1e-5)
     p = p.replace(head_radius=0.012, head_rotation=reading)
     sim = Simulator(p, n.replace(dt=dt))
     sim.set_motor_speed(10 * RPM_TO_RAD_S)
@@ -229,7 +232,7 @@ def load(out: Path) -> dict[str, dict]:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--dt", type=float, default=0.02, help="time step, s (default 0.02, the balanced preset)")
+    ap.add_argument("--dt", type=float, default=0.02, help="time step, s (default 0.02: the paper's grid at 20 ms, the retired balanced preset)")
     ap.add_argument("--out", default="results/validation")
     ap.add_argument("--docs", default="docs")
     ap.add_argument("--report-only", action="store_true")

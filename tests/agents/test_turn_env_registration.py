@@ -1,5 +1,7 @@
-"""``import agents`` registers FlagellumTurn-v0 (``TurnDecisionEnv``); ``gymnasium.make`` builds it, both env
-checkers pass, and the reward, the no-turn case and seeding behave as docs/env.md says.
+"""``import flagellum_env`` (and so ``import agents``) registers FlagellumTurn-v0 (``TurnDecisionEnv``);
+``gymnasium.make`` builds it, both env checkers pass (for every id: tests/env/test_registered_ids.py),
+bad arguments fail at construction, and the reward, ``info``, the no-turn case and seeding behave as
+docs/env.md says.
 
 Cheap on purpose (coarse preset, a one-turn path): with ``off_path_m = 0.02`` every episode leaves the path
 during the first burst (~1.5 s of wall time per episode), which is all the checkers need; the test of the
@@ -8,17 +10,16 @@ reward uses the same episode, the others paths that need no turn.
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import os
 import subprocess
 import sys
-import warnings
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 import pytest
-from gymnasium.utils.env_checker import check_env
 
 import agents
 from agents.residual_planner import N_FEATURES
@@ -29,8 +30,8 @@ ROOT = Path(__file__).resolve().parents[2]
 # 2 cm ahead, then a left turn of 90 degrees and 8 cm: one planned turn
 ONE_TURN = path_from_waypoints([[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]], name="one_turn", reach_radius_m=0.015)
 CHEAP = {"preset": "coarse", "paths": [ONE_TURN], "env_kwargs": {"off_path_m": 0.02}}
-FINAL_INFO = {"is_success", "waypoints_reached", "mean_cross_track_m", "time_s", "energy_J", "buckling_events",
-              "turns"}
+INFO = {"path", "is_success", "waypoints_reached", "mean_cross_track_m", "time_s", "energy_J", "buckling_events",
+        "turns"}
 
 
 def test_import_registers_the_turn_env_and_make_passes_arguments():
@@ -43,7 +44,7 @@ def test_import_registers_the_turn_env_and_make_passes_arguments():
     assert env.spec.id == "FlagellumTurn-v0"
     assert base.observation_space == gym.spaces.Box(-10.0, 10.0, (N_FEATURES,), np.float32)
     assert base.action_space == gym.spaces.Box(-1.0, 1.0, (2,), np.float32)
-    assert base.planner.limits.max_dtc_fraction == 0.1 and base.planner.limits.max_dphase_deg == 30.0
+    assert base.planner.limits.max_dtc_fraction == 0.1 and base.planner.limits.max_dphase_deg == 15.0
     assert base.action_cost == 0.5 and base.paths == [ONE_TURN]
     env.close()
 
@@ -61,40 +62,71 @@ def _fresh_python(code: str) -> subprocess.CompletedProcess:
 
 
 def test_import_agents_is_light():
-    # the registration names the entry point only: no env, physics, torch or stable-baselines3 yet
+    # the registration names the entry points only: no env, physics, torch or stable-baselines3 yet
     r = _fresh_python("import sys\n"
                       "import agents\n"
                       "print(sorted(m for m in sys.modules if m.split('.')[0] in ('torch', 'stable_baselines3',"
-                      " 'flagellum_env', 'numba', 'scipy') or m.startswith(('agents.', 'physics.'))))")
+                      " 'numba', 'scipy', 'physics') or m.startswith(('agents.', 'flagellum_env.'))))")
     assert r.returncode == 0, r.stderr
-    assert r.stdout.strip() == "[]"
+    assert r.stdout.strip() == "['flagellum_env.registration']"
 
 
-def test_without_a_prior_import_the_module_prefixed_id_works():
+@pytest.mark.parametrize("module", ["agents", "flagellum_env"])
+def test_without_a_prior_import_the_module_prefixed_id_works(module):
     r = _fresh_python("import gymnasium as gym, sys\n"
-                      "assert 'agents' not in sys.modules\n"
-                      "env = gym.make('agents:FlagellumTurn-v0', preset='coarse')\n"
+                      "assert 'agents' not in sys.modules and 'flagellum_env' not in sys.modules\n"
+                      f"env = gym.make('{module}:FlagellumTurn-v0', preset='coarse')\n"
                       "print(type(env.unwrapped).__name__)")
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == "TurnDecisionEnv"
 
 
-def test_gymnasium_check_env_passes():
-    # made through gymnasium.make so that the checker has a spec (render modes, close twice)
-    env = gym.make(agents.TURN_ENV_ID, disable_env_checker=True, **CHEAP).unwrapped
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")  # the checker's warnings count as failures
-        check_env(env, skip_render_check=False)
-    env.close()
+def test_the_defaults_are_the_shipped_agents_settings():
+    import yaml
+
+    from agents.assets import pretrained_dir
+    from agents.turn_decision_env import DEFAULT_ACTION_COST, DEFAULT_ENV_KWARGS, DEFAULT_RANDOM_PATH
+
+    doc = yaml.safe_load((pretrained_dir() / "config.yml").read_text())
+    (task,) = [v["task"] for v in doc.values()]
+    env = gym.make("FlagellumTurn-coarse-v0").unwrapped
+    assert env.preset == task["preset"] == "coarse"
+    assert dataclasses.asdict(env.planner.limits) == task["limits"]
+    assert env.action_cost == DEFAULT_ACTION_COST == task["action_cost"]
+    assert DEFAULT_ENV_KWARGS == task["env_kwargs"]
+    assert env.base.config.reward.cross_track_per_cm_s == task["env_kwargs"]["reward"]["cross_track_per_cm_s"]
+    assert DEFAULT_RANDOM_PATH == task["curriculum"][-1]["random_path"]
+    assert env.paths is None and len(env._path_configs) == 2
+    assert gym.make("FlagellumTurn-v0").unwrapped.preset == "faithful"
+    assert gym.make("FlagellumTurn-fast-v0").unwrapped.preset == "fast"
 
 
-def test_stable_baselines3_check_env_passes():
-    sb3_env_checker = pytest.importorskip("stable_baselines3.common.env_checker")
-    env = gym.make(agents.TURN_ENV_ID, **CHEAP)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        sb3_env_checker.check_env(env, warn=True)
-    env.close()
+BAD = [({"preset": "quick"}, "preset='quick'"), ({"limits": {"max_dtc": 0.1}}, "max_dtc"),
+       ({"limits": {"max_dtc_fraction": 2.0}}, "max_dtc_fraction=2.0"), ({"paths": ["random"]}, "paths\\[0\\]='random'"),
+       ({"paths": "square"}, "paths='square'"), ({"paths": [[[0.01, 0.0]]]}, "paths\\[0\\]"),
+       ({"random_path": {"n_waypoint": 2}}, "n_waypoint"), ({"random_path": {"n_waypoints": 0}}, "n_waypoints=0"),
+       ({"env_kwargs": {"control_dt": -1.0}}, "control_dt=-1.0"), ({"env_kwargs": {"path": "square"}}, "'path'"),
+       ({"turn_map": "no_such_map.json"}, "no_such_map.json"), ({"action_cost": -1.0}, "action_cost=-1.0"),
+       ({"render_mode": "human"}, "render_mode='human'")]
+
+
+@pytest.mark.parametrize("kwargs, match", BAD, ids=[str(k) for k, _ in BAD])
+def test_bad_arguments_fail_at_construction_naming_the_value(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        TurnDecisionEnv(**kwargs)
+
+
+def test_bad_actions_and_reset_options_fail_naming_the_value():
+    straight = path_from_waypoints([[0.004, 0.0, 0.0]], name="straight", reach_radius_m=0.002)
+    env = TurnDecisionEnv(preset="coarse", paths=[straight])
+    with pytest.raises(ValueError, match="'seed'"):
+        env.reset(options={"seed": 1})
+    with pytest.raises(ValueError, match="'random'"):
+        env.reset(options={"path": "random"})
+    env.reset(seed=0, options={"path": [[0.004, 0.0, 0.0]]})
+    for bad in ([0.1], [np.nan, 0.0], "left"):
+        with pytest.raises(ValueError, match="action="):
+            env.step(bad)
 
 
 def _recording(env: TurnDecisionEnv) -> list[float]:
@@ -115,7 +147,7 @@ def test_reward_is_the_base_envs_reward_over_the_steps_less_the_action_cost():
     env = TurnDecisionEnv(**CHEAP, action_cost=2.0)
     base_rewards = _recording(env)
     obs, info = env.reset(seed=0)
-    assert info == {"path": "one_turn"}
+    assert set(info) == INFO and info["path"] == "one_turn" and info["turns"] == 0 and info["time_s"] > 0
     assert obs.dtype == np.float32 and obs in env.observation_space and obs[0] > 0  # a planned turn
     before = sum(base_rewards)  # the cruise up to the first planned turn counts in the first step
     action = np.array([0.5, -0.5], np.float32)
@@ -123,7 +155,7 @@ def test_reward_is_the_base_envs_reward_over_the_steps_less_the_action_cost():
     assert terminated and not truncated  # off the path during the burst
     assert reward == pytest.approx(sum(base_rewards) - 2.0 * 0.5, rel=1e-12)
     assert before != 0.0 and len(base_rewards) > 1
-    assert set(info) == FINAL_INFO and info["turns"] == 1 and not info["is_success"]
+    assert set(info) == INFO and info["turns"] == 1 and not info["is_success"]
     assert np.array_equal(obs, np.zeros(N_FEATURES, np.float32))  # no turn waiting at the end
     with pytest.raises(RuntimeError, match="reset"):
         env.step(action)

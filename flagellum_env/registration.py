@@ -1,0 +1,85 @@
+"""Every Gymnasium id of the package, registered in one place (``import flagellum_env`` runs this).
+
+Light on purpose: it imports Gymnasium only, not the env, the physics or NumPy (the entry points are
+strings, loaded by ``gymnasium.make``). Each id is a class with its own defaults and docstring
+(highway-env's pattern: ``highway-fast-v0`` beside ``highway-v0``):
+
+| id                         | class (entry point)                                   | preset     | max_episode_steps |
+|----------------------------|-------------------------------------------------------|------------|-------------------|
+| ``FlagellumSteer-v0``      | ``flagellum_env.steer_env.FlagellumSteerEnv``         | faithful   | 400               |
+| ``FlagellumSteer-fast-v0`` | ``flagellum_env.steer_env.FlagellumSteerFastEnv``     | fast       | 400               |
+| ``FlagellumSteer-coarse-v0`` | ``flagellum_env.steer_env.FlagellumSteerCoarseEnv`` | coarse     | 400               |
+| ``FlagellumTurn-v0``       | ``agents.turn_decision_env.TurnDecisionEnv``          | faithful   | None              |
+| ``FlagellumTurn-fast-v0``  | ``agents.turn_decision_env.TurnDecisionFastEnv``      | fast       | None              |
+| ``FlagellumTurn-coarse-v0``| ``agents.turn_decision_env.TurnDecisionCoarseEnv``    | coarse     | None              |
+
+``FlagellumSteer-*``: the env ends every episode on its own time budget (``time_factor`` x path length
+/ v0, see the class docstring), which depends on the path. ``max_episode_steps`` at registration is
+the largest that budget can be with the registered defaults (the longest default random path, 3 x 8 cm,
+at ``STEADY_SPEED_FLOOR_M_S``), so the ``TimeLimit`` Gymnasium adds never cuts an episode the env would
+have run on: ``steer_max_episode_steps()``. Give ``gymnasium.make`` a larger ``max_episode_steps`` (or
+-1: no ``TimeLimit``) for a longer path or a shorter ``control_dt``; the env warns when it sees that
+the registered limit would cut its budget.
+
+``FlagellumTurn-*`` (one step = one turn the planner plans; the entry point is in ``agents``, one layer
+up, named here as a string so that ``import flagellum_env`` registers every id without importing
+it): every episode ends within the base env's time budget, a few to some tens of decisions, so no
+``TimeLimit`` is added.
+"""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+
+STEER_ENV_ID = "FlagellumSteer-v0"
+STEER_FAST_ENV_ID = "FlagellumSteer-fast-v0"
+STEER_COARSE_ENV_ID = "FlagellumSteer-coarse-v0"
+TURN_ENV_ID = "FlagellumTurn-v0"
+TURN_FAST_ENV_ID = "FlagellumTurn-fast-v0"
+TURN_COARSE_ENV_ID = "FlagellumTurn-coarse-v0"
+
+#: A lower bound of the steady straight-swimming speed at 10 rpm, m/s: measured 4.68e-4 m/s at the
+#: faithful, fast and coarse presets (``env.steady_speed_m_s``); 4 % below it.
+STEADY_SPEED_FLOOR_M_S = 4.5e-4
+#: The defaults the bound is computed from (``SteerConfig`` / ``RandomPathConfig``; a test holds them equal).
+STEER_DEFAULT_CONTROL_DT_S = 2.0
+STEER_DEFAULT_TIME_FACTOR = 1.5
+STEER_DEFAULT_MAX_PATH_LENGTH_M = 3 * 0.08  # n_waypoints x the longest segment
+
+
+def steer_max_episode_steps(control_dt: float = STEER_DEFAULT_CONTROL_DT_S,
+                            time_factor: float = STEER_DEFAULT_TIME_FACTOR,
+                            path_length_m: float = STEER_DEFAULT_MAX_PATH_LENGTH_M) -> int:
+    """The most env steps ``FlagellumSteer-*``'s own time budget allows for a path this long (rounded up to
+    a multiple of 10): ``time_factor * path_length_m / STEADY_SPEED_FLOOR_M_S / control_dt``."""
+    steps = time_factor * path_length_m / STEADY_SPEED_FLOOR_M_S / control_dt
+    return int(10 * math.ceil(steps / 10 - 1e-9))
+
+
+#: id -> (entry point, max_episode_steps)
+ENV_IDS: dict[str, tuple[str, int | None]] = {
+    STEER_ENV_ID: ("flagellum_env.steer_env:FlagellumSteerEnv", steer_max_episode_steps()),
+    STEER_FAST_ENV_ID: ("flagellum_env.steer_env:FlagellumSteerFastEnv", steer_max_episode_steps()),
+    STEER_COARSE_ENV_ID: ("flagellum_env.steer_env:FlagellumSteerCoarseEnv", steer_max_episode_steps()),
+    TURN_ENV_ID: ("agents.turn_decision_env:TurnDecisionEnv", None),
+    TURN_FAST_ENV_ID: ("agents.turn_decision_env:TurnDecisionFastEnv", None),
+    TURN_COARSE_ENV_ID: ("agents.turn_decision_env:TurnDecisionCoarseEnv", None),
+}
+
+
+def register_envs() -> None:
+    """Register every id of ``ENV_IDS`` that is not registered yet (re-importing registers nothing twice)."""
+    for env_id, (entry_point, max_steps) in ENV_IDS.items():
+        if env_id not in gym.registry:
+            gym.register(id=env_id, entry_point=entry_point, max_episode_steps=max_steps)
+
+
+def registered_max_episode_steps(env_id: str | None) -> int | None:
+    """The ``max_episode_steps`` ``env_id`` is registered with (None: no id, not registered or none)."""
+    spec = gym.registry.get(env_id) if env_id else None
+    return spec.max_episode_steps if spec is not None else None
+
+
+register_envs()

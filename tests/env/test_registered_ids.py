@@ -1,0 +1,136 @@
+"""Every registered id (``flagellum_env.registration``): its class, preset, time limit and render rate, and
+both env checkers (Gymnasium's and stable-baselines3's) on ``gymnasium.make`` of it.
+
+Cheap on purpose: the steering ids on the small configuration (tests/env/conftest.py: 0.2 s steps, a 6 mm
+path, no buckling) at their own presets; the turn-level ids on a one-turn path that is left during the
+first burst, at the coarse preset (the physics is not the point: the id's class, validation and spaces are).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import gymnasium as gym
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import flagellum_env
+from flagellum_env.config import SteerConfig
+from flagellum_env.paths import RandomPathConfig, path_from_waypoints
+from flagellum_env.registration import ENV_IDS, steer_max_episode_steps
+
+ROOT = Path(__file__).resolve().parents[2]
+ONE_TURN = path_from_waypoints([[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]], name="one_turn", reach_radius_m=0.015)
+PRESET = {"FlagellumSteer-v0": "faithful", "FlagellumSteer-fast-v0": "fast", "FlagellumSteer-coarse-v0": "coarse",
+          "FlagellumTurn-v0": "faithful", "FlagellumTurn-fast-v0": "fast", "FlagellumTurn-coarse-v0": "coarse"}
+
+
+def cheap_kwargs(env_id: str, small: dict) -> dict:
+    if env_id.startswith("FlagellumSteer"):
+        return {k: v for k, v in small.items() if k != "preset"}  # the id's own preset
+    return {"preset": "coarse", "paths": [ONE_TURN], "env_kwargs": {"off_path_m": 0.02}}
+
+
+def test_every_id_of_the_package_is_registered_with_its_class_and_time_limit():
+    ours = sorted(i for i in gym.registry if i.startswith("Flagellum"))
+    assert ours == sorted(ENV_IDS) == sorted(PRESET)
+    for env_id, (entry_point, max_steps) in ENV_IDS.items():
+        spec = gym.spec(env_id)
+        assert spec.entry_point == entry_point and spec.max_episode_steps == max_steps
+        assert (max_steps == 400) == env_id.startswith("FlagellumSteer")
+
+
+def test_the_registered_time_limit_is_the_largest_budget_of_the_default_random_paths():
+    cfg, rp = SteerConfig(), RandomPathConfig()
+    bound = steer_max_episode_steps(cfg.control_dt, cfg.time_factor, rp.n_waypoints * rp.segment_length_m[1])
+    assert bound == steer_max_episode_steps() == gym.spec("FlagellumSteer-v0").max_episode_steps == 400
+    # v0 = 4.68e-4 m/s at 10 rpm (every preset): the longest default path's budget, 385 steps, fits
+    assert cfg.time_factor * 0.24 / 4.68e-4 / cfg.control_dt < bound
+
+
+@pytest.mark.parametrize("env_id", sorted(ENV_IDS))
+def test_make_gives_the_ids_class_and_preset(env_id):
+    env = gym.make(env_id).unwrapped
+    assert type(env).env_id == env_id
+    assert (env.config.preset if env_id.startswith("FlagellumSteer") else env.preset) == PRESET[env_id]
+    env.close()
+
+
+def test_the_coarse_variants_say_they_turn_differently():
+    for env_id in ("FlagellumSteer-coarse-v0", "FlagellumTurn-coarse-v0"):
+        doc = " ".join(type(gym.make(env_id).unwrapped).__doc__.split())
+        assert "turns differently" in doc, env_id
+
+
+def test_render_fps_follows_control_dt(small_kwargs):
+    for dt, fps in ((2.0, 4.0), (0.2, 40.0)):
+        env = gym.make("FlagellumSteer-coarse-v0", **{**small_kwargs, "control_dt": dt})
+        assert env.metadata["render_fps"] == env.unwrapped.metadata["render_fps"] == fps
+        env.close()
+
+
+def test_the_env_warns_when_the_registered_time_limit_would_cut_its_budget(small_kwargs):
+    kwargs = {**small_kwargs, "max_sim_time_s": 100.0}  # 500 steps of 0.2 s > 400
+    env = gym.make("FlagellumSteer-coarse-v0", **kwargs)
+    with pytest.warns(UserWarning, match="max_episode_steps=400"):
+        env.reset(seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        env.reset(seed=1)  # once per env
+        # made without gymnasium.make (no TimeLimit): nothing to warn about
+        flagellum_env.FlagellumSteerCoarseEnv(**kwargs).reset(seed=0)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", sorted(ENV_IDS))
+def test_gymnasium_check_env_passes(env_id, small_kwargs):
+    env = gym.make(env_id, render_mode="rgb_array", disable_env_checker=True,
+                   **cheap_kwargs(env_id, small_kwargs)).unwrapped
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the checker's warnings count as failures
+        check_env(env, skip_render_check=False)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", sorted(ENV_IDS))
+def test_stable_baselines3_check_env_passes(env_id, small_kwargs):
+    sb3_env_checker = pytest.importorskip("stable_baselines3.common.env_checker")
+    env = gym.make(env_id, render_mode="rgb_array", **cheap_kwargs(env_id, small_kwargs))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sb3_env_checker.check_env(env, warn=True)
+    frame = env.render()
+    assert frame.ndim == 3 and frame.shape[2] == 3
+    env.close()
+
+
+def _fresh_python(code: str) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300,
+                          check=False)
+
+
+def test_import_flagellum_env_registers_every_id_and_imports_no_agent_code():
+    r = _fresh_python("import sys, gymnasium as gym, flagellum_env\n"
+                      "print(sorted(i for i in gym.registry if i.startswith('Flagellum')))\n"
+                      "print(sorted(m for m in sys.modules if m.split('.')[0] in ('agents', 'physics', 'flagellum')))")
+    assert r.returncode == 0, r.stderr
+    ids, modules = r.stdout.strip().splitlines()
+    assert ids == str(sorted(ENV_IDS)) and modules == "[]"
+
+
+def test_a_spawned_subprocvecenv_worker_finds_the_id_through_the_module_prefix(small_kwargs):
+    sb3 = pytest.importorskip("stable_baselines3.common.env_util")
+    from stable_baselines3.common.vec_env import SubprocVecEnv
+
+    kwargs = cheap_kwargs("FlagellumSteer-coarse-v0", small_kwargs)
+    venv = sb3.make_vec_env("flagellum_env:FlagellumSteer-coarse-v0", n_envs=1, env_kwargs=kwargs,
+                            vec_env_cls=SubprocVecEnv, vec_env_kwargs={"start_method": "spawn"})
+    try:
+        assert venv.reset().shape == (1, *venv.observation_space.shape)
+    finally:
+        venv.close()
