@@ -179,7 +179,7 @@ class SweepConfig:
                 params, numerics = _resolve(base, settings)
                 omega = float(settings[SPEED])
                 validate_run_arguments(numerics, self.duration_s, self.record_interval_s,
-                                       self.node_record_interval_s)
+                                       self.node_record_interval_s, n_nodes=params.n_nodes)
             except ValueError as exc:
                 raise SweepConfigError(f"point {index} ({format_values(values)}): {exc}") from None
             pid = point_id(omega, params, numerics, self.duration_s, self.record_interval_s,

@@ -71,7 +71,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     Bad input raises ``SystemExit(2)`` after printing one line to stderr.
     """
-    from physics.errors import SimulationError
+    from physics.errors import SimulationError, is_interrupt
 
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -81,6 +81,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except UsageError as exc:
         args._parser.error(str(exc))
     except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
+    except SystemError as exc:  # Ctrl-C or SIGTERM that landed inside a compiled (Numba) kernel
+        if not is_interrupt(exc):
+            raise
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
     except SimulationError as exc:

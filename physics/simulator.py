@@ -30,6 +30,7 @@ Motor (Sec. 2.5): the twist angle theta^0 of the first edge is the motor shaft.
 from __future__ import annotations
 
 import math
+import numbers
 import time
 from dataclasses import dataclass
 
@@ -41,7 +42,8 @@ from physics.geometry import initial_nodes, layout_for, nodes_of, pack_q
 from physics.anderson import AndersonMixing
 from physics.contact import ContactModel
 from physics.implicit_residual import assemble_residual, block_max_abs
-from physics.params import NumericsConfig, SwimmerParams
+from physics.params import RPM_TO_RAD_S, NumericsConfig, SwimmerParams
+from physics.schedule import MAX_RPM
 from physics.step_solvers import BandedNewtonSolver, DenseChordSolver, StepFailed
 from physics.time_integrator import (SAFETY, SHRINK_MIN, History, StepBase, error_norm, next_step, split_remaining,
                                      step_base, step_spans, velocity_of)
@@ -98,6 +100,10 @@ class Simulator:
     """
 
     def __init__(self, params: SwimmerParams | None = None, numerics: NumericsConfig | None = None) -> None:
+        for name, value, cls in (("params", params, SwimmerParams), ("numerics", numerics, NumericsConfig)):
+            if value is not None and not isinstance(value, cls):
+                raise ValueError(f"{name}={value!r} is not allowed; allowed: a {cls.__name__} (physics.configure "
+                                 "gives one from a preset and overrides) or None for the defaults")
         self.params = params or SwimmerParams()
         self.numerics = numerics or NumericsConfig()
         p = self.params
@@ -156,9 +162,12 @@ class Simulator:
 
     # --- public API -----------------------------------------------------------------
     def set_motor_speed(self, omega_rad_s: float) -> None:
-        """Set the motor speed omega (rad/s, the flagellum's rate relative to the head)."""
-        if not math.isfinite(omega_rad_s):
-            raise ValueError(f"motor speed {omega_rad_s!r} rad/s must be finite")
+        """Set the motor speed omega (rad/s, the flagellum's rate relative to the head): finite, >= 0 and at most
+        ``physics.schedule.MAX_RPM`` (the rule of the command line and of motor schedules)."""
+        if (isinstance(omega_rad_s, bool) or not isinstance(omega_rad_s, numbers.Real)
+                or not 0.0 <= omega_rad_s <= MAX_RPM * RPM_TO_RAD_S):
+            raise ValueError(f"motor speed {omega_rad_s!r} rad/s is not allowed; allowed: a finite speed >= 0 and "
+                             f"<= {MAX_RPM * RPM_TO_RAD_S:.6g} rad/s ({MAX_RPM:g} rpm)")
         if float(omega_rad_s) != self.omega:
             self._restart = True  # the motion has a kink here: no multistep formula may cross it
         self.omega = float(omega_rad_s)
@@ -184,7 +193,10 @@ class Simulator:
 
     def advance(self, duration_s: float) -> None:
         """Advance by ``duration_s`` seconds: rounded to whole steps of dt with fixed steps, exactly with
-        adaptive ones (whole steps of dt, then the rest)."""
+        adaptive ones (whole steps of dt, then the rest). ``duration_s``: a finite time >= 0 s."""
+        if (isinstance(duration_s, bool) or not isinstance(duration_s, numbers.Real) or not math.isfinite(duration_s)
+                or duration_s < 0.0):
+            raise ValueError(f"duration_s={duration_s!r} is not allowed; allowed: a finite time >= 0 s")
         for span in step_spans(duration_s, self.numerics):
             self.step(span)
 
