@@ -20,6 +20,7 @@ and ``turns`` (decisions taken).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -31,6 +32,7 @@ from agents.path_following import CONTROLLER_ENV_DEFAULTS
 from agents.residual_planner import N_FEATURES, ResidualLimits, ResidualPlanner
 from agents.assets import default_turn_map
 from agents.turn_map import TurnMap
+from flagellum_env.config import _resolve_path
 from flagellum_env.paths import RandomPathConfig, WaypointPath
 from flagellum_env.paths import random_path as draw_random_path
 from flagellum_env.steer_env import FlagellumSteerEnv
@@ -53,21 +55,40 @@ class TurnDecisionEnv(gym.Env):
     """
 
     metadata: dict[str, Any] = {"render_modes": []}
+    #: Keyword arguments of the constructor (``gym.make("FlagellumTurn-v0", ...)``).
+    ARGUMENTS = ("preset", "turn_map", "env_kwargs", "paths", "random_path", "limits", "action_cost", "render_mode")
 
     def __init__(self, preset: str = DEFAULT_PRESET, turn_map: str | None = None, env_kwargs: Mapping[str, Any] | None = None,
                  paths: Sequence[WaypointPath] | None = None, random_path: Mapping[str, Any] | None = None,
-                 limits: ResidualLimits | Mapping[str, Any] | None = None, action_cost: float = 0.0) -> None:
+                 limits: ResidualLimits | Mapping[str, Any] | None = None, action_cost: float = 0.0,
+                 render_mode: str | None = None, **unknown: Any) -> None:
+        # the same validation as FlagellumSteer-v0: a ValueError naming the argument, at construction
+        if unknown:
+            raise ValueError(f"unknown argument(s) {sorted(unknown)} for FlagellumTurn-v0; known arguments: "
+                             f"{list(self.ARGUMENTS)}")
+        if render_mode is not None:
+            raise ValueError(f"render_mode={render_mode!r} is not allowed; FlagellumTurn-v0 does not render "
+                             "(render FlagellumSteer-v0)")
+        if env_kwargs is not None and not isinstance(env_kwargs, Mapping):
+            raise ValueError(f"env_kwargs={env_kwargs!r} must be a dict of FlagellumSteer-v0 arguments or None")
         kwargs = {**CONTROLLER_ENV_DEFAULTS["rule"], "preset": preset, **dict(env_kwargs or {})}
         if "path" in kwargs:
             raise ValueError("env_kwargs must not hold 'path'; give paths= or random_path=")
         self.base = FlagellumSteerEnv(path="random", **kwargs)
-        tmap = TurnMap.load(turn_map or default_turn_map(preset))
+        self.paths = _fixed_paths(paths)
+        if limits is not None and not isinstance(limits, (ResidualLimits, Mapping)):
+            raise ValueError(f"limits={limits!r} must be a ResidualLimits, a dict of its fields or None")
         if isinstance(limits, Mapping):
-            limits = ResidualLimits(**limits)
-        self.planner = ResidualPlanner.for_env(self.base, tmap, limits=limits)
+            try:
+                limits = ResidualLimits(**limits)
+            except TypeError as exc:
+                raise ValueError(f"limits: {exc}") from None
         self.action_cost = require_finite("action_cost", action_cost, 0.0)
-        self.paths = list(paths) if paths else None
+        if random_path is not None and not isinstance(random_path, Mapping):
+            raise ValueError(f"random_path={random_path!r} must be a dict of RandomPathConfig fields or None")
         self.set_random_path(random_path or {})
+        tmap = TurnMap.load(turn_map or default_turn_map(preset))
+        self.planner = ResidualPlanner.for_env(self.base, tmap, limits=limits)
         self.observation_space = spaces.Box(-10.0, 10.0, (N_FEATURES,), np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         self._episode = 0
@@ -78,7 +99,13 @@ class TurnDecisionEnv(gym.Env):
         """Draw the next episodes' paths with these ``RandomPathConfig`` fields (curriculum)."""
         rp = dict(random_path)
         planar = rp.pop("planar", True)
-        cycle = [bool(p) for p in planar] if isinstance(planar, (list, tuple)) else [bool(planar)]
+        cycle = list(planar) if isinstance(planar, (list, tuple)) else [planar]
+        if not cycle:
+            raise ValueError("random_path.planar=[] must be True, False or a non-empty list of them")
+        known = [f.name for f in dataclasses.fields(RandomPathConfig)]
+        unknown = sorted(set(rp) - set(known))
+        if unknown:
+            raise ValueError(f"random_path: unknown key(s) {unknown}; allowed keys: {known}")
         self._path_configs = [RandomPathConfig(**{**rp, "planar": p}) for p in cycle]
 
     def _next_path(self) -> WaypointPath:
@@ -90,9 +117,14 @@ class TurnDecisionEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
+        options = dict(options or {})
+        unknown = sorted(set(options) - {"path"})
+        if unknown:
+            raise ValueError(f"unknown reset option(s) {unknown}; allowed: ['path']")
+        fixed = _resolve_path(options["path"]) if "path" in options else None  # "random" -> None
         if seed is not None:
             self._episode = 0
-        path = (options or {}).get("path") or self._next_path()
+        path = fixed or self._next_path()
         self._obs, _ = self.base.reset(seed=seed, options={"path": path})
         self.planner.reset()
         self._start, self._done = True, False
@@ -114,7 +146,10 @@ class TurnDecisionEnv(gym.Env):
         if self._pending_end is not None:
             terminated, truncated, info = self._pending_end
         else:
-            a = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
+            raw = np.asarray(action)
+            if raw.dtype.kind not in "iuf" or raw.size != 2 or not np.all(np.isfinite(raw.astype(np.float64))):
+                raise ValueError(f"action={action!r} must be two finite numbers in [-1, 1]")
+            a = np.clip(raw.astype(np.float64).reshape(-1), -1.0, 1.0)
             self.planner.decide(a)
             self._turns += 1
             r, terminated, truncated, info = self._advance()
@@ -151,3 +186,25 @@ class TurnDecisionEnv(gym.Env):
 
     def close(self) -> None:
         self.base.close()
+
+
+def _fixed_paths(paths: Any) -> list[WaypointPath] | None:
+    """``paths`` as a non-empty list of validated paths (each in any form ``FlagellumSteer-v0``'s ``path`` takes,
+    except "random"), or None for random paths; ValueError naming the bad one."""
+    if paths is None:
+        return None
+    if isinstance(paths, (str, bytes, Mapping)) or not isinstance(paths, (Sequence, np.ndarray)):
+        raise ValueError(f"paths={paths!r} must be a list of paths (WaypointPath, 'square', a path file or a list "
+                         "of [x, y, z] waypoints) or None for random paths")
+    if len(paths) == 0:
+        raise ValueError("paths=[] is empty; allowed: a non-empty list of paths, or None for random paths")
+    out = []
+    for i, p in enumerate(paths):
+        try:
+            resolved = _resolve_path(p)
+        except ValueError as exc:
+            raise ValueError(f"paths[{i}]: {exc}") from None
+        if resolved is None:
+            raise ValueError(f"paths[{i}]='random' is not allowed; give random_path= for random paths")
+        out.append(resolved)
+    return out
