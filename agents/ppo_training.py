@@ -133,7 +133,7 @@ def run_identity(config: TrainConfig) -> dict[str, Any]:
 
 def _check_same_run(out: Path, meta: dict[str, Any], config: TrainConfig) -> None:
     """ValueError naming the first difference when ``out`` holds a run of another agent or task."""
-    from batch.store import first_difference
+    from batch.store import _short, first_difference
 
     new = run_identity(config)
     old = meta.get("run")
@@ -144,8 +144,8 @@ def _check_same_run(out: Path, meta: dict[str, Any], config: TrainConfig) -> Non
     diff = first_difference(old, new)
     if diff is not None:
         key, a, b = diff
-        raise ValueError(f"--resume: {str(out)!r} holds another training run: {key} is {json.dumps(a)} there and "
-                         f"{json.dumps(b)} in this config; allowed: the same agent, task and network, or another --out")
+        raise ValueError(f"--resume: {str(out)!r} holds another training run: {key} is {_short(a)} there and "
+                         f"{_short(b)} in this config; allowed: the same agent, task and network, or another --out")
 
 
 def _drop_rows_after(file: Path, decisions: int) -> None:

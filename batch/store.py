@@ -178,7 +178,7 @@ def first_difference(old: Any, new: Any, prefix: str = "") -> tuple[str, Any, An
         for key in sorted(set(old) | set(new), key=str):
             path = f"{prefix}.{key}" if prefix else str(key)
             if key not in old or key not in new:
-                return path, old.get(key, "(absent)"), new.get(key, "(absent)")
+                return path, old.get(key, _ABSENT), new.get(key, _ABSENT)
             diff = first_difference(old[key], new[key], path)
             if diff is not None:
                 return diff
@@ -217,6 +217,16 @@ def check_records_belong(records: dict[str, dict[str, Any]], ids: set[str], fold
                          "output folder")
 
 
+class _Absent:
+    def __repr__(self) -> str:
+        return "(absent)"
+
+
+_ABSENT = _Absent()
+
+
 def _short(value: Any) -> str:
+    if value is _ABSENT:
+        return "(absent)"
     s = json.dumps(value, default=str) if not isinstance(value, str) else repr(value)
     return s if len(s) <= 80 else s[:77] + "..."
