@@ -42,8 +42,7 @@ from physics.geometry import initial_nodes, layout_for, nodes_of, pack_q
 from physics.anderson import AndersonMixing
 from physics.contact import ContactModel
 from physics.implicit_residual import assemble_residual, block_max_abs
-from physics.params import RPM_TO_RAD_S, NumericsConfig, SwimmerParams
-from physics.schedule import MAX_RPM
+from physics.params import NumericsConfig, SwimmerParams
 from physics.step_solvers import BandedNewtonSolver, DenseChordSolver, StepFailed
 from physics.time_integrator import (SAFETY, SHRINK_MIN, History, StepBase, error_norm, next_step, split_remaining,
                                      step_base, step_spans, velocity_of)
@@ -90,6 +89,10 @@ def lumped_masses(params: SwimmerParams, l_bar: np.ndarray, ndof: int, head_spin
         m[k::4] = node_m
     m[3::4] = twist_i
     return m
+
+
+from physics.params import RPM_TO_RAD_S  # noqa: E402  (kept apart: the motor-speed rule of the command line)
+from physics.schedule import MAX_RPM  # noqa: E402
 
 
 class Simulator:
