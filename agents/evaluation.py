@@ -19,7 +19,8 @@ from pathlib import Path
 from typing import Any
 
 from agents.assets import eval_paths_dir
-from agents.path_following import METRICS, EpisodeTask, controller_kind, env_settings, make_controller
+from agents.path_following import (METRICS, EpisodeTask, check_unique_controllers, controller_kind, env_settings,
+                                   make_controller)
 from batch.store import RESULTS_FILE, ResultsStore
 from batch.pool import pending, run_tasks
 from flagellum_env.paths import WaypointPath, load_path, square_path
@@ -94,6 +95,7 @@ def evaluate(paths: Sequence[WaypointPath], controllers: Sequence[str], preset: 
     """
     for c in controllers:
         controller_kind(c)
+    check_unique_controllers(controllers)
     out = Path(out_dir)
     if report_only and not any(True for _ in _lines(out / RESULTS_FILE)):
         raise ValueError(f"--report-only: {str(out)!r} holds no episodes ({RESULTS_FILE} is missing or empty); "
@@ -104,10 +106,11 @@ def evaluate(paths: Sequence[WaypointPath], controllers: Sequence[str], preset: 
     tasks = [EpisodeTask(c, p, preset, env_kw, seed=k if seed_per_path else 0)
              for c in controllers for k, p in enumerate(paths)]
     with ResultsStore(out, resume or report_only) as store:
+        lost: list[tuple[Any, str]] = []
         if not report_only:
             todo = pending(tasks, store, retry_failed=False)
-            run_tasks(todo, store, workers=workers, scheduler=scheduler, progress=progress, total=len(tasks),
-                      desc="evaluate")
+            lost = run_tasks(todo, store, workers=workers, scheduler=scheduler, progress=progress, total=len(tasks),
+                             desc="evaluate")
         records = [store.records.get(t.point_id) for t in tasks]
     results = summarise([r for r in records if r is not None], controllers)
     results["preset"] = preset
@@ -115,7 +118,21 @@ def evaluate(paths: Sequence[WaypointPath], controllers: Sequence[str], preset: 
     results["missing"] = [t.label() for t, r in zip(tasks, records, strict=True) if r is None]
     (out / "results.json").write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")
     (out / "results.md").write_text(results_markdown(results), encoding="utf-8")
+    if lost:
+        why = dict((t.point_id, reason) for t, reason in lost)
+        first = next(t for t, r in zip(tasks, records, strict=True) if r is None)
+        raise EpisodesNotRun(f"{len(results['missing'])} of {len(tasks)} episodes did not run (first: {first.label()}: "
+                             f"{why.get(first.point_id, 'not run')}); the finished ones are in {out / RESULTS_FILE} "
+                             f"and counted in {out / 'results.json'}; run again with --resume to run the rest", results)
     return results
+
+
+class EpisodesNotRun(RuntimeError):
+    """Some episodes did not run (their worker died); ``results`` summarises the others (written already)."""
+
+    def __init__(self, message: str, results: dict[str, Any]) -> None:
+        super().__init__(message)
+        self.results = results
 
 
 def _lines(file: Path) -> list[str]:

@@ -28,6 +28,7 @@ import hashlib
 import json
 import time
 from dataclasses import dataclass
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -47,13 +48,28 @@ CONTROLLER_ENV_DEFAULTS: dict[str, dict[str, Any]] = {"rule": {"control_dt": 0.1
                                                       "ppo": {"control_dt": 0.1}}
 
 
+_ALLOWED_SPECS = "'rule', 'rule:TURN_MAP.json', 'adaptive', 'adaptive:TURN_MAP.json', 'ppo', 'ppo:AGENT_DIR'"
+
+
 def controller_kind(spec: str) -> str:
-    """``"rule"``, ``"adaptive"`` or ``"ppo"`` from ``KIND`` or ``KIND:FILE``; ValueError otherwise."""
-    kind = spec.split(":", 1)[0]
+    """``"rule"``, ``"adaptive"`` or ``"ppo"`` from ``KIND`` or ``KIND:FILE``; ValueError otherwise (also for
+    ``KIND:`` with nothing after the colon, which would silently mean the default map or agent)."""
+    kind, sep, arg = spec.partition(":") if isinstance(spec, str) else ("", "", "")
     if kind not in CONTROLLER_ENV_DEFAULTS:
-        raise ValueError(f"controller {spec!r} is not allowed; allowed: 'rule', 'rule:TURN_MAP.json', 'adaptive', "
-                         "'adaptive:TURN_MAP.json', 'ppo', 'ppo:AGENT_DIR'")
+        raise ValueError(f"controller {spec!r} is not allowed; allowed: {_ALLOWED_SPECS}")
+    if sep and not arg.strip():
+        raise ValueError(f"controller {spec!r} is not allowed: nothing follows {kind + ':'!r}; allowed: {kind!r} "
+                         f"for the default, or {kind}:FILE ({_ALLOWED_SPECS})")
     return kind
+
+
+def check_unique_controllers(specs: Sequence[str]) -> None:
+    """ValueError naming a controller given twice (its episodes would be counted twice)."""
+    seen: set[str] = set()
+    for spec in specs:
+        if spec in seen:
+            raise ValueError(f"--controller {spec!r} is given twice; allowed: each controller once")
+        seen.add(spec)
 
 
 def make_controller(spec: str, env, preset: str):
@@ -108,33 +124,59 @@ def is_planar(path: WaypointPath) -> bool:
 
 def run_episode(env, controller, path: WaypointPath, seed: int = 0, progress: bool = False
                 ) -> tuple[dict[str, Any], EpisodeTrace]:
-    """Run one episode of ``controller`` on ``path``; (metrics, trace). ``env``: a FlagellumSteer-v0."""
+    """Run one episode of ``controller`` on ``path``; (metrics, trace). ``env``: a FlagellumSteer-v0.
+
+    Ctrl-C or SIGTERM (in the main thread, where they interrupt) end the episode after the current env step
+    (``physics.run.stop_requests``: a flag, never an exception inside a compiled kernel); a second signal stops
+    at once. The metrics and trace then hold the steps taken so far and ``metrics["interrupted"]`` is True.
+    """
     from tqdm import tqdm
 
+    from physics.errors import is_interrupt
+    from physics.run import stop_requests
+
     t0 = time.perf_counter()
-    obs, info = env.reset(seed=seed, options={"path": path})
-    if hasattr(controller, "reset"):
-        controller.reset()
-    rows = [_row(info)]
-    start = True
-    bar = tqdm(total=round(info["max_sim_time_s"]), unit="sim s", desc=f"{path.name}", disable=not progress,
-               dynamic_ncols=True)
-    done = False
-    while not done:
-        action, _ = controller.predict(obs, episode_start=np.array([start]), deterministic=True)
-        start = False
-        obs, _, terminated, truncated, info = env.step(action)
-        rows.append(_row(info))
-        bar.update(round(info["sim_time_s"]) - bar.n)
-        bar.set_postfix_str(f"waypoint {info['waypoint_index']}/{info['n_waypoints']}, "
-                            f"{info['motor_speed_rpm']:.0f} rpm", refresh=False)
-        done = terminated or truncated
-    bar.close()
+    rows: list[tuple] = []
+    info: dict[str, Any] | None = None
+    interrupted = False
+    bar = None
+    with stop_requests() as stop:
+        try:
+            obs, info = env.reset(seed=seed, options={"path": path})
+            if hasattr(controller, "reset"):
+                controller.reset()
+            rows.append(_row(info))
+            start = True
+            bar = tqdm(total=round(info["max_sim_time_s"]), unit="sim s", desc=f"{path.name}",
+                       disable=not progress, dynamic_ncols=True)
+            done = False
+            while not done and not stop.requested:
+                action, _ = controller.predict(obs, episode_start=np.array([start]), deterministic=True)
+                start = False
+                obs, _, terminated, truncated, step_info = env.step(action)
+                info = step_info
+                rows.append(_row(info))
+                bar.update(round(info["sim_time_s"]) - bar.n)
+                bar.set_postfix_str(f"waypoint {info['waypoint_index']}/{info['n_waypoints']}, "
+                                    f"{info['motor_speed_rpm']:.0f} rpm", refresh=False)
+                done = terminated or truncated
+            interrupted = not done
+        except BaseException as exc:  # a second signal, possibly surfacing from a compiled kernel
+            if not is_interrupt(exc):
+                raise
+            if info is None:  # stopped before the episode started: nothing to report
+                raise KeyboardInterrupt from None
+            interrupted = True
+        finally:
+            if bar is not None:
+                bar.close()
     trace = EpisodeTrace(*(np.array(c) for c in zip(*rows, strict=True)), waypoints=np.array(path.waypoints))
     metrics = episode_metrics(trace, path, info)
     metrics["wall_time_s"] = time.perf_counter() - t0
     if info.get("error"):
         metrics["error"] = info["error"]
+    if interrupted:
+        metrics["interrupted"] = True
     return metrics, trace
 
 
@@ -192,6 +234,8 @@ class EpisodeTask:
                                                                     dict(self.env_kwargs)))
             controller = make_controller(self.controller, env, self.preset)
             metrics, trace = run_episode(env, controller, self.path, seed=self.seed)
+            if metrics.get("interrupted"):  # a partial episode is not a result
+                return PointOutcome(record, None, interrupted=True)
             record.update(metrics)
             if metrics.get("error"):
                 record["status"] = "error"

@@ -234,6 +234,7 @@ def _check_ppo_value(key: str, v: Any, where: str) -> None:
     if key == "policy_kwargs":
         if v is not None and not isinstance(v, Mapping):
             raise ValueError(f"{where}={v!r} is not allowed; allowed: a mapping of policy arguments or null")
+        _check_policy_kwargs(v or {}, where)
         return
     kind, lo, lo_ok, hi = _PPO_RANGES[key]
     if key == "target_kl" and v is None:
@@ -243,6 +244,33 @@ def _check_ppo_value(key: str, v: Any, where: str) -> None:
         bound = f"{'>=' if lo_ok else '>'} {lo:g}" + (f" and <= {hi:g}" if hi is not None else "")
         raise ValueError(f"{where}={v!r} is not allowed; allowed: {'an integer' if kind == 'integer' else 'a number'} "
                          f"{bound}")
+
+
+#: MlpPolicy arguments a YAML config can give (values that YAML can express), and what each may be.
+POLICY_KWARGS = {"net_arch": "a list of layer sizes (integers >= 1) or {pi: [...], vf: [...]}",
+                 "log_std_init": "a finite number", "ortho_init": "true or false", "full_std": "true or false",
+                 "use_expln": "true or false", "squash_output": "true or false",
+                 "share_features_extractor": "true or false"}
+
+
+def _check_policy_kwargs(kw: Mapping[str, Any], where: str) -> None:
+    """ValueError naming the key when stable-baselines3 would fail with a TypeError after the run folder exists."""
+    unknown = sorted(set(kw) - set(POLICY_KWARGS))
+    if unknown:
+        raise ValueError(f"{where}: unknown key(s) {unknown}; allowed: {list(POLICY_KWARGS)}")
+
+    def layers(x: Any) -> bool:
+        return isinstance(x, list) and all(isinstance(n, int) and not isinstance(n, bool) and n >= 1 for n in x)
+
+    for k, v in kw.items():
+        if k == "net_arch":
+            ok = layers(v) or (isinstance(v, Mapping) and set(v) <= {"pi", "vf"} and all(layers(x) for x in v.values()))
+        elif k == "log_std_init":
+            ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+        else:
+            ok = isinstance(v, bool)
+        if not ok:
+            raise ValueError(f"{where}.{k}={v!r} is not allowed; allowed: {POLICY_KWARGS[k]}")
 
 
 def _int(v: Any, where: str, lo: int) -> int:

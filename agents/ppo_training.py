@@ -27,9 +27,13 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
+import os
 import re
 import shutil
+import signal
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
@@ -41,6 +45,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from agents.ppo_config import TrainConfig
 from agents.residual_planner import ResidualLimits
 from batch.provenance import git_commit
+from physics.errors import is_interrupt
 
 MODE = "residual"
 CHECKPOINT_PREFIX = "rl_model"
@@ -54,6 +59,36 @@ class TrainResult:
     decisions: int
     wall_time_s: float
     stopped_by_budget: bool
+    interrupted: bool = False
+
+
+class TrainingInterrupted(KeyboardInterrupt):
+    """Ctrl-C or SIGTERM stopped ``train``; the model, its statistics and a checkpoint at ``result.decisions``
+    were saved first, so ``resume=True`` continues from there."""
+
+    def __init__(self, result: TrainResult) -> None:
+        super().__init__(f"training interrupted after {result.decisions} decisions; saved in {result.out_dir}")
+        self.result = result
+
+
+@contextmanager
+def _signals_deferred() -> Iterator[None]:
+    """Ctrl-C / SIGTERM during the block (a gradient update, a log row) take effect after it, as a
+    KeyboardInterrupt; a second signal stops at once (``physics.run.stop_requests``)."""
+    from physics.run import stop_requests
+
+    with stop_requests() as stop:
+        yield
+    if stop.requested:
+        raise KeyboardInterrupt
+
+
+def _deferring(fn):
+    """``fn`` run under ``_signals_deferred`` (PPO's ``train``: the policy is never left half-updated)."""
+    def wrapper(*args, **kwargs):
+        with _signals_deferred():
+            return fn(*args, **kwargs)
+    return wrapper
 
 
 def agent_env(config: TrainConfig) -> tuple[str, dict[str, Any]]:
@@ -72,7 +107,14 @@ def agent_env(config: TrainConfig) -> tuple[str, dict[str, Any]]:
 def _make_env(config: TrainConfig, rank: int, paths=None):
     """A picklable factory of one TurnDecisionEnv: training (the curriculum's first stage, the
     config's randomisation) or, with ``paths``, validation (those paths, nominal parameters)."""
+    parent = os.getpid()
+
     def factory():
+        if os.getpid() != parent:  # a SubprocVecEnv worker: quiet on Ctrl-C, gone with its parent
+            from batch.worker import watch_parent
+
+            signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops training and closes the workers
+            watch_parent(parent, interval_s=0.2)  # exit before a finished step hits the closed pipe
         from agents.turn_decision_env import TurnDecisionEnv
 
         kwargs = dict(config.env_kwargs)
@@ -92,6 +134,58 @@ def _vec_env(config: TrainConfig, n: int, paths=None, seed_offset: int = 0):
     fns = [_make_env(config, seed_offset + i, paths) for i in range(n)]
     venv = SubprocVecEnv(fns, start_method="spawn") if n > 1 else DummyVecEnv(fns)
     return VecMonitor(venv, info_keywords=("is_success",))
+
+
+def run_identity(config: TrainConfig) -> dict[str, Any]:
+    """What makes a training run the same run (a resume must not change it): the agent, its task and its network.
+    The budget (n_timesteps, max_wall_time_s), the curriculum, validation, checkpoints and PPO's step sizes may
+    change between resumes."""
+    return json.loads(json.dumps({
+        "name": config.name, "preset": config.preset, "turn_map": config.turn_map, "limits": dict(config.limits),
+        "action_cost": config.action_cost, "env_kwargs": dict(config.env_kwargs), "policy": config.policy,
+        "policy_kwargs": dict(config.ppo.get("policy_kwargs") or {}), "n_envs": config.n_envs,
+        "normalize": dict(config.normalize), "seed": config.seed, "init_from": config.init_from}, default=str))
+
+
+def _check_same_run(out: Path, meta: dict[str, Any], config: TrainConfig) -> None:
+    """ValueError naming the first difference when ``out`` holds a run of another agent or task."""
+    from batch.store import _short, first_difference
+
+    new = run_identity(config)
+    old = meta.get("run")
+    if old is None:  # a run from before meta.json recorded it: compare what meta.json has
+        keys = ("name", "preset", "turn_map", "limits", "action_cost", "env_kwargs", "n_envs")
+        old = {k: meta[k] for k in keys if k in meta}
+        new = {k: new[k] for k in old}
+    diff = first_difference(old, new)
+    if diff is not None:
+        key, a, b = diff
+        raise ValueError(f"--resume: {str(out)!r} holds another training run: {key} is {_short(a)} there and "
+                         f"{_short(b)} in this config; allowed: the same agent, task and network, or another --out")
+
+
+def _drop_rows_after(file: Path, decisions: int) -> None:
+    """Remove the episodes.csv rows logged after ``decisions`` (a killed run's, redone from its checkpoint)."""
+    if not file.is_file():
+        return
+    with open(file, newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    keep = [r for r in rows if _int_or(r.get("decisions")) <= decisions]
+    if len(keep) == len(rows):
+        return
+    tmp = file.with_name(file.name + ".tmp")
+    with open(tmp, "w", newline="", encoding="utf-8") as f:
+        w = csv.DictWriter(f, fieldnames=EPISODE_FIELDS)
+        w.writeheader()
+        w.writerows(keep)
+    shutil.move(str(tmp), str(file))
+
+
+def _int_or(x: Any, default: int = 0) -> int:
+    try:
+        return int(float(x))
+    except (TypeError, ValueError):
+        return default
 
 
 def latest_checkpoint(out_dir: Path) -> tuple[Path, Path, int] | None:
@@ -122,13 +216,22 @@ def train(config: TrainConfig, out_dir: str | Path, resume: bool = False, progre
     if not resume and (out / "checkpoints").exists() and any((out / "checkpoints").iterdir()):
         raise ValueError(f"{str(out)!r} already holds a training run; pass --resume to continue it or choose "
                          "another --out")
+    meta_file = out / "meta.json"
+    meta = json.loads(meta_file.read_text(encoding="utf-8")) if resume and meta_file.is_file() else {}
+    if resume:
+        _check_same_run(out, meta, config)
+        if ckpt[2] >= config.n_timesteps:
+            raise ValueError(f"--resume: the run in {str(out)!r} has done {ckpt[2]} decisions, n_timesteps="
+                             f"{config.n_timesteps}: nothing to resume; allowed: a config with a larger n_timesteps "
+                             "to train on")
     out.mkdir(parents=True, exist_ok=True)
     (out / "checkpoints").mkdir(exist_ok=True)
     if config_text is not None:
         (out / "config.yml").write_text(config_text, encoding="utf-8")
-    meta_file = out / "meta.json"
-    meta = json.loads(meta_file.read_text(encoding="utf-8")) if resume and meta_file.is_file() else {}
+    if ckpt is not None:  # what an earlier, killed run logged after its last checkpoint is redone: keep it once
+        _drop_rows_after(out / "episodes.csv", ckpt[2])
     spent_before = float(meta.get("wall_time_s", 0.0))
+    meta["run"] = run_identity(config)
 
     raw = _vec_env(config, config.n_envs)
     eval_raw = _vec_env(config, 1, paths=config.validation.paths(), seed_offset=10_000)
@@ -160,7 +263,7 @@ def train(config: TrainConfig, out_dir: str | Path, resume: bool = False, progre
     eval_cb = EvalCallback(eval_env, n_eval_episodes=len(config.validation.seeds),
                            eval_freq=max(1, config.validation.every // n), log_path=str(out / "eval"),
                            best_model_save_path=None, deterministic=True, verbose=0)
-    _restore_eval_log(eval_cb, out / "eval" / "evaluations.npz")
+    _restore_eval_log(eval_cb, out / "eval" / "evaluations.npz", upto=None if ckpt is None else ckpt[2])
     ckpt_cb = CheckpointCallback(save_freq=max(1, config.checkpoint_every // n), save_path=str(out / "checkpoints"),
                                  name_prefix=CHECKPOINT_PREFIX, save_vecnormalize=True)
     if ckpt is not None:
@@ -170,27 +273,74 @@ def train(config: TrainConfig, out_dir: str | Path, resume: bool = False, progre
     book = _Bookkeeping(config, out, spent_before, meta)
     t0 = time.perf_counter()
     remaining = max(0, config.n_timesteps - model.num_timesteps)
+    interrupted = False
     if remaining:
-        model.learn(remaining, callback=CallbackList([book, ckpt_cb, eval_cb]), progress_bar=progress,
-                    reset_num_timesteps=ckpt is None, tb_log_name="ppo")
-    model.save(str(out / "model.zip"))
-    venv.save(str(out / "vecnormalize.pkl"))
-    book.write_meta(final=True)
+        # a signal never lands in the middle of a gradient update (on the class while learning: an attribute of
+        # the model would be pickled into its checkpoints)
+        cls, update = type(model), type(model).train
+        cls.train = _deferring(update)
+        try:
+            model.learn(remaining, callback=CallbackList([book, ckpt_cb, eval_cb]), progress_bar=progress,
+                        reset_num_timesteps=ckpt is None, tb_log_name="ppo")
+        except BaseException as exc:  # Ctrl-C / SIGTERM, also when it surfaced from a Numba kernel
+            if not is_interrupt(exc):
+                _close(venv, eval_env, at_once=True)
+                raise
+            interrupted = True
+        finally:
+            cls.train = update
+    from physics.run import stop_requests
+
+    with stop_requests():  # the files are written whole (a second signal stops at once)
+        decisions = int(model.num_timesteps)
+        model.save(str(out / "model.zip"))
+        venv.save(str(out / "vecnormalize.pkl"))
+        if interrupted:  # a checkpoint here: --resume continues from this decision, nothing is redone
+            model.save(str(out / "checkpoints" / f"{CHECKPOINT_PREFIX}_{decisions}_steps.zip"))
+            venv.save(str(out / "checkpoints" / f"{CHECKPOINT_PREFIX}_vecnormalize_{decisions}_steps.pkl"))
+        book.num_timesteps = decisions
+        book.write_meta(final=not interrupted, interrupted=interrupted, defer_signals=False)
+        _close(venv, eval_env, at_once=interrupted)
+    result = TrainResult(out, decisions, spent_before + time.perf_counter() - t0, book.stopped, interrupted)
+    if interrupted:
+        raise TrainingInterrupted(result)
+    return result
+
+
+def _close(venv, eval_env, at_once: bool) -> None:
+    """Close the envs; ``at_once`` (after an interrupt): stop the worker processes instead of waiting for the
+    step they are in."""
+    if at_once:
+        for vec in (venv, eval_env):
+            inner = vec
+            while hasattr(inner, "venv"):
+                inner = inner.venv
+            for proc in getattr(inner, "processes", []):
+                if proc.is_alive():
+                    proc.terminate()
+            for proc in getattr(inner, "processes", []):
+                proc.join(timeout=5)
+            if hasattr(inner, "processes"):
+                inner.closed = True  # nothing left to close
+                continue
+            vec.close()
+        return
     venv.close()
     eval_env.close()
-    return TrainResult(out, int(model.num_timesteps), spent_before + time.perf_counter() - t0, book.stopped)
 
 
-def _restore_eval_log(cb, file: Path) -> None:
-    """Keep the evaluations of earlier runs (EvalCallback starts a fresh log otherwise)."""
+def _restore_eval_log(cb, file: Path, upto: int | None = None) -> None:
+    """Keep the evaluations of earlier runs (EvalCallback starts a fresh log otherwise), those up to decision
+    ``upto`` (the checkpoint resumed from: a killed run's later ones are redone)."""
     if not file.is_file():
         return
     with np.load(file) as d:
-        cb.evaluations_timesteps = [int(t) for t in d["timesteps"]]
-        cb.evaluations_results = [list(r) for r in d["results"]]
-        cb.evaluations_length = [list(r) for r in d["ep_lengths"]]
+        keep = [i for i, t in enumerate(d["timesteps"]) if upto is None or int(t) <= upto]
+        cb.evaluations_timesteps = [int(d["timesteps"][i]) for i in keep]
+        cb.evaluations_results = [list(d["results"][i]) for i in keep]
+        cb.evaluations_length = [list(d["ep_lengths"][i]) for i in keep]
         if "successes" in d:
-            cb.evaluations_successes = [list(r) for r in d["successes"]]
+            cb.evaluations_successes = [list(d["successes"][i]) for i in keep]
 
 
 class _Bookkeeping(BaseCallback):
@@ -228,7 +378,7 @@ class _Bookkeeping(BaseCallback):
                          "return": ep["r"], "length": ep["l"],
                          **{k: info.get(k) for k in EPISODE_FIELDS[5:]}})
         if rows:
-            with open(file, "a", newline="", encoding="utf-8") as f:
+            with _signals_deferred(), open(file, "a", newline="", encoding="utf-8") as f:
                 w = csv.DictWriter(f, fieldnames=EPISODE_FIELDS)
                 if new:
                     w.writeheader()
@@ -242,7 +392,7 @@ class _Bookkeeping(BaseCallback):
     def _on_rollout_end(self) -> None:
         self.write_meta(final=False)
 
-    def write_meta(self, final: bool) -> None:
+    def write_meta(self, final: bool, interrupted: bool = False, defer_signals: bool = True) -> None:
         import stable_baselines3
         import torch
 
@@ -253,11 +403,12 @@ class _Bookkeeping(BaseCallback):
             "limits": dict(self.config.limits), "action_cost": self.config.action_cost,
             "env_kwargs": dict(self.config.env_kwargs), "env_id": env_id, "make_kwargs": make_kwargs,
             "decisions": int(self.num_timesteps), "wall_time_s": round(self.elapsed(), 1),
-            "stopped_by_wall_time_budget": self.stopped, "finished": final,
+            "stopped_by_wall_time_budget": self.stopped, "finished": final, "interrupted": interrupted,
             "commit": self.meta.get("commit") or git_commit(), "last_commit": git_commit(),
             "updated": datetime.now(timezone.utc).isoformat(timespec="seconds"),
             "versions": {"stable_baselines3": stable_baselines3.__version__, "torch": torch.__version__},
         })
-        tmp = self.out / "meta.json.tmp"
-        tmp.write_text(json.dumps(self.meta, indent=1) + "\n", encoding="utf-8")
-        shutil.move(str(tmp), str(self.out / "meta.json"))
+        with _signals_deferred() if defer_signals else nullcontext():
+            tmp = self.out / "meta.json.tmp"
+            tmp.write_text(json.dumps(self.meta, indent=1) + "\n", encoding="utf-8")
+            shutil.move(str(tmp), str(self.out / "meta.json"))

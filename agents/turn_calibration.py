@@ -22,7 +22,7 @@ from typing import Any
 
 from batch.provenance import git_commit
 from agents.turn_map import DEFAULT_PHASES_DEG, DEFAULT_T_C_S, PAPER_OMEGA_L_RPM, PLANNER_OMEGA_H_RPM, TurnMap
-from batch.store import ResultsStore
+from batch.store import ResultsStore, check_records_belong, check_same_run
 from batch.worker import PointOutcome
 from batch.pool import pending, run_tasks
 from flagellum_env.turn_measurement import TurnResult, phase_node_index
@@ -96,6 +96,16 @@ def calibration_tasks(params: SwimmerParams, numerics: NumericsConfig, omega_l_r
             for tc in sorted(set(t_c_values)) for ph in sorted(set(phases_deg))]
 
 
+#: In the runs folder: the settings of the calibration it holds (checked by ``resume=True``).
+RUN_FILE = "calibration.json"
+
+
+def _write_run_file(file: Path, identity: dict[str, Any]) -> None:
+    tmp = file.with_name(file.name + ".tmp")
+    tmp.write_text(json.dumps({"run": identity}, indent=1, default=str) + "\n", encoding="utf-8")
+    os.replace(tmp, file)
+
+
 def runs_dir(out_file: str | os.PathLike[str]) -> Path:
     """Where the per-turn records of ``out_file`` live: ``<out_file>.runs/``."""
     out = Path(out_file)
@@ -113,8 +123,18 @@ def calibrate_turns(params: SwimmerParams, numerics: NumericsConfig, out_file: s
     turn could not be measured; the others stay saved for ``resume=True``.
     """
     tasks = calibration_tasks(params, numerics, omega_l_rpm, omega_h_rpm, t_c_values, phases_deg)
+    if Path(out_file).is_dir():
+        raise ValueError(f"out_file={str(out_file)!r} is a folder; allowed: a turn-map file to write (.json)")
+    identity = {"preset": preset, "params": dataclasses.asdict(params), "numerics": dataclasses.asdict(numerics),
+                "omega_l_rpm": float(omega_l_rpm), "omega_h_rpm": float(omega_h_rpm),
+                "t_c_values": sorted({t.t_c for t in tasks}), "phases_deg": sorted({t.phase_deg for t in tasks}),
+                "relax_max_s": tasks[0].relax_max_s}
     t0 = time.perf_counter()
     with ResultsStore(runs_dir(out_file), resume) as store:
+        if resume:  # the runs folder must hold turns of this calibration only (no mixing of two swimmers)
+            check_same_run(store.out_dir, RUN_FILE, identity, "calibration")
+            check_records_belong(store.records, {t.point_id for t in tasks}, store.out_dir, "calibration")
+        _write_run_file(store.out_dir / RUN_FILE, identity)
         todo = pending(tasks, store, retry_failed=True)
         lost = run_tasks(todo, store, workers=workers, scheduler=scheduler, progress=progress, total=len(tasks),
                          desc="calibrate-turns")

@@ -115,7 +115,10 @@ class TurnDecisionEnv(gym.Env):
     def __init__(self, preset: str | None = None, turn_map: str | os.PathLike | None = None,
                  env_kwargs: Mapping[str, Any] | None = None, paths: Sequence[Any] | None = None,
                  random_path: Mapping[str, Any] | None = None, limits: ResidualLimits | Mapping[str, Any] | None = None,
-                 action_cost: float = DEFAULT_ACTION_COST, render_mode: str | None = None) -> None:
+                 action_cost: float = DEFAULT_ACTION_COST, render_mode: str | None = None, **unknown: Any) -> None:
+        if unknown:
+            raise ValueError(f"unknown argument(s) {sorted(unknown)} for {self.env_id}; known arguments: "
+                             "preset, turn_map, env_kwargs, paths, random_path, limits, action_cost, render_mode")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode={render_mode!r} is not allowed; choose one of "
                              f"{[None] + self.metadata['render_modes']}")
@@ -192,7 +195,8 @@ class TurnDecisionEnv(gym.Env):
         if self._done:
             raise RuntimeError("call reset() before step()")
         try:
-            a = np.asarray(action, dtype=np.float64).reshape(-1)
+            raw = np.asarray(action)
+            a = np.empty(0) if np.iscomplexobj(raw) else np.asarray(raw, dtype=np.float64).reshape(-1)
         except (TypeError, ValueError):
             a = np.empty(0)
         if a.size != 2 or not np.all(np.isfinite(a)):

@@ -62,6 +62,20 @@ class Backend(Protocol):
     def close(self) -> None: ...
 
 
+#: Most local worker processes (each is a Python process with its own simulation; beyond this a typo such as
+#: ``--workers 100000`` would exhaust the machine before any task ran).
+MAX_WORKERS = 256
+
+
+def check_workers(workers: int | None) -> int | None:
+    """``workers`` if it is None or an integer from 1 to ``MAX_WORKERS``; ValueError naming it otherwise."""
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or not 1 <= workers <= MAX_WORKERS):
+        raise ValueError(f"workers={workers!r} is not allowed; allowed: an integer >= 1 and <= {MAX_WORKERS} "
+                         "(default: all cores)")
+    return workers
+
+
 def default_workers() -> int:
     """Cores this process may use (respects taskset/cgroup affinity where the OS reports it)."""
     try:

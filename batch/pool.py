@@ -14,7 +14,7 @@ import asyncio
 from collections.abc import Sequence
 from typing import Any
 
-from batch.backends import default_workers, make_backend
+from batch.backends import check_workers, default_workers, make_backend
 from batch.store import ResultsStore
 
 
@@ -43,6 +43,7 @@ def run_tasks(todo: Sequence[Any], store: ResultsStore, workers: int | None = No
     """
     from tqdm import tqdm
 
+    check_workers(workers)
     if not todo:
         return []
     total = len(todo) if total is None else total

@@ -168,3 +168,65 @@ class ResultsStore:
             self._lock_fd = None
             raise SweepError(f"another sweep is writing to {self.out_dir}; wait for it to end or choose "
                              "another --out directory") from None
+
+
+# --- the run a folder holds ------------------------------------------------------------
+def first_difference(old: Any, new: Any, prefix: str = "") -> tuple[str, Any, Any] | None:
+    """``(key path, old value, new value)`` of the first setting that differs between two JSON-like documents
+    (dicts compared key by key, in sorted order), or None when they are equal."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        for key in sorted(set(old) | set(new), key=str):
+            path = f"{prefix}.{key}" if prefix else str(key)
+            if key not in old or key not in new:
+                return path, old.get(key, _ABSENT), new.get(key, _ABSENT)
+            diff = first_difference(old[key], new[key], path)
+            if diff is not None:
+                return diff
+        return None
+    return None if old == new else (prefix or "(the whole document)", old, new)
+
+
+def check_same_run(folder: Path, file_name: str, identity: dict[str, Any], what: str) -> None:
+    """Refuse (SweepError, one line naming the first difference) to resume in ``folder`` when its ``file_name``
+    (JSON: its key ``"run"``, else its keys named in ``identity``) describes another run than ``identity``. A folder
+    without the file passes (the caller checks its records)."""
+    file = Path(folder) / file_name
+    if not file.is_file():
+        return
+    try:
+        doc = json.loads(file.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise SweepError(f"{file} cannot be read ({exc}); it says which run {folder} holds: fix or delete it") from None
+    new = json.loads(json.dumps(identity, default=str))  # tuples -> lists, as stored
+    if not isinstance(doc, dict):
+        raise SweepError(f"{file} is not a JSON object; it says which run {folder} holds: fix or delete it")
+    old = doc["run"] if "run" in doc else {k: doc[k] for k in new if k in doc}
+    diff = first_difference(old, new)
+    if diff is not None:
+        key, a, b = diff
+        raise SweepError(f"--resume: {folder} holds another {what}: {key} is {_short(a)} there and {_short(b)} here; "
+                         f"allowed: the same settings as that run, or another output folder")
+
+
+def check_records_belong(records: dict[str, dict[str, Any]], ids: set[str], folder: Path, what: str) -> None:
+    """Refuse (SweepError) when ``records`` hold results that are not among ``ids`` (another run's)."""
+    foreign = [pid for pid in records if pid not in ids]
+    if foreign:
+        raise SweepError(f"--resume: {folder} holds {len(foreign)} result{'s' if len(foreign) != 1 else ''} of another "
+                         f"{what} (e.g. point {foreign[0]}); allowed: the same settings as that run, or another "
+                         "output folder")
+
+
+class _Absent:
+    def __repr__(self) -> str:
+        return "(absent)"
+
+
+_ABSENT = _Absent()
+
+
+def _short(value: Any) -> str:
+    if value is _ABSENT:
+        return "(absent)"
+    s = json.dumps(value, default=str) if not isinstance(value, str) else repr(value)
+    return s if len(s) <= 80 else s[:77] + "..."

@@ -15,15 +15,16 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from batch.backends import BackendError, default_workers
+from batch.backends import BackendError, check_workers, default_workers
 from batch.pool import TasksInterrupted, run_tasks
 from batch.sweep_config import (CONFIG_KEYS, MODES, SweepConfig, SweepConfigError, SweepPoint,
                                 load_sweep_config, parameter_names, point_id)
-from batch.store import RESULTS_FILE, ResultsStore, SweepError, read_results
+from batch.store import (RESULTS_FILE, ResultsStore, SweepError, check_records_belong, check_same_run,
+                         read_results)
 from batch.sweep_task import PointTask
 
 CONFIG_FILE = "sweep_config.json"
@@ -51,7 +52,7 @@ class SweepIncomplete(SweepError):
 
 def run_sweep(config: SweepConfig, out_dir: str | os.PathLike[str], workers: int | None = None,
               resume: bool = False, progress: bool = True, scheduler: Any | None = None,
-              retry_failed: bool = False) -> list[dict[str, Any]]:
+              retry_failed: bool = False, on_start: Callable[[], None] | None = None) -> list[dict[str, Any]]:
     """Run every point of ``config`` into ``out_dir``; return one record per point, by point index.
 
     ``workers``: local processes (default: every available core; one BLAS thread each). They
@@ -60,7 +61,11 @@ def run_sweep(config: SweepConfig, out_dir: str | os.PathLike[str], workers: int
     points (without it, an existing non-empty results file is a SweepError). Points that
     ended in a simulation error count as done unless ``retry_failed``. ``scheduler``: a Dask
     address ``"tcp://HOST:PORT"``, cluster or ``distributed.Client`` instead of local
-    processes. ``progress``: a tqdm bar over points on stderr.
+    processes. ``progress``: a tqdm bar over points on stderr. ``on_start``: called once the folder and the
+    scheduler were checked, before anything runs (the command line prints its status line there).
+
+    ``resume`` refuses (SweepError naming the first difference) a folder whose ``sweep_config.json`` holds
+    another configuration, or whose results are not points of this one.
 
     Records are the JSON lines of ``results.jsonl`` (see ``batch.store``), with
     ``index`` and ``values`` from this config. Raises SweepInterrupted (a KeyboardInterrupt)
@@ -69,10 +74,18 @@ def run_sweep(config: SweepConfig, out_dir: str | os.PathLike[str], workers: int
     if scheduler is not None and workers is not None:
         raise ValueError("workers applies to local processes only; with a scheduler the cluster's workers "
                          "run the points")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
-        raise ValueError(f"workers={workers!r} is not allowed; allowed: an integer >= 1 (default: all cores)")
+    check_workers(workers)
     points = config.points()
     with ResultsStore(out_dir, resume) as store:
+        if resume:
+            check_same_run(store.out_dir, CONFIG_FILE, {"config": config.to_dict()}, "sweep")
+            check_records_belong(store.records, {p.point_id for p in points}, store.out_dir, "sweep")
+        if isinstance(scheduler, str):
+            from batch.backends import _probe
+
+            _probe(scheduler)  # nobody listening: BackendError now, not after the status line
+        if on_start is not None:
+            on_start()
         _write_config(store.out_dir, config, points)
         todo = [p for p in points if not _is_done(store.records.get(p.point_id), retry_failed)]
         if todo:

@@ -16,8 +16,9 @@ to vary and their values::
 
 Each point is one ``run_simulation`` at a constant motor speed. A point's id is a hash of
 everything that determines its numbers (speed, duration, record intervals and every physical
-and numerical parameter), so a resumed sweep skips exactly the points already computed, also
-after values were added to the sweep.
+and numerical parameter), so a resumed sweep skips exactly the points already computed. A resume
+with another configuration (values added or changed) is refused (``run_sweep``): choose another
+output folder.
 """
 
 from __future__ import annotations
@@ -179,7 +180,7 @@ class SweepConfig:
                 params, numerics = _resolve(base, settings)
                 omega = float(settings[SPEED])
                 validate_run_arguments(numerics, self.duration_s, self.record_interval_s,
-                                       self.node_record_interval_s)
+                                       self.node_record_interval_s, n_nodes=params.n_nodes)
             except ValueError as exc:
                 raise SweepConfigError(f"point {index} ({format_values(values)}): {exc}") from None
             pid = point_id(omega, params, numerics, self.duration_s, self.record_interval_s,

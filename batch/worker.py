@@ -31,7 +31,7 @@ def init_worker(parent_pid: int | None = None) -> None:
         watch_parent(parent_pid)
 
 
-def watch_parent(parent_pid: int) -> None:
+def watch_parent(parent_pid: int, interval_s: float = PARENT_CHECK_INTERVAL_S) -> None:
     """Exit this process as soon as its parent ``parent_pid`` is gone (killed with SIGKILL, say), instead of
     finishing its task for nobody while holding the caller's terminal: a daemon thread compares
     ``os.getppid()`` with it every ``PARENT_CHECK_INTERVAL_S``. The pid comes from the parent itself, so a
@@ -41,7 +41,7 @@ def watch_parent(parent_pid: int) -> None:
 
     def watch() -> None:
         while True:
-            time.sleep(PARENT_CHECK_INTERVAL_S)
+            time.sleep(interval_s)
             if os.getppid() != parent_pid:
                 os._exit(1)
 

@@ -28,6 +28,9 @@ ACTION_TYPES = ("continuous", "discrete")
 OBSERVATION_TYPES = ("flat", "dict")
 #: Reach radius when neither the argument nor the path file gives one, m.
 DEFAULT_REACH_RADIUS_M = 0.015
+#: Longest env step, simulated s (a burst of the turn map lasts at most 600 s; a larger value is a typo that
+#: would run for days inside one step).
+MAX_CONTROL_DT_S = 600.0
 #: Highest motor speed accepted, rpm.
 MAX_RPM = 2000.0
 
@@ -98,7 +101,7 @@ class SteerConfig:
             raise ValueError(f"preset={self.preset!r} is not allowed; choose one of {preset_names()}")
         s("params", _overrides(self.params, SwimmerParams, "params"))
         s("numerics", _overrides(self.numerics, NumericsConfig, "numerics"))
-        s("control_dt", _positive(self.control_dt, "control_dt", "s"))
+        s("control_dt", require_finite("control_dt", self.control_dt, 0.0, MAX_CONTROL_DT_S, lo_open=True, unit="s"))
         lo, hi = _number_pair(self.omega_range_rpm, "omega_range_rpm")
         if not 0.0 < lo < hi <= MAX_RPM:
             raise ValueError(f"omega_range_rpm={self.omega_range_rpm!r} must be (lo, hi) rpm with "

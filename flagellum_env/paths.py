@@ -28,6 +28,9 @@ from physics.validation import require_finite
 
 #: Side of the paper's square path, m.
 PAPER_SQUARE_SIDE_M = 0.25
+#: Largest |coordinate| of a waypoint, m: the swimmer makes ~0.3 mm per motor turn, so 100 m is already days of
+#: simulated swimming (a longer path is a typo, and 1e308 overflowed the path's length).
+MAX_COORDINATE_M = 100.0
 #: Segments shorter than this count as zero-length, m.
 MIN_SEGMENT_M = 1e-6
 
@@ -223,6 +226,9 @@ def _validated_waypoints(raw: Any, source: str) -> np.ndarray:
                 raise ValueError(f"{source}: waypoint {i} = {_short(w)} has a non-numeric coordinate {c!r}")
             if not math.isfinite(float(c)):
                 raise ValueError(f"{source}: waypoint {i} = {_short(w)} has a non-finite coordinate {c!r}")
+            if abs(float(c)) > MAX_COORDINATE_M:
+                raise ValueError(f"{source}: waypoint {i} = {_short(w)} has a coordinate {c!r} m out of reach; "
+                                 f"allowed: coordinates within +-{MAX_COORDINATE_M:g} m of the start")
             pts[i, k] = float(c)
     vertices = np.vstack([np.zeros((1, 3)), pts])
     lengths = np.linalg.norm(np.diff(vertices, axis=0), axis=1)

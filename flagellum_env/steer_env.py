@@ -19,7 +19,7 @@ from flagellum_env.rewards import TERMS, reward_terms
 from flagellum_env.start_frame import StartFrame
 from flagellum_env.steady_start import SteadyStart, get_steady_start
 from flagellum_env.tracking import BucklingMonitor, PathTracker
-from physics.errors import SimulationError
+from physics.errors import SimulationError, is_interrupt
 from physics.geometry import layout_for
 from physics.params import RPM_TO_RAD_S, SwimmerParams
 from physics.run import advance
@@ -147,7 +147,7 @@ class FlagellumSteerEnv(gym.Env):
     | random_path         | None                 | ``RandomPathConfig`` or dict: n_waypoints 3, segment_length_m (0.03, 0.08), max_turn_deg 90, planar True |
     | preset              | "faithful"           | physics preset: "paper", "faithful", "fast" or "coarse"  |
     | params / numerics   | None                 | dicts of ``SwimmerParams`` / ``NumericsConfig`` fields applied after the preset |
-    | control_dt          | 2.0                  | simulated seconds per env step (a whole number of physics steps) |
+    | control_dt          | 2.0                  | simulated seconds per env step (a whole number of physics steps; <= 600) |
     | omega_range_rpm     | (10, 150)            | motor speeds of the continuous action, rpm (0 < lo < hi)  |
     | action_type         | "continuous"         | "continuous" or "discrete"                                |
     | discrete_speeds_rpm | (10, 60, 150)        | motor speeds of the discrete actions, increasing, rpm     |
@@ -310,6 +310,10 @@ class FlagellumSteerEnv(gym.Env):
             advance(sim, steps=self.n_substeps, on_step=on_step)
         except (SimulationError, np.linalg.LinAlgError) as exc:
             error = exc
+        except SystemError as exc:  # Ctrl-C that landed inside a compiled kernel: report it as what it is
+            if is_interrupt(exc):
+                raise KeyboardInterrupt from None
+            raise
         self.steps += 1
         self.physics_steps += n_done
         duration = n_done * dt
@@ -420,7 +424,10 @@ class FlagellumSteerEnv(gym.Env):
         """(motor speed rpm, action on the [-1, 1] scale)."""
         cfg = self.config
         if cfg.action_type == "continuous":
-            a = np.asarray(action, dtype=np.float64).reshape(-1)
+            raw = np.asarray(action)
+            if raw.dtype.kind not in "iuf":  # complex, bool, str, object: not a speed on the [-1, 1] scale
+                raise ValueError(f"action={action!r} must be one finite number in [-1, 1]")
+            a = raw.astype(np.float64).reshape(-1)
             if a.size != 1 or not np.isfinite(a[0]):
                 raise ValueError(f"action={action!r} must be one finite number in [-1, 1]")
             x = float(np.clip(a[0], -1.0, 1.0))

@@ -14,3 +14,18 @@ class SimulationError(RuntimeError):
         self.step = step
         self.time_s = time_s
         self.quantity = quantity
+
+
+def is_interrupt(exc: BaseException | None) -> bool:
+    """True for a ``KeyboardInterrupt`` (Ctrl-C, or SIGTERM turned into one), also when it surfaced from inside a
+    compiled (Numba) call as ``SystemError: ... returned a result with an exception set``: the signal's handler
+    raised while the kernel ran, and Python reports the kernel, not the interrupt."""
+    seen = 0
+    while exc is not None and seen < 10:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        if not isinstance(exc, SystemError):
+            return False
+        exc = exc.__cause__ or exc.__context__
+        seen += 1
+    return False

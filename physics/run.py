@@ -9,21 +9,22 @@ Ctrl-C (``KeyboardInterrupt``) or ``SimulationError``, keeping everything comput
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import json
 import math
 import signal
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
-from numbers import Real
+from numbers import Integral, Real
 from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
 
-from physics.errors import SimulationError
+from physics.errors import SimulationError, is_interrupt
 from physics.params import RPM_TO_RAD_S, NumericsConfig, SwimmerParams
 from physics.schedule import MotorSchedule
 from physics.threads import simulation_threads
@@ -178,9 +179,40 @@ class _Totals:
 
 
 # --- the loop -------------------------------------------------------------------------
+#: Most memory a run may spend on its recorded trajectory (samples, node snapshots, the step plan), bytes: a
+#: longer recording is refused up front instead of ending in a MemoryError hours into the run.
+MAX_RECORDING_BYTES = 2 * 1024**3
+#: Approximate bytes held per head sample, per node of a shape snapshot and per planned (adaptive) step.
+_SAMPLE_BYTES, _NODE_BYTES, _PLAN_BYTES = 400, 24, 120
+
+
+def recording_bytes(numerics: NumericsConfig, n_steps: int, record_interval_s: float, node_record_interval_s: float,
+                    n_nodes: int) -> int:
+    """Approximate memory of a run's recording (``run_simulation``) with ``n_steps`` steps of ``numerics.dt``."""
+    dt = numerics.dt
+    samples = n_steps // max(1, int(round(record_interval_s / dt))) + 2
+    snapshots = n_steps // max(1, int(round(node_record_interval_s / dt))) + 2
+    plan = n_steps if getattr(numerics, "step_tol", 0.0) > 0.0 else 0
+    return samples * _SAMPLE_BYTES + snapshots * (n_nodes * _NODE_BYTES + 100) + plan * _PLAN_BYTES
+
+
 def validate_run_arguments(numerics: NumericsConfig, duration_s: float, record_interval_s: float,
-                           node_record_interval_s: float) -> int:
-    """Check durations (s); return the number of steps. ValueError names the bad value."""
+                           node_record_interval_s: float, n_nodes: int | None = None) -> int:
+    """Check durations (s); return the number of steps. ValueError names the bad value. With ``n_nodes`` (the
+    flagellum's node count), also that the recording fits in ``MAX_RECORDING_BYTES``."""
+    n_steps = _check_durations(numerics, duration_s, record_interval_s, node_record_interval_s)
+    if n_nodes is not None:
+        need = recording_bytes(numerics, n_steps, record_interval_s, node_record_interval_s, n_nodes)
+        if need > MAX_RECORDING_BYTES:
+            raise ValueError(f"duration_s={duration_s!r} with record_interval_s={record_interval_s!r} and "
+                             f"node_record_interval_s={node_record_interval_s!r} (dt = {numerics.dt:g} s) would "
+                             f"record about {need / 1024**3:.3g} GB; allowed: at most "
+                             f"{MAX_RECORDING_BYTES / 1024**3:g} GB: shorten the run or sample less often")
+    return n_steps
+
+
+def _check_durations(numerics: NumericsConfig, duration_s: float, record_interval_s: float,
+                     node_record_interval_s: float) -> int:
     for name, value in (("duration_s", duration_s), ("record_interval_s", record_interval_s),
                         ("node_record_interval_s", node_record_interval_s)):
         if isinstance(value, bool) or not isinstance(value, Real) or not math.isfinite(value) or value <= 0:
@@ -208,23 +240,29 @@ def advance(sim: Any, duration_s: float | None = None, *, steps: int | None = No
     """
     if sum(x is not None for x in (duration_s, steps, spans)) != 1:
         raise ValueError("give exactly one of duration_s, steps and spans")
-    if spans is not None:
-        spans = list(spans)
-    elif steps is not None:
-        spans = [None] * int(steps)
+    if steps is not None:
+        if isinstance(steps, bool) or not isinstance(steps, Integral) or steps < 0:
+            raise ValueError(f"steps={steps!r} is not allowed; allowed: an integer >= 0")
+        todo: Iterable[float | None] = itertools.repeat(None, int(steps))  # lazy: no list of a billion Nones
+    elif spans is not None:
+        todo = spans
     else:
+        if (isinstance(duration_s, bool) or not isinstance(duration_s, Real) or not math.isfinite(duration_s)
+                or duration_s < 0.0):
+            raise ValueError(f"duration_s={duration_s!r} is not allowed; allowed: a finite time >= 0 s")
         from physics.time_integrator import step_spans
 
-        spans = step_spans(duration_s, sim.numerics)
+        todo = step_spans(duration_s, sim.numerics)
+    k = 0
     with simulation_threads():  # one BLAS thread while stepping (physics.threads)
-        for k, span in enumerate(spans, start=1):
+        for k, span in enumerate(todo, start=1):
             if span is None:
                 sim.step()
             else:
                 sim.step(span)
             if on_step is not None and on_step(sim, k):
                 return k
-    return len(spans)
+    return k
 
 
 class StopRequest:
@@ -275,7 +313,10 @@ def run_simulation(params: SwimmerParams, numerics: NumericsConfig, schedule: Mo
     Ctrl-C, SIGTERM and ``SimulationError`` end the run early (a signal after the current step,
     ``stop_requests``); the result keeps what was computed and says why in ``interrupted`` / ``error``.
     """
-    n_steps = validate_run_arguments(numerics, duration_s, record_interval_s, node_record_interval_s)
+    from physics.geometry import layout_for
+
+    n_steps = validate_run_arguments(numerics, duration_s, record_interval_s, node_record_interval_s,
+                                     n_nodes=layout_for(params).n)
     dt = numerics.dt
     # adaptive steps: pieces of at most dt that end at every switch of the schedule (exact switch times)
     plan = schedule.spans(duration_s, dt) if getattr(numerics, "step_tol", 0.0) > 0.0 else None
@@ -325,6 +366,10 @@ def run_simulation(params: SwimmerParams, numerics: NumericsConfig, schedule: Mo
         interrupted = True
     except SimulationError as exc:
         error = str(exc)
+    except SystemError as exc:  # a second signal raised inside a compiled kernel
+        if not is_interrupt(exc):
+            raise
+        interrupted = True
     finally:
         wall = time.perf_counter() - wall0
         if bar is not None:

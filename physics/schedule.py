@@ -27,6 +27,8 @@ from physics.params import RPM_TO_RAD_S
 from physics.validation import require_finite
 
 MAX_RPM = 10000.0
+#: File kinds ``MotorSchedule.load`` reads.
+SCHEDULE_SUFFIXES = (".csv", ".json")
 CSV_HEADER = ("time_s", "omega_rpm")
 
 
@@ -82,11 +84,14 @@ class MotorSchedule:
 
     @classmethod
     def load(cls, path: str | Path) -> MotorSchedule:
-        """Read a schedule from a ``.json`` file, or a CSV file (any other suffix).
+        """Read a schedule from a ``.json`` or ``.csv`` file (other suffixes are refused, as sweep files are).
 
         Raises ValueError naming the file, the row (CSV line number or JSON index) and the bad value.
         """
         path = Path(path)
+        if path.suffix.lower() not in SCHEDULE_SUFFIXES:
+            raise ValueError(f"schedule file {str(path)!r} is not allowed; allowed: a .csv file ('time_s,omega_rpm' "
+                             "rows) or a .json file ([[t, w], ...])")
         try:
             text = path.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as exc:

@@ -37,6 +37,7 @@ Motor (Sec. 2.5): the twist angle theta^0 of the first edge is the motor shaft.
 from __future__ import annotations
 
 import math
+import numbers
 import time
 from dataclasses import dataclass
 
@@ -106,6 +107,10 @@ def lumped_masses(params: SwimmerParams, l_bar: np.ndarray, ndof: int, head_spin
     return m
 
 
+from physics.params import RPM_TO_RAD_S  # noqa: E402  (kept apart: the motor-speed rule of the command line)
+from physics.schedule import MAX_RPM  # noqa: E402
+
+
 class Simulator:
     """Head + flagellum swimmer (Huang & Jawed 2020). SI units throughout.
 
@@ -114,6 +119,10 @@ class Simulator:
     """
 
     def __init__(self, params: SwimmerParams | None = None, numerics: NumericsConfig | None = None) -> None:
+        for name, value, cls in (("params", params, SwimmerParams), ("numerics", numerics, NumericsConfig)):
+            if value is not None and not isinstance(value, cls):
+                raise ValueError(f"{name}={value!r} is not allowed; allowed: a {cls.__name__} (physics.configure "
+                                 "gives one from a preset and overrides) or None for the defaults")
         self.params = params or SwimmerParams()
         self.numerics = numerics or NumericsConfig()
         p = self.params
@@ -173,9 +182,12 @@ class Simulator:
 
     # --- public API -----------------------------------------------------------------
     def set_motor_speed(self, omega_rad_s: float) -> None:
-        """Set the motor speed omega (rad/s, the flagellum's rate relative to the head)."""
-        if not math.isfinite(omega_rad_s):
-            raise ValueError(f"motor speed {omega_rad_s!r} rad/s must be finite")
+        """Set the motor speed omega (rad/s, the flagellum's rate relative to the head): finite, >= 0 and at most
+        ``physics.schedule.MAX_RPM`` (the rule of the command line and of motor schedules)."""
+        if (isinstance(omega_rad_s, bool) or not isinstance(omega_rad_s, numbers.Real)
+                or not 0.0 <= omega_rad_s <= MAX_RPM * RPM_TO_RAD_S):
+            raise ValueError(f"motor speed {omega_rad_s!r} rad/s is not allowed; allowed: a finite speed >= 0 and "
+                             f"<= {MAX_RPM * RPM_TO_RAD_S:.6g} rad/s ({MAX_RPM:g} rpm)")
         if float(omega_rad_s) != self.omega:
             self._restart = True  # the motion has a kink here: no multistep formula may cross it
         self.omega = float(omega_rad_s)
@@ -203,7 +215,10 @@ class Simulator:
     @one_blas_thread
     def advance(self, duration_s: float) -> None:
         """Advance by ``duration_s`` seconds: rounded to whole steps of dt with fixed steps, exactly with
-        adaptive ones (whole steps of dt, then the rest)."""
+        adaptive ones (whole steps of dt, then the rest). ``duration_s``: a finite time >= 0 s."""
+        if (isinstance(duration_s, bool) or not isinstance(duration_s, numbers.Real) or not math.isfinite(duration_s)
+                or duration_s < 0.0):
+            raise ValueError(f"duration_s={duration_s!r} is not allowed; allowed: a finite time >= 0 s")
         for span in step_spans(duration_s, self.numerics):
             self.step(span)
 

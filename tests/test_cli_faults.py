@@ -283,3 +283,145 @@ def test_workers_exit_when_their_parent_is_killed(tmp_path):
                 pass
         proc.communicate(timeout=30)
     assert not pids, f"processes {pids} outlived their killed parent"
+
+
+# --- issue 24: the last tracebacks and silently accepted input ---------------------------------------------
+def test_an_unknown_option_before_the_command_is_named(usage_error):
+    for argv in (["--frobnicate"], ["--frobnicate", "simulate"]):
+        line = usage_error(argv)
+        assert "'--frobnicate'" in line and "simulate" in line and "required: COMMAND" not in line
+
+
+@pytest.mark.parametrize("command", [["sweep", "--config", "examples/sweep_small.yaml"],
+                                     ["evaluate", "--paths", "square", "--controller", "rule"],
+                                     ["calibrate-turns", "--preset", "coarse"]])
+def test_an_absurd_number_of_workers_is_refused(usage_error, tmp_path, command):
+    line = usage_error(command + ["--workers", "100000", "--out", str(tmp_path / "o")])
+    assert "--workers '100000'" in line and "<= 256" in line
+    assert not (tmp_path / "o").exists()
+
+
+def test_calibrate_turns_refuses_a_folder_as_out_before_measuring(usage_error, tmp_path, monkeypatch):
+    monkeypatch.setattr(turn_calibration, "run_tasks", lambda *a, **k: pytest.fail("a turn was measured"))
+    line = usage_error(["calibrate-turns", "--preset", "coarse", "--t-c", "5", "--phases", "0", "--out",
+                        str(tmp_path)])
+    assert f"--out {str(tmp_path)!r} is a folder" in line and ".json" in line
+    assert list(tmp_path.iterdir()) == []  # no runs folder, no stray .tmp
+
+
+@pytest.mark.parametrize("controllers, fragment", [(["rule:"], "nothing follows 'rule:'"),
+                                                   (["adaptive:"], "nothing follows 'adaptive:'"),
+                                                   (["rule", "rule"], "'rule' is given twice")])
+@pytest.mark.parametrize("command", ["follow", "evaluate"])
+def test_empty_and_repeated_controllers_are_refused_before_any_output(usage_error, tmp_path, one_turn, command,
+                                                                      controllers, fragment, monkeypatch):
+    monkeypatch.setattr(evaluation, "run_tasks", lambda *a, **k: pytest.fail("an episode ran"))
+    argv = [command, "--path" if command == "follow" else "--paths", str(one_turn), "--preset", "coarse"]
+    for c in controllers:
+        argv += ["--controller", c]
+    line = usage_error(argv + ["--out", str(tmp_path / "o")])
+    assert fragment in line
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("waypoint, fragment", [([1e308, 0.0, 0.0], "1e+308"), ([0.0, 1e6, 0.0], "1000000.0")])
+def test_follow_refuses_a_waypoint_out_of_reach(usage_error, tmp_path, waypoint, fragment):
+    f = tmp_path / "far.json"
+    f.write_text(json.dumps({"waypoints": [[0.01, 0.0, 0.0], waypoint]}))
+    line = usage_error(["follow", "--path", str(f), "--out", str(tmp_path / "o")])
+    assert fragment in line and "within +-100 m" in line
+    assert not (tmp_path / "o").exists()
+
+
+def test_evaluate_with_episodes_that_did_not_run_exits_1_and_names_them(tmp_path, one_turn, monkeypatch, capsys):
+    """Issue 24: when the workers died, evaluate reported 0 episodes and exited 0."""
+    monkeypatch.setattr(evaluation, "check_controllers", lambda *a, **k: None)
+    monkeypatch.setattr(evaluation, "run_tasks",
+                        lambda todo, store, **k: [(t, "BrokenProcessPool: a worker could not start") for t in todo])
+    out = tmp_path / "o"
+    assert main(["evaluate", "--paths", str(one_turn), "--controller", "rule", "--out", str(out), "--no-progress"]) == 1
+    err = capsys.readouterr().err
+    assert "1 of 1 episodes did not run" in err and "rule on one_turn" in err and "BrokenProcessPool" in err
+    assert json.loads((out / "results.json").read_text())["missing"] == ["rule on one_turn"]
+
+
+@pytest.mark.parametrize("policy_kwargs, fragment", [({"net_arch": "big"}, "net_arch='big' is not allowed"),
+                                                     ({"net_arch": [8], "colour": 1}, "unknown key(s) ['colour']")])
+def test_train_refuses_bad_policy_kwargs_before_creating_the_out_folder(usage_error, tmp_path, policy_kwargs,
+                                                                       fragment):
+    import yaml
+
+    from agents.assets import package_file
+
+    doc = yaml.safe_load(package_file("configs", "ppo_residual_coarse.yml").read_text())
+    doc[next(iter(doc))]["policy_kwargs"] = policy_kwargs
+    cfg = tmp_path / "cfg.yml"
+    cfg.write_text(yaml.safe_dump(doc))
+    line = usage_error(["train", "--config", str(cfg), "--out", str(tmp_path / "o")])
+    assert fragment in line and str(cfg) in line
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_missing_optional_dependency_names_the_extra(tmp_path):
+    code = ("import sys; sys.modules['stable_baselines3'] = None\n"
+            "from flagellum.cli import main\n"
+            f"sys.exit(main(['train', '--out', {str(tmp_path / 'o')!r}]))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                          cwd=Path(__file__).resolve().parents[1])
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "stable-baselines3" in lines[0] and "pip install 'flagellum-swimmer[rl]'" in lines[0]
+    assert not (tmp_path / "o").exists()
+
+
+def test_sweep_errors_come_without_a_status_line(tmp_path, capsys):
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "results.jsonl").write_text('{"point_id": "x", "status": "ok"}\n')
+    with pytest.raises(SystemExit) as info:
+        main(["sweep", "--config", "examples/sweep_small.yaml", "--out", str(out), "--no-progress"])
+    assert info.value.code == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and "already holds 1 result" in captured.err
+
+
+def test_sweep_resume_refuses_a_folder_of_another_sweep(tmp_path):
+    from batch.sweep import CONFIG_FILE, SweepError, _write_config, load_sweep_config, run_sweep
+
+    config = load_sweep_config("examples/sweep_small.yaml")
+    other = config.with_fixed({"viscosity": 1.5})
+    out = tmp_path / "o"
+    out.mkdir()
+    _write_config(out, config, config.points())
+    before = (out / CONFIG_FILE).read_text()
+    with pytest.raises(SweepError, match=r"holds another sweep: config.fixed.viscosity is \(absent\) there and "
+                                         r"1.5 here"):
+        run_sweep(other, out, resume=True, workers=1, progress=False)
+    assert (out / CONFIG_FILE).read_text() == before  # not overwritten
+    (out / CONFIG_FILE).unlink()  # an older folder without it: its records tell
+    (out / "results.jsonl").write_text('{"point_id": "0123456789abcdef", "status": "ok"}\n')
+    with pytest.raises(SweepError, match="holds 1 result of another sweep"):
+        run_sweep(config, out, resume=True, workers=1, progress=False)
+
+
+def test_calibrate_turns_resume_refuses_another_calibration(usage_error, tmp_path, monkeypatch):
+    """Issue 24: other --t-c / --phases / --set replaced an 8-point map by a 1-point one, mixing two swimmers."""
+    monkeypatch.setattr(turn_calibration, "run_tasks", lambda todo, store, **k: [(t, "interrupted") for t in todo])
+    out = tmp_path / "m.json"
+    base = ["calibrate-turns", "--preset", "coarse", "--t-c", "5", "6", "--phases", "0", "--out", str(out),
+            "--no-progress"]
+    usage_error(base)  # nothing measured (the stub), but the runs folder now says which calibration it holds
+    for extra, fragment in [(["--t-c", "5"], "t_c_values is [5.0, 6.0] there and [5.0] here"),
+                            (["--set", "head_radius=0.011"], "params.head_radius is"),
+                            (["--phases", "90"], "phases_deg is [0.0] there and [90.0] here")]:
+        argv = list(base)
+        if extra[0] == "--set":
+            argv += extra
+        else:
+            i = argv.index(extra[0])
+            end = i + 1
+            while end < len(argv) and not argv[end].startswith("--"):
+                end += 1
+            argv[i:end] = extra
+        line = usage_error(argv + ["--resume"])
+        assert "holds another calibration" in line and fragment in line, line

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -238,3 +239,31 @@ def test_bad_run_arguments_name_the_value(kw, fragment):
     with pytest.raises(ValueError):
         run_simulation(PARAMS, NUMERICS, MotorSchedule.constant(1.0), args.pop("duration_s"),
                        simulator=FakeSimulator(DT), progress=False, **args)
+
+
+def test_a_recording_that_cannot_fit_in_memory_is_refused_up_front():
+    """Issue 24: `simulate --duration 1e6 --set dt=1e-6` ended in a MemoryError; now refused before it runs."""
+    from physics.run import MAX_RECORDING_BYTES
+
+    numerics = NUMERICS.replace(dt=1e-6)
+    with pytest.raises(ValueError, match="would record about .* GB; allowed: at most 2 GB"):
+        validate_run_arguments(numerics, 1e6, 0.01, 0.1, n_nodes=45)
+    with pytest.raises(ValueError, match="would record"):
+        run_simulation(PARAMS, numerics, MotorSchedule.constant(1.0), 1e6, progress=False)
+    assert validate_run_arguments(NUMERICS, 10.0, 0.01, 0.1, n_nodes=45) >= 1
+    assert MAX_RECORDING_BYTES >= 1024**3
+
+
+def test_simulate_refuses_a_run_whose_recording_would_not_fit_before_creating_output(usage_error, tmp_path):
+    line = usage_error(["simulate", "--omega-rpm", "10", "--duration", "1e6", "--set", "dt=1e-6", "--out",
+                        str(tmp_path / "o")])
+    assert "duration_s=1000000.0" in line and "GB" in line
+    assert not (tmp_path / "o").exists()
+
+
+def test_simulate_refuses_a_schedule_that_is_neither_csv_nor_json(usage_error, tmp_path):
+    f = tmp_path / "s.txt"
+    f.write_text("0,10\n")
+    line = usage_error(["simulate", "--schedule", str(f), "--duration", "1", "--out", str(tmp_path / "o")])
+    assert str(f) in line and ".csv" in line
+    assert not (tmp_path / "o").exists()

@@ -71,7 +71,7 @@ def test_load_csv_with_header_comments_and_blank_lines(tmp_path):
 
 
 def test_load_csv_without_header(tmp_path):
-    f = tmp_path / "s.txt"
+    f = tmp_path / "s.csv"
     f.write_text("0,5\n2.5,7\n")
     assert MotorSchedule.load(f).steps == ((0.0, 5.0), (2.5, 7.0))
 
@@ -133,3 +133,12 @@ def test_demo_schedule_example_loads():
 
     demo = Path(__file__).resolve().parents[1] / "examples" / "demo_schedule.csv"
     assert MotorSchedule.load(demo).steps == ((0.0, 10.0), (10.0, 90.0))
+
+
+@pytest.mark.parametrize("name", ["speeds.txt", "speeds", "speeds.yaml"])
+def test_unknown_schedule_extensions_are_refused_like_sweep_files(tmp_path, name):
+    f = tmp_path / name
+    f.write_text("0,10\n")
+    with pytest.raises(ValueError) as info:
+        MotorSchedule.load(f)
+    assert str(f) in str(info.value) and ".csv" in str(info.value) and ".json" in str(info.value)

@@ -45,6 +45,9 @@ def run(args: argparse.Namespace) -> int:
 
     params, numerics = build_config(parse_overrides(args.set), args.preset)
     out = args.out or user_turn_map_dir() / f"{args.preset or 'custom'}.json"
+    if out.is_dir():
+        raise UsageError(f"--out {str(out)!r} is a folder; allowed: a turn-map file to write (e.g. "
+                         f"{str(out / ((args.preset or 'custom') + '.json'))!r})")
     wl = parse_number("--omega-l", args.omega_l, "a speed > 0 rpm", positive=True)
     wh = (PLANNER_OMEGA_H_RPM if args.omega_h is None
           else parse_number("--omega-h", args.omega_h, "a speed > --omega-l rpm", positive=True))

@@ -64,14 +64,16 @@ def build_config(overrides: dict[str, str], preset: str | None = None) -> tuple[
         raise UsageError(str(exc)) from None
 
 
-def parse_int(option: str, raw: str, minimum: int) -> int:
-    """Parse a whole number >= ``minimum`` given to ``option`` ("1.5" and "-1" are refused, not rounded)."""
+def parse_int(option: str, raw: str, minimum: int, maximum: int | None = None) -> int:
+    """Parse a whole number >= ``minimum`` (and <= ``maximum``) given to ``option`` ("1.5" and "-1" are refused,
+    not rounded)."""
     try:
         value = int(str(raw).strip(), 10)
     except ValueError:
         value = None
-    if value is None or value < minimum:
-        raise UsageError(f"{option} {raw!r} is not allowed; allowed: an integer >= {minimum}")
+    if value is None or value < minimum or (maximum is not None and value > maximum):
+        allowed = f"an integer >= {minimum}" + (f" and <= {maximum}" if maximum is not None else "")
+        raise UsageError(f"{option} {raw!r} is not allowed; allowed: {allowed}")
     return value
 
 
@@ -87,7 +89,9 @@ def parse_workers(args: argparse.Namespace) -> tuple[int | None, str | None]:
     if args.workers is not None and scheduler is not None:
         raise UsageError("--workers and --scheduler both given; --workers counts local processes, "
                          "a cluster uses its own workers")
-    workers = None if args.workers is None else parse_int("--workers", args.workers, 1)
+    from batch.backends import MAX_WORKERS
+
+    workers = None if args.workers is None else parse_int("--workers", args.workers, 1, maximum=MAX_WORKERS)
     if scheduler is not None:
         try:
             check_scheduler_address(scheduler)

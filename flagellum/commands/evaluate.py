@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from flagellum.commands.common import DEFAULT_PRESET_ARG, SCHEDULER_HELP, UsageError, parse_number, parse_workers
@@ -40,7 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from agents.evaluation import evaluate, resolve_paths
+    from agents.evaluation import EpisodesNotRun, evaluate, resolve_paths
     from batch.store import SweepError
 
     try:
@@ -69,6 +70,9 @@ def run(args: argparse.Namespace) -> int:
                            env_overrides=overrides, seed_per_path=overrides is not None)
     except (ValueError, SweepError) as exc:  # a bad controller name, a locked or used DIR
         raise UsageError(str(exc)) from None
+    except EpisodesNotRun as exc:  # workers died: the partial summary is written, the status says it is partial
+        print(f"flagellum: {exc}", file=sys.stderr)
+        return 1
     print((args.out / "results.md").read_text(encoding="utf-8"))
     for c, agg in results["aggregate"].items():
         rate = "n/a" if agg["success_rate"] is None else f"{agg['success_rate']:.0%}"

@@ -38,10 +38,12 @@ def trace_name(spec: str, n_controllers: int) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from agents.evaluation import resolve_paths
+    from agents.evaluation import check_controllers, resolve_paths
     from agents.follow_plots import omega_figure, path_figure, save
-    from agents.path_following import env_settings, make_controller, run_episode
+    from agents.path_following import check_unique_controllers, env_settings, make_controller, run_episode
     from flagellum_env.steer_env import FlagellumSteerEnv
+    from physics.errors import is_interrupt
+    from physics.run import stop_requests
 
     preset = args.preset
     try:
@@ -54,30 +56,58 @@ def run(args: argparse.Namespace) -> int:
                                                    positive=True)
     seed = parse_int("--seed", args.seed, 0)
     specs = args.controller or ["rule"]
+    try:
+        check_unique_controllers(specs)
+        check_controllers(specs, [path], preset, overrides)  # every controller builds, before any output
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
     ensure_dir("--out", args.out)
-    traces, summary = {}, {"path": path.to_dict(), "preset": preset, "controllers": {}}
-    for spec in specs:
-        try:
+    traces, summary = {}, {"path": path.to_dict(), "preset": preset, "controllers": {}, "interrupted": False}
+    interrupted = False
+    try:
+        for spec in specs:
             env = FlagellumSteerEnv(path=path, **env_settings(spec, preset, overrides))
             controller = make_controller(spec, env, preset)
-        except ValueError as exc:
-            raise UsageError(str(exc)) from None
-        metrics, trace = run_episode(env, controller, path, seed=seed, progress=not args.no_progress)
-        if hasattr(controller, "turns"):
-            metrics["turns"] = controller.turns
-        traces[spec] = trace
-        summary["controllers"][spec] = metrics
-        trace.save_npz(args.out / trace_name(spec, len(specs)))
-        print(f"{spec}: success {metrics['success']}, waypoints {metrics['waypoints_reached']}/"
-              f"{metrics['n_waypoints']}, mean cross-track {metrics['mean_cross_track_m'] * 100:.2f} cm, "
-              f"max {metrics['max_cross_track_m'] * 100:.2f} cm, "
-              + (f"max dz/dL {metrics['max_out_of_plane_ratio'] * 100:.2f} %, "
-                 if metrics['max_out_of_plane_ratio'] is not None else "")
-              + f"{metrics['time_s']:.0f} s simulated in {metrics['wall_time_s']:.0f} s, "
-                f"{metrics['buckling_events']} buckling events, {metrics['energy_J'] * 1e3:.2f} mJ")
-    title = f"{path.name} path, {preset} preset"
-    save(path_figure(traces, title), args.out / "path.png")
-    save(omega_figure(traces, title), args.out / "omega.png")
-    (args.out / "summary.json").write_text(json.dumps(summary, indent=1, default=float) + "\n", encoding="utf-8")
-    print(f"wrote {args.out}/summary.json, path.png, omega.png")
-    return 0
+            metrics, trace = run_episode(env, controller, path, seed=seed, progress=not args.no_progress)
+            if hasattr(controller, "turns"):
+                metrics["turns"] = controller.turns
+            traces[spec] = trace
+            summary["controllers"][spec] = metrics
+            with stop_requests() as stop:  # the trace of a finished (or interrupted) episode is written whole
+                trace.save_npz(args.out / trace_name(spec, len(specs)))
+            _report(spec, metrics)
+            if metrics.get("interrupted") or stop.requested:
+                interrupted = True
+                break
+    except BaseException as exc:  # Ctrl-C or SIGTERM between episodes: write what was computed
+        if not is_interrupt(exc):
+            raise
+        interrupted = True
+    with stop_requests() as stop:  # a signal while writing waits for the files (a second one stops at once)
+        summary["interrupted"] = interrupted
+        summary["not_run"] = [s for s in specs if s not in summary["controllers"]]
+        written = ["summary.json"]
+        if traces:
+            title = f"{path.name} path, {preset} preset" + (" (interrupted)" if interrupted else "")
+            save(path_figure(traces, title), args.out / "path.png")
+            save(omega_figure(traces, title), args.out / "omega.png")
+            written += ["path.png", "omega.png"]
+        (args.out / "summary.json").write_text(json.dumps(summary, indent=1, default=float) + "\n",
+                                               encoding="utf-8")
+        if interrupted:
+            print(f"interrupted; wrote what was computed: {args.out}/{', '.join(written)}"
+                  + (f" (not run: {', '.join(summary['not_run'])})" if summary["not_run"] else ""))
+        else:
+            print(f"wrote {args.out}/{', '.join(written)}")
+    return 130 if interrupted or stop.requested else 0
+
+
+def _report(spec: str, metrics: dict) -> None:
+    print(f"{spec}: {'interrupted, ' if metrics.get('interrupted') else ''}success {metrics['success']}, "
+          f"waypoints {metrics['waypoints_reached']}/"
+          f"{metrics['n_waypoints']}, mean cross-track {metrics['mean_cross_track_m'] * 100:.2f} cm, "
+          f"max {metrics['max_cross_track_m'] * 100:.2f} cm, "
+          + (f"max dz/dL {metrics['max_out_of_plane_ratio'] * 100:.2f} %, "
+             if metrics['max_out_of_plane_ratio'] is not None else "")
+          + f"{metrics['time_s']:.0f} s simulated in {metrics['wall_time_s']:.0f} s, "
+            f"{metrics['buckling_events']} buckling events, {metrics['energy_J'] * 1e3:.2f} mJ")

@@ -60,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
     node_record = parse_number("--node-record-interval", args.node_record_interval, "a finite time > 0 s",
                                positive=True)
     try:
-        validate_run_arguments(numerics, duration, record, node_record)
+        validate_run_arguments(numerics, duration, record, node_record, n_nodes=params.n_nodes)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     out: Path = args.out

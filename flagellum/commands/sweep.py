@@ -71,11 +71,13 @@ def run(args: argparse.Namespace) -> int:
     if args.retry_failed and not args.resume:
         raise UsageError("--retry-failed needs --resume")
     out: Path = args.out if args.out is not None else Path("out/sweep") / args.config.stem
-    print(f"sweep: {len(config)} points ({config.mode} over {', '.join(config.sweep)}), "
-          f"{config.duration_s:g} s each -> {out}")
+    def announce() -> None:  # once the folder and the scheduler are checked: errors come without it
+        print(f"sweep: {len(config)} points ({config.mode} over {', '.join(config.sweep)}), "
+              f"{config.duration_s:g} s each -> {out}", flush=True)
+
     try:
         records = run_sweep(config, out, workers=workers, resume=args.resume, progress=not args.no_progress,
-                            scheduler=args.scheduler, retry_failed=args.retry_failed)
+                            scheduler=args.scheduler, retry_failed=args.retry_failed, on_start=announce)
     except SweepInterrupted as exc:
         print(f"flagellum: interrupted; {len(exc.results)} of {exc.total} points are saved in "
               f"{out / RESULTS_FILE}; run again with --resume to finish", file=sys.stderr)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from flagellum.commands.common import UsageError, ensure_dir
@@ -29,7 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from agents.ppo_config import TrainConfig
-    from agents.ppo_training import train
+    from agents.ppo_training import TrainingInterrupted, train
 
     try:
         config = TrainConfig.from_yaml(args.config)
@@ -44,6 +45,11 @@ def run(args: argparse.Namespace) -> int:
                        config_text=args.config.read_text(encoding="utf-8"))
     except ValueError as exc:
         raise UsageError(str(exc)) from None
+    except TrainingInterrupted as exc:
+        r = exc.result
+        print(f"flagellum: interrupted after {r.decisions} decisions; wrote {r.out_dir}/model.zip, vecnormalize.pkl "
+              f"and a checkpoint; --resume continues from there", file=sys.stderr)
+        return 130
     budget = " (stopped by the wall-time budget)" if result.stopped_by_budget else ""
     print(f"trained {result.decisions} decisions in {result.wall_time_s / 60:.1f} min{budget}; wrote "
           f"{result.out_dir}/model.zip and vecnormalize.pkl; use it with --controller ppo:{result.out_dir}")

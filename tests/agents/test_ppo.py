@@ -208,3 +208,39 @@ def test_cli_errors_name_the_problem(capsys, tmp_path, argv, fragment):
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert fragment in err and err.count("\n") == 1
+
+
+# --- issue 24: a resume continues the same run, or refuses naming the difference ----------------------------
+def test_resume_refuses_another_network_task_or_a_finished_run(tiny_run):
+    from agents.ppo_training import latest_checkpoint, train
+
+    out, _ = tiny_run
+    done = latest_checkpoint(out)[2]
+    meta_before = (out / "meta.json").read_text()
+    for change, fragment in [(lambda c: c["tiny"]["policy_kwargs"].update(net_arch=[16]),
+                              "policy_kwargs.net_arch is [8] there and [16] in this config"),
+                             (lambda c: c["tiny"]["task"].update(preset="fast"), "preset is 'coarse' there and 'fast'"),
+                             (lambda c: c["tiny"]["task"].update(action_cost=2.0), "action_cost is 0.0 there and 2.0")]:
+        other = json.loads(json.dumps(TINY))
+        other["tiny"]["n_timesteps"] = done + 3
+        other["tiny"]["task"]["curriculum"][0]["until"] = done + 3
+        change(other)
+        with pytest.raises(ValueError, match="holds another training run") as info:
+            train(TrainConfig.from_dict(other), out, resume=True, progress=False)
+        assert fragment in str(info.value), str(info.value)
+    finished = json.loads(json.dumps(TINY))
+    finished["tiny"]["n_timesteps"] = done
+    finished["tiny"]["task"]["curriculum"][0]["until"] = done
+    with pytest.raises(ValueError, match=f"has done {done} decisions, n_timesteps={done}: nothing to resume"):
+        train(TrainConfig.from_dict(finished), out, resume=True, progress=False)
+    assert (out / "meta.json").read_text() == meta_before  # decisions not reset to 0
+
+
+def test_resume_drops_what_a_killed_run_logged_after_its_checkpoint(tmp_path):
+    from agents.ppo_training import EPISODE_FIELDS, _drop_rows_after
+
+    f = tmp_path / "episodes.csv"
+    f.write_text(",".join(EPISODE_FIELDS) + "\n" + "".join(f"{d},1.0,one,0.5,1,False,0,0.01,5,0.1,1\n"
+                                                          for d in (2, 4, 6, 8)))
+    _drop_rows_after(f, 4)
+    assert [line.split(",")[0] for line in f.read_text().splitlines()[1:]] == ["2", "4"]

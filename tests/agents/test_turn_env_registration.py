@@ -184,3 +184,37 @@ def test_a_seed_fixes_the_drawn_paths_and_reset_without_one_draws_the_next():
     first, second = episode(1), episode(None)
     assert first != second
     assert episode(1) == first and episode(None) == second
+
+
+# --- issue 24: the same validation as FlagellumSteer-v0 ------------------------------------------------------
+@pytest.mark.parametrize("kwargs, match", [
+    ({"paths": []}, r"paths=\[\] holds no path"),
+    ({"paths": [[[0.0, 0.0, 0.0]]]}, r"paths\[0\]: path: .*zero-length segment"),
+    ({"paths": ["nowhere.json"]}, r"paths\[0\]: path='nowhere.json' is neither"),
+    ({"paths": ["random"]}, r"paths\[0\]='random': a fixed path is needed here"),
+    ({"speed": 3}, r"unknown argument\(s\) \['speed'\] for FlagellumTurn-v0; known arguments"),
+    ({"random_path": {"n_waypoints": 2, "colour": 1}}, r"random_path: unknown key\(s\) \['colour'\]"),
+    ({"limits": {"max_dtc": 0.1}}, "limits: "),
+])
+def test_bad_arguments_are_value_errors_at_make(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        gym.make("FlagellumTurn-v0", **{"preset": "coarse", **kwargs})
+
+
+def test_a_render_mode_it_does_not_have_is_refused():
+    # (gym.make turns render_mode="human" into a HumanRendering wrapper around rgb_array: construct directly)
+    with pytest.raises(ValueError, match="render_mode='human' is not allowed"):
+        TurnDecisionEnv(preset="coarse", render_mode="human")
+
+
+def test_bad_reset_options_and_actions_are_refused():
+    env = TurnDecisionEnv(**CHEAP)
+    with pytest.raises(ValueError, match=r"unknown reset option\(s\) \['goal'\]"):
+        env.reset(seed=0, options={"goal": 1})
+    with pytest.raises(ValueError, match="waypoints is empty"):
+        env.reset(seed=0, options={"path": []})
+    env.reset(seed=0)
+    for bad in (np.array([np.inf, 0.0]), np.array([0.1 + 1j, 0.0]), np.array([0.1])):
+        with pytest.raises(ValueError, match="must be two finite numbers in"):
+            env.step(bad)
+    env.close()

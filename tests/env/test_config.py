@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import gymnasium as gym
+import numpy as np
 import pytest
 
 import flagellum_env  # noqa: F401
@@ -15,7 +16,7 @@ from flagellum_env.steer_env import FlagellumSteerEnv
     ({"path": [[0.0, 0.0, 0.0]]}, "zero-length segment"),
     ({"path": 3}, "path=3 must be one of"),
     ({"preset": "slow"}, r"preset='slow' is not allowed; choose one of \['paper', 'faithful', 'fast', 'coarse'\]"),
-    ({"control_dt": 0.0}, r"control_dt=0.0 is not allowed; allowed: a finite number > 0 s"),
+    ({"control_dt": 0.0}, r"control_dt=0.0 is not allowed; allowed: a finite number > 0 and <= 600 s"),
     ({"control_dt": 0.0301}, r"control_dt=0.0301 s must be a whole multiple of the physics time step dt="),
     ({"omega_range_rpm": (60, 10)}, r"omega_range_rpm=\(60, 10\) must be \(lo, hi\) rpm with 0 < lo < hi"),
     ({"omega_range_rpm": (0, 10)}, "omega_range_rpm"),
@@ -72,3 +73,22 @@ def test_bad_reset_option_raises(make_env):
     env = make_env()
     with pytest.raises(ValueError, match=r"unknown reset option\(s\) \['goal'\]"):
         env.reset(seed=0, options={"goal": 1})
+
+
+# --- issue 24 -------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("kwargs, match", [
+    ({"control_dt": 1e9}, r"control_dt=1000000000.0 is not allowed; allowed: a finite number > 0 and <= 600 s"),
+    ({"path": [[1e308, 0.0, 0.0]]}, r"coordinate 1e\+308 m out of reach; allowed: coordinates within \+-100 m"),
+    ({"path": [[0.01, 0.0, 0.0], [1e6, 0.0, 0.0]]}, r"waypoint 1 .* out of reach"),
+])
+def test_settings_that_would_exhaust_memory_or_never_end_are_refused(small_kwargs, kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        FlagellumSteerEnv(**{**small_kwargs, **kwargs})
+
+
+@pytest.mark.parametrize("action", [np.array([0.5 + 1j]), 0.5j, np.array([True]), "0.5"])
+def test_a_continuous_action_must_be_a_real_number(make_env, action):
+    env = make_env()
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="must be one finite number in"):
+        env.step(action)

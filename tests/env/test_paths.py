@@ -125,3 +125,14 @@ def test_random_path_respects_lengths_turns_and_plane(planar):
 def test_random_path_config_rejects_bad_values(kwargs, match):
     with pytest.raises(ValueError, match=match):
         RandomPathConfig(**kwargs)
+
+
+@pytest.mark.parametrize("waypoints", [[[1e308, 0.0, 0.0]], [[0.01, 0.0, 0.0], [0.01, -1e6, 0.0]]])
+def test_waypoints_out_of_reach_are_refused_by_every_loader(tmp_path, waypoints):
+    """Issue 24: 1e308 overflowed the path length (OverflowError in `follow`), 1e6 m was accepted silently."""
+    with pytest.raises(ValueError, match=r"out of reach; allowed: coordinates within \+-100 m"):
+        path_from_waypoints(waypoints)
+    f = tmp_path / "far.json"
+    f.write_text(json.dumps({"waypoints": waypoints}))
+    with pytest.raises(ValueError, match=r"far.json: waypoint .* out of reach"):
+        load_path(f)

@@ -78,3 +78,40 @@ def test_advance_calls_back_after_each_step_and_stops_when_asked(small):
     assert seen == [(1, 1), (2, 2), (3, 3)]
     with pytest.raises(ValueError, match="exactly one"):
         advance(sim, 1.0, steps=2)
+
+
+# --- issue 24: the public methods refuse what the command line refuses ----------------------------------
+@pytest.mark.parametrize("params, numerics, name", [("x", None, "params='x'"), (None, {"dt": 0.01}, "numerics=")])
+def test_simulator_refuses_arguments_of_the_wrong_type_naming_them(params, numerics, name):
+    with pytest.raises(ValueError) as info:
+        Simulator(params, numerics)
+    assert name in str(info.value) and "allowed" in str(info.value)
+
+
+@pytest.mark.parametrize("omega", [-1.0, -1e-9, float("nan"), float("inf"), 2000.0, True, "10"])
+def test_motor_speed_follows_the_command_lines_rule(small, omega):
+    sim = Simulator(*small)
+    with pytest.raises(ValueError, match=r"allowed: a finite speed >= 0 and <= 1047.2 rad/s \(10000 rpm\)"):
+        sim.set_motor_speed(omega)
+    sim.set_motor_speed(0.0)
+    sim.set_motor_speed(150 * RPM_TO_RAD_S)
+
+
+@pytest.mark.parametrize("call, fragment", [
+    (lambda sim: sim.advance(-1), "duration_s=-1 is not allowed"),
+    (lambda sim: sim.advance(float("nan")), "duration_s=nan"),
+    (lambda sim: advance(sim, -1.0), "duration_s=-1.0 is not allowed"),
+    (lambda sim: advance(sim, steps=-3), "steps=-3 is not allowed"),
+    (lambda sim: advance(sim, steps=1.5), "steps=1.5 is not allowed"),
+])
+def test_negative_advances_are_refused_not_silently_ignored(small, call, fragment):
+    sim = Simulator(*small)
+    with pytest.raises(ValueError, match="allowed") as info:
+        call(sim)
+    assert fragment in str(info.value) and sim.step_count == 0
+
+
+def test_advance_by_a_huge_step_count_does_not_build_a_list_first(small):
+    sim = Simulator(*small)
+    assert advance(sim, steps=10**12, on_step=lambda s, k: k == 2) == 2  # no MemoryError: the steps are lazy
+    assert advance(sim, steps=0) == 0
