@@ -16,6 +16,15 @@ class SimulationError(RuntimeError):
         self.quantity = quantity
 
 
+class StepFailed(Exception):
+    """A step could not be completed (the simulator halves the step, retries it shorter or raises
+    SimulationError); ``quantity`` names what failed."""
+
+    def __init__(self, quantity: str, message: str) -> None:
+        super().__init__(message)
+        self.quantity = quantity
+
+
 def is_interrupt(exc: BaseException | None) -> bool:
     """True for a ``KeyboardInterrupt`` (Ctrl-C, or SIGTERM turned into one), also when it surfaced from inside a
     compiled (Numba) call as ``SystemError: ... returned a result with an exception set``: the signal's handler

@@ -38,7 +38,9 @@ from typing import Any
 
 import numpy as np
 from numba import njit
+
 from physics.banded_lu import banded_lu, banded_solve
+from physics.errors import StepFailed
 from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel
 from physics.implicit_residual import assemble_residual, block_max_abs
 from physics.time_integrator import ContractionRate
@@ -390,8 +392,6 @@ class MobilityStep:
 
     def solve(self, q: np.ndarray, y: np.ndarray, h: float):
         """Newton-Krylov from (q, y): (q, r, grad, f, frames) at convergence; ``StepFailed`` otherwise."""
-        from physics.step_solvers import StepFailed
-
         sim = self.sim
         nm, p = sim.numerics, sim.params
         nd = q.size

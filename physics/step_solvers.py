@@ -30,6 +30,7 @@ from physics.contact import add_blocks_to_dense
 from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel
 from physics.geometry import nodes_of
 from physics.hydrodynamics import HydroError, ResistanceOperator
+from physics.errors import StepFailed
 from physics.newton_krylov import KrylovFailed, MobilityStep
 from physics.implicit_residual import (assemble_dense_jacobian, generalised_velocity, rotate_dense_blocks,
                                        rotate_node_blocks)
@@ -55,14 +56,6 @@ class StepSystem(Protocol):
     def frames_at(self, q: np.ndarray) -> tuple: ...
 
     def contact_terms(self, q: np.ndarray) -> tuple: ...
-
-
-class StepFailed(Exception):
-    """A step could not be completed (the simulator halves the step or raises SimulationError)."""
-
-    def __init__(self, quantity: str, message: str) -> None:
-        super().__init__(message)
-        self.quantity = quantity
 
 
 _EYE = np.eye(3)
