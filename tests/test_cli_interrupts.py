@@ -19,7 +19,8 @@ import yaml
 pytest.importorskip("psutil")
 import psutil  # noqa: E402
 
-SHORT = {"name": "short", "waypoints": [[0.01, 0.0, 0.0], [0.01, 0.03, 0.0]], "reach_radius_m": 0.01}
+# long enough that the episode is still running when the signal comes (~1000 simulated s: a minute even at coarse)
+LONG = {"name": "long", "waypoints": [[0.2, 0.0, 0.0], [0.2, 0.2, 0.0]], "reach_radius_m": 0.01}
 ONE_TURN = {"n_waypoints": 1, "segment_length_m": [0.03, 0.04], "min_turn_deg": 70.0, "max_turn_deg": 90.0}
 
 
@@ -73,8 +74,8 @@ def _reap(proc: subprocess.Popen, extra=()) -> None:
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 def test_an_interrupted_follow_writes_the_episode_so_far(tmp_path, sig):
-    path = tmp_path / "short.json"
-    path.write_text(json.dumps(SHORT))
+    path = tmp_path / "long.json"
+    path.write_text(json.dumps(LONG))
     out = tmp_path / "o"
     proc = _cli(["follow", "--path", str(path), "--preset", "coarse", "--out", str(out), "--no-progress"], tmp_path)
     try:
