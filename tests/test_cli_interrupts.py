@@ -34,8 +34,11 @@ def tiny_config(n_envs: int) -> dict:
 
 def _cli(args: list[str], cwd: Path) -> subprocess.Popen:
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
+    # a pytest-xdist worker ignores SIGINT and a child inherits that (then Python installs no KeyboardInterrupt
+    # handler): give the command the default disposition a terminal's foreground process has
     return subprocess.Popen([sys.executable, "-m", "flagellum.cli", *args], cwd=cwd, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
 def _wait_for(proc: subprocess.Popen, ready, deadline_s: float = 180.0) -> None:
