@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from physics.banded_jacobian import add_banded_drag, add_blocks_to_banded, banded_dirichlet
 from physics.banded_lu import banded_lu, banded_solve
 from physics.errors import StepFailed
 from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel
@@ -83,18 +84,6 @@ def contact_matvec_add(nodes: np.ndarray, blocks: np.ndarray, v: np.ndarray, out
                 out[4 * nodes[a, p] + k] += acc
 
 
-@njit(cache=True)
-def block_diag_apply(blocks: np.ndarray, u: np.ndarray, scale: float) -> np.ndarray:
-    """scale * blockdiag(blocks) u for blocks (M, 3, 3) and u (3M,)."""
-    out = np.empty_like(u)
-    for j in range(blocks.shape[0]):
-        for p in range(3):
-            out[3 * j + p] = scale * (blocks[j, p, 0] * u[3 * j] + blocks[j, p, 1] * u[3 * j + 1]
-                                      + blocks[j, p, 2] * u[3 * j + 2])
-    return out
-
-
-@njit(cache=True)
 def preconditioner_band(ab: np.ndarray, mass: np.ndarray, h: float, rloc: np.ndarray, first: int,
                         head_t: float, head_r: float, nodes: np.ndarray, blocks: np.ndarray,
                         prescribed: np.ndarray) -> np.ndarray:
@@ -103,39 +92,14 @@ def preconditioner_band(ab: np.ndarray, mass: np.ndarray, h: float, rloc: np.nda
 
     ab: elastic Hessian (2 bw + 1, n); rloc (M, 3, 3) N s/m for the flagellum nodes, the first of which is
     node ``first``; head_t, head_r: head drag N s/m and N m s (0 without a head / spin)."""
+    band = ab.copy()
+    add_banded_drag(band, mass / (h * h), rloc / h, first, head_t / h, head_r / h)
+    add_blocks_to_banded(band, nodes, blocks)
+    for k in prescribed:
+        banded_dirichlet(band, int(k))
     bw = (ab.shape[0] - 1) // 2
-    n = ab.shape[1]
-    s = np.zeros((n, 3 * bw + 1))
-    d = 2 * bw
-    for j in range(n):
-        for r in range(2 * bw + 1):
-            s[j, bw + r] = ab[r, j]
-        s[j, d] += mass[j] / (h * h)
-    for j in range(rloc.shape[0]):
-        base = 4 * (j + first)
-        for p in range(3):
-            for k in range(3):
-                s[base + k, d + p - k] += rloc[j, p, k] / h
-    if first:
-        for k in range(3):
-            s[k, d] += head_t / h
-        s[3, d] += head_r / h
-    for a in range(nodes.shape[0]):
-        for p in range(4):
-            for q in range(4):
-                for k in range(3):
-                    for m in range(3):
-                        i = 4 * nodes[a, p] + k
-                        jj = 4 * nodes[a, q] + m
-                        if abs(i - jj) <= bw:
-                            s[jj, d + i - jj] += blocks[a, 3 * p + k, 3 * q + m]
-    for kk in range(prescribed.shape[0]):
-        k = prescribed[kk]
-        for j in range(max(0, k - bw), min(n, k + bw + 1)):
-            s[j, d + k - j] = 0.0
-        for i in range(max(0, k - bw), min(n, k + bw + 1)):
-            s[k, d + i - k] = 0.0
-        s[k, d] = 1.0
+    s = np.zeros((ab.shape[1], 3 * bw + 1))
+    s[:, bw:] = band.T
     return s
 
 

@@ -26,6 +26,7 @@ import numpy as np
 from numba import njit
 from scipy.linalg import lapack, lu_factor, solve_banded
 
+from physics.banded_jacobian import add_banded_drag, add_blocks_to_banded, banded_dirichlet
 from physics.contact import add_blocks_to_dense
 from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel
 from physics.geometry import nodes_of
@@ -270,13 +271,13 @@ class BandedNewtonSolver:
         sim = self.sim
         t, d1, d2, rt, m1, m2 = sim.frames_at(q)
         ab = elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *sim.rest_arrays)
-        _add_banded_hydro(ab, sim.mass / h**2, self.blocks / h, self.first,
+        add_banded_drag(ab, sim.mass / h**2, self.blocks / h, self.first,
                           self.drag_t / h, self.drag_r / h if sim.head_spins else 0.0)
         if sim.contact is not None:  # the contact Hessian's node blocks that fit in the band
             _, _, nodes_c, blocks_c = sim.contact_terms(q)
-            _add_blocks_to_banded(ab, nodes_c, blocks_c)
+            add_blocks_to_banded(ab, nodes_c, blocks_c)
         for k in sim.prescribed:
-            _banded_dirichlet(ab, int(k))
+            banded_dirichlet(ab, int(k))
         sim.stats.jacobian_factorisations += 1
         try:
             return solve_banded((BANDWIDTH, BANDWIDTH), ab, r, check_finite=False)
@@ -288,47 +289,3 @@ class BandedNewtonSolver:
 
     def end_step(self) -> None:
         pass
-
-
-@njit(cache=True)
-def _add_banded_hydro(ab: np.ndarray, mass_over_h2: np.ndarray, blocks_over_h: np.ndarray, first: int,
-                      head_t: float, head_r: float) -> None:
-    bw = 10  # BANDWIDTH of physics.elastic
-    for j in range(ab.shape[1]):
-        ab[bw, j] += mass_over_h2[j]
-    for j in range(blocks_over_h.shape[0]):
-        base = 4 * (j + first)
-        for p in range(3):
-            for k in range(3):
-                ab[bw + p - k, base + k] += blocks_over_h[j, p, k]
-    if first:
-        for k in range(3):
-            ab[bw, k] += head_t
-        ab[bw, 3] += head_r
-
-
-@njit(cache=True)
-def _banded_dirichlet(ab: np.ndarray, k: int) -> None:
-    bw = 10  # BANDWIDTH of physics.elastic
-    n = ab.shape[1]
-    for j in range(max(0, k - bw), min(n, k + bw + 1)):
-        ab[bw + k - j, j] = 0.0  # row k
-    for i in range(ab.shape[0]):
-        ab[i, k] = 0.0  # column k
-    ab[bw, k] = 1.0
-
-
-@njit(cache=True)
-def _add_blocks_to_banded(ab: np.ndarray, nodes: np.ndarray, blocks: np.ndarray) -> None:
-    """Add the entries of contact Hessian blocks that lie within the band (others are dropped:
-    a quasi-Newton Jacobian for contact between distant parts of the rod)."""
-    bw = 10  # BANDWIDTH of physics.elastic
-    for a in range(nodes.shape[0]):
-        for p in range(4):
-            for q in range(4):
-                for k in range(3):
-                    for m in range(3):
-                        i = 4 * nodes[a, p] + k
-                        j = 4 * nodes[a, q] + m
-                        if abs(i - j) <= bw:
-                            ab[bw + i - j, j] += blocks[a, 3 * p + k, 3 * q + m]
