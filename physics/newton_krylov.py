@@ -41,10 +41,11 @@ from numba import njit
 
 from physics.banded_jacobian import add_banded_drag, add_blocks_to_banded, banded_dirichlet
 from physics.banded_lu import banded_lu, banded_solve
+from physics.contact import candidate_pairs, contact_kernel, head_candidates, within_reach
 from physics.errors import StepFailed
-from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel
-from physics.implicit_residual import assemble_residual, block_max_abs
-from physics.time_integrator import ContractionRate
+from physics.elastic import BANDWIDTH, elastic_gradient_kernel, elastic_hessian_banded_kernel, rod_frames
+from physics.implicit_residual import assemble_residual, block_max_abs, generalised_velocity
+from physics.time_integrator import NONLINEAR_ERROR_FRACTION, ContractionRate
 
 #: relative residual reduction asked of GMRES for each Newton direction
 GMRES_RTOL = 1e-4
@@ -52,6 +53,9 @@ GMRES_RTOL = 1e-4
 MOBILITY_BAND_NODES = 3
 #: Krylov iterations before a direction is given up (the step then fails and is retried shorter)
 GMRES_MAX_ITER = 60
+
+
+_EYE = np.eye(3)
 
 
 class KrylovFailed(Exception):
@@ -276,6 +280,176 @@ def krylov_direction(b: np.ndarray, rtol: float, max_iter: int, nd: int, vdofs: 
     return np.zeros(n), -1, abs(gv[max_iter]) / beta
 
 
+
+@njit(cache=True)
+def nodes_array(q: np.ndarray) -> np.ndarray:
+    """Node positions (n, 3), m, of the DOF vector q (4n-1,) (``geometry.nodes_of``, contiguous)."""
+    n = (q.shape[0] + 1) // 4
+    x = np.empty((n, 3))
+    for i in range(n):
+        for k in range(3):
+            x[i, k] = q[4 * i + k]
+    return x
+
+
+@njit(cache=True)
+def contact_broad_phase(x: np.ndarray, model: tuple, pad: float) -> tuple[np.ndarray, np.ndarray]:
+    """``ContactModel.broad_phase`` from compiled code: (rod-rod pairs (P, 2), head edges (H,)) at x (n, 3), m.
+    model = (arc, first_rod_edge, min_arc_gap, b, first_head_edge, r0, eps, k) of the ``ContactModel``."""
+    arc, first_rod_edge, min_arc_gap, b, first_head_edge, r0, eps = model[:7]
+    reach = 2.0 * r0 + eps + pad
+    pairs = within_reach(x, candidate_pairs(x, arc, first_rod_edge, min_arc_gap, reach), reach)
+    if b > 0.0:
+        head = head_candidates(x, first_head_edge, b + r0 + eps + pad)
+    else:
+        head = np.zeros(0, dtype=np.int64)
+    return pairs, head
+
+
+@njit(cache=True)
+def internal_forces_at(q: np.ndarray, frames_old: tuple, rest: tuple, contact_on: bool, model: tuple,
+                       cstate: tuple, q_start: np.ndarray, pos: np.ndarray, first_step: bool):
+    """``Simulator.internal_forces`` from compiled code: the gradient of the elastic (eqns 5a-5c) and contact
+    energies at q (ndof,) N and N m, the frames of q, the contact state (redone when q left the padded
+    broad-phase boxes) and the active contacts (energy J, nodes (A, 4), Hessian blocks (A, 12, 12) N/m).
+
+    frames_old = (d1, t, ref_twist) of the step's start; rest = the 7 rest arrays; cstate = (q of the
+    broad phase, its pad m, pairs, head edges, none active)."""
+    d1_old, t_old, rt_old = frames_old
+    l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ = rest
+    t, d1, d2, rt, m1, m2 = rod_frames(q, d1_old, t_old, rt_old)
+    grad = elastic_gradient_kernel(q, d1, d2, rt, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ)
+    cq, pad, pairs, head, none = cstate
+    e_c = 0.0
+    nodes_c = np.zeros((0, 4), dtype=np.int64)
+    blocks_c = np.zeros((0, 12, 12))
+    if contact_on:
+        if block_max_abs(q - cq, pos) > 0.5 * pad:  # the iterate left the padded boxes: redo the broad phase
+            x = nodes_array(q)
+            move = 0.0 if first_step else block_max_abs(q - q_start, pos)
+            pad = max(0.5 * model[5], 2.0 * move)
+            pairs, head = contact_broad_phase(x, model, pad)
+            none = pairs.shape[0] == 0 and head.shape[0] == 0
+            cq = q.copy()
+        if not none:
+            e_c, g_c, nodes_c, blocks_c = contact_kernel(nodes_array(q), pairs, model[3], head, model[5],
+                                                         model[6], model[7])
+            if nodes_c.shape[0]:
+                for k in range(3):
+                    grad[k::4] += g_c[k::3]
+    return grad, (t, d1, d2, rt, m1, m2), (cq, pad, pairs, head, none), e_c, nodes_c, blocks_c
+
+
+@njit(cache=True)
+def mobility_residual(q: np.ndarray, y: np.ndarray, h: float, grad: np.ndarray, base: tuple, system: tuple,
+                      hydro: tuple):
+    """(r_q (ndof,) N / N m, r_y (3M,) N, f (ndof,), inertia (ndof,)) at (q, y) for the internal forces grad
+    (module doc). base = (q^, v^, h_e); system = (mass, vdofs, prescribed, spin, omega);
+    hydro = (A, H, g, Kh, drag_t, drag_r, has_head, spin, sigma)."""
+    q_hat, v_hat, h_eff = base
+    mass, vdofs, prescribed, head_spins, omega = system[:5]
+    A, H, g, Kh, drag_t, drag_r, has_head, spin, sigma = hydro
+    V = generalised_velocity(q, q_hat, h, vdofs, head_spins, omega, _EYE)
+    G = -drag_and_coupling(V, y, Kh, g, drag_t, drag_r, has_head, spin)
+    r, f, inertia = assemble_residual(q, q_hat, v_hat, h_eff, mass, grad, G, _EYE, vdofs, head_spins, prescribed)
+    r_y = sigma * (A @ y - head_flow_apply(V, H, g, has_head, spin))
+    return r, r_y, f, inertia
+
+
+@njit(cache=True)
+def forces_converged(r: np.ndarray, grad: np.ndarray, f: np.ndarray, inertia: np.ndarray, pos: np.ndarray,
+                     free_twist: np.ndarray, tol: float, f_floor: float, r0: float) -> bool:
+    """``Simulator._converged``: the force residual below tol relative to the largest force term, per block."""
+    s_pos = max(block_max_abs(grad, pos), block_max_abs(f, pos), block_max_abs(inertia, pos), f_floor)
+    if block_max_abs(r, pos) > tol * s_pos:
+        return False
+    s_tw = max(block_max_abs(grad, free_twist), block_max_abs(f, free_twist), block_max_abs(inertia, free_twist),
+               f_floor * r0)
+    return block_max_abs(r, free_twist) <= tol * s_tw
+
+
+_RATE_MAX_AGE = ContractionRate.MAX_AGE
+#: outcome codes of ``newton_krylov_loop``
+CONVERGED, NONFINITE_RESIDUAL, KRYLOV_FAILED, NEWTON_FAILED = 0, 1, 2, 3
+
+
+@njit(cache=True)
+def newton_krylov_loop(q: np.ndarray, y: np.ndarray, h: float, q_start: np.ndarray, frames_old: tuple, rest: tuple,
+                       base: tuple, system: tuple, hydro: tuple, contact_on: bool, model: tuple, cstate: tuple,
+                       first_step: bool, precond: tuple, ab0: np.ndarray, tols: tuple, rate: tuple):
+    """The Newton-Krylov iteration of one step, entirely compiled: from (q, y) (the predictor and the last
+    forces), each iteration the residual, the convergence tests, a GMRES direction with the Jacobian at the
+    iterate (the elastic Hessian ab0 at the predictor is reused for the first), the update.
+
+    system = (mass, vdofs, prescribed, spin, omega, pos, twist, free_twist, weights); precond = (lu, piv, alu,
+    apiv, abw); tols = (newton_tol, newton_max_iter, step_tol, f_floor, r0); rate = (rho, age) of the
+    ``ContractionRate`` (used when step_tol > 0). Returns (code, q, y, r, grad, f, frames, cstate, (contact
+    energy, count), (residuals evaluated in the loop, GMRES iterations), (rho, age), value): value = the GMRES
+    relative residual reached (KRYLOV_FAILED) or the max force residual (NEWTON_FAILED)."""
+    mass, vdofs, prescribed, head_spins, omega, pos, twist, free_twist, weights = system
+    A, H, g, Kh, drag_t, drag_r, has_head, spin, sigma = hydro
+    lu, piv, alu, apiv, abw = precond
+    newton_tol, max_iter, step_tol, f_floor, r0 = tols
+    rho, age = rate
+    nd = q.shape[0]
+    l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ = rest
+    mass_h2 = mass / (h * h)
+    step_scale = max(block_max_abs(q - q_start, pos), 1e-6 * r0)
+    adaptive = step_tol > 0.0
+    prev = -1.0  # the last correction's size (ContractionRate), none yet
+    if adaptive:
+        age += 1
+    evaluated = 0
+    krylov_its = 0
+    q = q.copy()
+    y = y.copy()
+    grad, fr, cstate, e_c, nodes_c, blocks_c = internal_forces_at(q, frames_old, rest, contact_on, model, cstate,
+                                                                  q_start, pos, first_step)
+    r, r_y, f, inertia = mobility_residual(q, y, h, grad, base, system, hydro)
+    for it in range(max_iter):
+        evaluated += 1
+        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(r_y))):
+            return (NONFINITE_RESIDUAL, q, y, r, grad, f, fr, cstate, (e_c, nodes_c.shape[0]),
+                    (evaluated, krylov_its), (rho, age), 0.0)
+        y_scale = max(np.abs(f).max(), f_floor)
+        if (forces_converged(r, grad, f, inertia, pos, free_twist, newton_tol, f_floor, r0)
+                and np.abs(r_y).max() <= newton_tol * y_scale):
+            return (CONVERGED, q, y, r, grad, f, fr, cstate, (e_c, nodes_c.shape[0]), (evaluated, krylov_its),
+                    (rho, age), 0.0)
+        t, d1, d2, rt, m1, m2 = fr
+        ab = ab0 if it == 0 else elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, l_bar, l_vor, kappa_bar,
+                                                               twist_bar, EA, EI, GJ)
+        rhs = np.concatenate((r, r_y))
+        z, its, reached = krylov_direction(rhs, GMRES_RTOL, GMRES_MAX_ITER, nd, vdofs, prescribed, mass_h2, ab,
+                                           nodes_c, blocks_c, h, sigma, A, H, g, Kh, drag_t, drag_r, has_head,
+                                           spin, lu, piv, alu, apiv, abw)
+        if its < 0:
+            return (KRYLOV_FAILED, q, y, r, grad, f, fr, cstate, (e_c, nodes_c.shape[0]), (evaluated, krylov_its),
+                    (rho, age), reached)
+        krylov_its += its
+        dq = z[:nd]
+        q = q - dq
+        y = y - z[nd:]
+        dz = block_max_abs(dq, pos)
+        converged = (it >= 1 and dz <= max(newton_tol * step_scale, 1e-10 * r0)
+                     and block_max_abs(dq, twist) <= max(newton_tol, 1e-10))
+        if adaptive and not converged:  # ContractionRate.converged
+            size = np.max(np.abs(dq) * weights) / step_tol
+            if prev > 0.0:
+                rho = max(0.3 * rho, size / prev)
+                age = 0
+            prev = size
+            rho_now = rho if age < _RATE_MAX_AGE else 1.0
+            converged = size * min(1.0, rho_now) <= NONLINEAR_ERROR_FRACTION
+        grad, fr, cstate, e_c, nodes_c, blocks_c = internal_forces_at(q, frames_old, rest, contact_on, model,
+                                                                      cstate, q_start, pos, first_step)
+        r, r_y, f, inertia = mobility_residual(q, y, h, grad, base, system, hydro)
+        if converged:
+            return (CONVERGED, q, y, r, grad, f, fr, cstate, (e_c, nodes_c.shape[0]), (evaluated, krylov_its),
+                    (rho, age), 0.0)
+    return (NEWTON_FAILED, q, y, r, grad, f, fr, cstate, (e_c, nodes_c.shape[0]), (evaluated, krylov_its),
+            (rho, age), np.abs(r).max())
+
 class MobilityStep:
     """The mobility-form system of one step: the resistance operator's pieces (A, H, g, head drag) at the
     predicted geometry, the local resistance and the banded preconditioner. Built by ``begin``;
@@ -308,7 +482,7 @@ class MobilityStep:
         x = np.ascontiguousarray(sim.nodes_at(q_pred)[self.first:])
         self.rloc = rft_blocks(x, *self.zeta)
         t, d1, d2, rt, m1, m2 = sim.frames_at(q_pred)
-        ab = elastic_hessian_banded_kernel(q_pred, d1, d2, rt, m1, m2, *sim.rest_arrays)
+        ab = self.ab = elastic_hessian_banded_kernel(q_pred, d1, d2, rt, m1, m2, *sim.rest_arrays)
         nodes_c, blocks_c = sim.contact_hessian(q_pred)
         s = preconditioner_band(ab, sim.mass, h, self.rloc, self.first, self.drag_t, self.drag_r, nodes_c,
                                 blocks_c, sim.prescribed)
@@ -355,41 +529,48 @@ class MobilityStep:
                                 self.apiv, self.abw)
 
     def solve(self, q: np.ndarray, y: np.ndarray, h: float):
-        """Newton-Krylov from (q, y): (q, r, grad, f, frames) at convergence; ``StepFailed`` otherwise."""
-        sim = self.sim
+        """Newton-Krylov from (q, y), one compiled call (``newton_krylov_loop``): (q, r, grad, f, frames) at
+        convergence; ``StepFailed`` otherwise. Updates the simulator's contact state and counters."""
+        sim, hyd = self.sim, self.hyd
         nm, p = sim.numerics, sim.params
-        nd = q.size
-        step_scale = max(block_max_abs(q - sim.q, sim._pos), 1e-6 * p.rod_radius)
-        rate = self.contraction if nm.step_tol > 0.0 else None
-        if rate is not None:
-            rate.start()
-        for it in range(nm.newton_max_iter):
-            r, r_y, grad, f, inertia, frames = self.residual(q, y, h)
-            sim.stats.newton_iterations += 1
-            if not (np.all(np.isfinite(r)) and np.all(np.isfinite(r_y))):
-                raise StepFailed("residual", "non-finite (NaN/inf) force residual")
-            y_scale = max(float(np.abs(f).max()), sim._f_floor)
-            if sim._converged(r, grad, f, inertia) and float(np.abs(r_y).max()) <= nm.newton_tol * y_scale:
-                return q, r, grad, f, frames
-            t0 = time.perf_counter()
-            z, its, reached = self.direction(q, h, np.concatenate([r, r_y]))
-            sim.stats.time_linear_solve += time.perf_counter() - t0
-            if its < 0:
-                raise StepFailed("Newton-Krylov", f"GMRES reached {reached:.2e} of the initial residual after "
-                                                  f"{GMRES_MAX_ITER} iterations (asked {GMRES_RTOL:g})")
-            sim.stats.krylov_iterations += its
-            q = q - z[:nd]
-            y = y - z[nd:]
-            dz = block_max_abs(z[:nd], sim._pos)
-            converged = (it >= 1 and dz <= max(nm.newton_tol * step_scale, 1e-10 * p.rod_radius)
-                         and block_max_abs(z[:nd], sim._twist) <= max(nm.newton_tol, 1e-10))
-            if rate is not None and not converged:
-                converged = rate.converged(sim.correction_size(z[:nd]) / nm.step_tol)
-            if converged:
-                r, r_y, grad, f, inertia, frames = self.residual(q, y, h)
-                return q, r, grad, f, frames
-        raise StepFailed("Newton", f"Newton-Krylov did not converge after {nm.newton_max_iter} iterations "
-                                   f"(max force residual {np.abs(r).max():.3e})")
+        b = sim._base
+        system = (sim.mass, sim.vdofs, sim.prescribed, sim.head_spins, sim.omega, sim._pos, sim._twist,
+                  sim._free_twist, sim._anderson_weights)
+        hydro = (hyd.a, self.H, self.g, self.Kh, self.drag_t, self.drag_r, hyd.has_head, hyd.spin, self.sigma)
+        contact = sim.contact
+        if contact is not None:
+            model = (contact.arc, contact.first_rod_edge, contact.min_arc_gap, contact.b, contact.first_head_edge,
+                     contact.r0, contact.eps, contact.k)
+            pairs, head = sim._contact_candidates
+            cstate = (sim._contact_q, sim._contact_pad, pairs, head, sim._contact_none)
+        else:
+            model, cstate = _NO_CONTACT_MODEL, (q, 0.0, *_NO_CANDIDATES, True)
+        rate = self.contraction
+        code, q, y, r, grad, f, frames, cstate, (e_c, count), (evaluated, its), (rate.rho, rate._age), value = (
+            newton_krylov_loop(q, y, h, sim.q, (sim.d1, sim.tangent, sim.ref_twist), sim.rest_arrays,
+                               (b.q_hat, b.v_hat, b.h_eff), system, hydro, contact is not None, model, cstate,
+                               sim.step_count == 0, (self.lu, self.piv, self.alu, self.apiv, self.abw), self.ab,
+                               (nm.newton_tol, nm.newton_max_iter, nm.step_tol, sim._f_floor, p.rod_radius),
+                               (rate.rho, rate._age)))
+        sim.stats.newton_iterations += evaluated
+        sim.stats.krylov_iterations += its
+        if contact is not None:
+            sim._contact_q, sim._contact_pad, pairs, head, sim._contact_none = cstate
+            sim._contact_candidates = (pairs, head)
+            sim._last_contact = (e_c, count)
+        if code == NONFINITE_RESIDUAL:
+            raise StepFailed("residual", "non-finite (NaN/inf) force residual")
+        if code == KRYLOV_FAILED:
+            raise StepFailed("Newton-Krylov", f"GMRES reached {value:.2e} of the initial residual after "
+                                              f"{GMRES_MAX_ITER} iterations (asked {GMRES_RTOL:g})")
+        if code == NEWTON_FAILED:
+            raise StepFailed("Newton", f"Newton-Krylov did not converge after {nm.newton_max_iter} iterations "
+                                       f"(max force residual {value:.3e})")
+        t, d1, d2, rt, m1, m2 = frames
+        return q, r, grad, f, (t, d1, rt)
 
 
-_EYE = np.eye(3)
+
+
+_NO_CONTACT_MODEL = (np.zeros(1), 0, 0.0, 0.0, 0, 0.0, 0.0, 0.0)
+_NO_CANDIDATES = (np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64))
