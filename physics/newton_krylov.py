@@ -28,6 +28,9 @@ contact blocks where they fall inside the band): one banded LU per step (LAPACK 
 solves and two block-diagonal products per application.
 
 Prescribed DOFs (the motor's Dirichlet twist) are identity rows and columns, as in the direct solver.
+
+The whole iteration of a step (residual, contact, convergence tests, GMRES directions) is one compiled call
+(``newton_krylov_loop``); Python only sets up the step's operators (``MobilityStep.begin``).
 """
 
 from __future__ import annotations
@@ -344,7 +347,8 @@ def internal_forces_at(q: np.ndarray, frames_old: tuple, rest: tuple, contact_on
 def mobility_residual(q: np.ndarray, y: np.ndarray, h: float, grad: np.ndarray, base: tuple, system: tuple,
                       hydro: tuple):
     """(r_q (ndof,) N / N m, r_y (3M,) N, f (ndof,), inertia (ndof,)) at (q, y) for the internal forces grad
-    (module doc). base = (q^, v^, h_e); system = (mass, vdofs, prescribed, spin, omega);
+    (module doc). base = (q^, v^, h_e); system = (mass, vdofs, prescribed, spin, omega, ...) as in
+    ``newton_krylov_loop``;
     hydro = (A, H, g, Kh, drag_t, drag_r, has_head, spin, sigma)."""
     q_hat, v_hat, h_eff = base
     mass, vdofs, prescribed, head_spins, omega = system[:5]
@@ -500,15 +504,23 @@ class MobilityStep:
 
     def residual(self, q: np.ndarray, y: np.ndarray, h: float):
         """(r_q (ndof,) N / N m, r_y (3M,) N, grad (ndof,), f (ndof,), inertia (ndof,), frames) at (q, y)."""
-        sim, hyd = self.sim, self.hyd
+        sim = self.sim
         grad, frames = sim.internal_forces(q)
-        b = sim._base
-        V = sim.generalised_velocity(q, h)
-        G = -drag_and_coupling(V, y, self.Kh, self.g, self.drag_t, self.drag_r, hyd.has_head, hyd.spin)
-        r, f, inertia = assemble_residual(q, b.q_hat, b.v_hat, b.h_eff, sim.mass, grad, G, _EYE, sim.vdofs,
-                                          sim.head_spins, sim.prescribed)
-        r_y = self.sigma * (hyd.a @ y - head_flow_apply(V, self.H, self.g, hyd.has_head, hyd.spin))
+        r, r_y, f, inertia = mobility_residual(q, y, h, grad, self._base(), self._system(), self._hydro())
         return r, r_y, grad, f, inertia, frames
+
+    def _base(self) -> tuple:
+        b = self.sim._base
+        return b.q_hat, b.v_hat, b.h_eff
+
+    def _system(self) -> tuple:
+        sim = self.sim
+        return (sim.mass, sim.vdofs, sim.prescribed, sim.head_spins, sim.omega, sim._pos, sim._twist,
+                sim._free_twist, sim._anderson_weights)
+
+    def _hydro(self) -> tuple:
+        hyd = self.hyd
+        return hyd.a, self.H, self.g, self.Kh, self.drag_t, self.drag_r, hyd.has_head, hyd.spin, self.sigma
 
     def _jacobian_arrays(self, q: np.ndarray, h: float) -> tuple:
         sim, hyd = self.sim, self.hyd
@@ -531,12 +543,8 @@ class MobilityStep:
     def solve(self, q: np.ndarray, y: np.ndarray, h: float):
         """Newton-Krylov from (q, y), one compiled call (``newton_krylov_loop``): (q, r, grad, f, frames) at
         convergence; ``StepFailed`` otherwise. Updates the simulator's contact state and counters."""
-        sim, hyd = self.sim, self.hyd
+        sim = self.sim
         nm, p = sim.numerics, sim.params
-        b = sim._base
-        system = (sim.mass, sim.vdofs, sim.prescribed, sim.head_spins, sim.omega, sim._pos, sim._twist,
-                  sim._free_twist, sim._anderson_weights)
-        hydro = (hyd.a, self.H, self.g, self.Kh, self.drag_t, self.drag_r, hyd.has_head, hyd.spin, self.sigma)
         contact = sim.contact
         if contact is not None:
             model = (contact.arc, contact.first_rod_edge, contact.min_arc_gap, contact.b, contact.first_head_edge,
@@ -548,7 +556,7 @@ class MobilityStep:
         rate = self.contraction
         code, q, y, r, grad, f, frames, cstate, (e_c, count), (evaluated, its), (rate.rho, rate._age), value = (
             newton_krylov_loop(q, y, h, sim.q, (sim.d1, sim.tangent, sim.ref_twist), sim.rest_arrays,
-                               (b.q_hat, b.v_hat, b.h_eff), system, hydro, contact is not None, model, cstate,
+                               self._base(), self._system(), self._hydro(), contact is not None, model, cstate,
                                sim.step_count == 0, (self.lu, self.piv, self.alu, self.apiv, self.abw), self.ab,
                                (nm.newton_tol, nm.newton_max_iter, nm.step_tol, sim._f_floor, p.rod_radius),
                                (rate.rho, rate._age)))
