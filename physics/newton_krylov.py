@@ -386,14 +386,15 @@ def newton_krylov_loop(q: np.ndarray, y: np.ndarray, h: float, q_start: np.ndarr
     iterate (the elastic Hessian ab0 at the predictor is reused for the first), the update.
 
     system = (mass, vdofs, prescribed, spin, omega, pos, twist, free_twist, weights); precond = (lu, piv, alu,
-    apiv, abw); tols = (newton_tol, newton_max_iter, step_tol, f_floor, r0); rate = (rho, age) of the
+    apiv, abw); tols = (newton_tol, newton_max_iter, step_tol, f_floor, r0, GMRES relative tolerance,
+    GMRES iteration limit); rate = (rho, age) of the
     ``ContractionRate`` (used when step_tol > 0). Returns (code, q, y, r, grad, f, frames, cstate, (contact
     energy, count), (residuals evaluated in the loop, GMRES iterations), (rho, age), value): value = the GMRES
     relative residual reached (KRYLOV_FAILED) or the max force residual (NEWTON_FAILED)."""
     mass, vdofs, prescribed, head_spins, omega, pos, twist, free_twist, weights = system
     A, H, g, Kh, drag_t, drag_r, has_head, spin, sigma = hydro
     lu, piv, alu, apiv, abw = precond
-    newton_tol, max_iter, step_tol, f_floor, r0 = tols
+    newton_tol, max_iter, step_tol, f_floor, r0, gmres_rtol, gmres_max_iter = tols
     rho, age = rate
     nd = q.shape[0]
     l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ = rest
@@ -424,7 +425,7 @@ def newton_krylov_loop(q: np.ndarray, y: np.ndarray, h: float, q_start: np.ndarr
         ab = ab0 if it == 0 else elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, l_bar, l_vor, kappa_bar,
                                                                twist_bar, EA, EI, GJ)
         rhs = np.concatenate((r, r_y))
-        z, its, reached = krylov_direction(rhs, GMRES_RTOL, GMRES_MAX_ITER, nd, vdofs, prescribed, mass_h2, ab,
+        z, its, reached = krylov_direction(rhs, gmres_rtol, gmres_max_iter, nd, vdofs, prescribed, mass_h2, ab,
                                            nodes_c, blocks_c, h, sigma, A, H, g, Kh, drag_t, drag_r, has_head,
                                            spin, lu, piv, alu, apiv, abw)
         if its < 0:
@@ -558,7 +559,8 @@ class MobilityStep:
             newton_krylov_loop(q, y, h, sim.q, (sim.d1, sim.tangent, sim.ref_twist), sim.rest_arrays,
                                self._base(), self._system(), self._hydro(), contact is not None, model, cstate,
                                sim.step_count == 0, (self.lu, self.piv, self.alu, self.apiv, self.abw), self.ab,
-                               (nm.newton_tol, nm.newton_max_iter, nm.step_tol, sim._f_floor, p.rod_radius),
+                               (nm.newton_tol, nm.newton_max_iter, nm.step_tol, sim._f_floor, p.rod_radius,
+                                GMRES_RTOL, GMRES_MAX_ITER),
                                (rate.rho, rate._age)))
         sim.stats.newton_iterations += evaluated
         sim.stats.krylov_iterations += its
