@@ -48,6 +48,7 @@ from physics.contact import candidate_pairs, contact_kernel, head_candidates, wi
 from physics.errors import StepFailed
 from physics.elastic import BANDWIDTH, elastic_gradient_kernel, elastic_hessian_banded_kernel, rod_frames
 from physics.implicit_residual import assemble_residual, block_max_abs, generalised_velocity
+from physics.rft import rft_blocks
 from physics.time_integrator import NONLINEAR_ERROR_FRACTION, ContractionRate
 
 #: relative residual reduction asked of GMRES for each Newton direction
@@ -91,6 +92,7 @@ def contact_matvec_add(nodes: np.ndarray, blocks: np.ndarray, v: np.ndarray, out
                 out[4 * nodes[a, p] + k] += acc
 
 
+@njit(cache=True)
 def preconditioner_band(ab: np.ndarray, mass: np.ndarray, h: float, rloc: np.ndarray, first: int,
                         head_t: float, head_r: float, nodes: np.ndarray, blocks: np.ndarray,
                         prescribed: np.ndarray) -> np.ndarray:
@@ -103,11 +105,33 @@ def preconditioner_band(ab: np.ndarray, mass: np.ndarray, h: float, rloc: np.nda
     add_banded_drag(band, mass / (h * h), rloc / h, first, head_t / h, head_r / h)
     add_blocks_to_banded(band, nodes, blocks)
     for k in prescribed:
-        banded_dirichlet(band, int(k))
+        banded_dirichlet(band, k)
     bw = (ab.shape[0] - 1) // 2
     s = np.zeros((ab.shape[1], 3 * bw + 1))
     s[:, bw:] = band.T
     return s
+
+
+@njit(cache=True)
+def preconditioner_factors(q: np.ndarray, frames_old: tuple, rest: tuple, mass: np.ndarray, h: float,
+                           zeta_perp: float, zeta_par: float, first: int, head_t: float, head_r: float,
+                           nodes_c: np.ndarray, blocks_c: np.ndarray, prescribed: np.ndarray, A: np.ndarray,
+                           abw: int):
+    """The preconditioner of a step at the predictor q, compiled: the elastic Hessian at q (ab, banded), the
+    banded LU of S (``preconditioner_band``; local RFT drag with Lighthill's coefficients zeta N s/m^2) and
+    the banded LU of the mobility's band within abw of the diagonal. Returns (ab, (lu, piv, info),
+    (alu, apiv, ainfo)): info / ainfo = j + 1 if pivot j is zero."""
+    d1_old, t_old, rt_old = frames_old
+    l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ = rest
+    x = nodes_array(q)
+    rloc = rft_blocks(np.ascontiguousarray(x[first:]), zeta_perp, zeta_par)
+    t, d1, d2, rt, m1, m2 = rod_frames(q, d1_old, t_old, rt_old)
+    ab = elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ)
+    lu = preconditioner_band(ab, mass, h, rloc, first, head_t, head_r, nodes_c, blocks_c, prescribed)
+    piv, info = banded_lu(lu, BANDWIDTH, BANDWIDTH)
+    alu = band_of(A, abw)
+    apiv, ainfo = banded_lu(alu, abw, abw)
+    return ab, (lu, piv, info), (alu, apiv, ainfo)
 
 
 @njit(cache=True)
@@ -471,8 +495,6 @@ class MobilityStep:
 
     def begin(self, hyd: Any, q_pred: np.ndarray, h: float) -> None:
         """Take the resistance operator ``hyd`` (built at q_pred) and factorise the preconditioner at q_pred, h."""
-        from physics.rft import rft_blocks
-
         sim = self.sim
         self.hyd = hyd
         t0 = time.perf_counter()
@@ -484,22 +506,16 @@ class MobilityStep:
         else:
             self.H, self.g, self.Kh = np.zeros((m3, 3)), np.zeros(m3), np.zeros((3, m3))
             self.drag_t = self.drag_r = 0.0
-        x = np.ascontiguousarray(sim.nodes_at(q_pred)[self.first:])
-        self.rloc = rft_blocks(x, *self.zeta)
-        t, d1, d2, rt, m1, m2 = sim.frames_at(q_pred)
-        ab = self.ab = elastic_hessian_banded_kernel(q_pred, d1, d2, rt, m1, m2, *sim.rest_arrays)
         nodes_c, blocks_c = sim.contact_hessian(q_pred)
-        s = preconditioner_band(ab, sim.mass, h, self.rloc, self.first, self.drag_t, self.drag_r, nodes_c,
-                                blocks_c, sim.prescribed)
-        self.piv, info = banded_lu(s, BANDWIDTH, BANDWIDTH)
+        self.abw = 3 * MOBILITY_BAND_NODES + 2
+        self.ab, (self.lu, self.piv, info), (self.alu, self.apiv, ainfo) = preconditioner_factors(
+            q_pred, (sim.d1, sim.tangent, sim.ref_twist), sim.rest_arrays, sim.mass, h, *self.zeta, self.first,
+            self.drag_t, self.drag_r, nodes_c, blocks_c, sim.prescribed, hyd.a, self.abw)
         if info != 0:
             raise KrylovFailed(f"banded preconditioner is singular (pivot {info} is zero)")
-        self.lu, self.h = s, h
-        self.abw = 3 * MOBILITY_BAND_NODES + 2
-        self.alu = band_of(hyd.a, self.abw)
-        self.apiv, info = banded_lu(self.alu, self.abw, self.abw)
-        if info != 0:
-            raise KrylovFailed(f"banded mobility of the preconditioner is singular (pivot {info} is zero)")
+        if ainfo != 0:
+            raise KrylovFailed(f"banded mobility of the preconditioner is singular (pivot {ainfo} is zero)")
+        self.h = h
         sim.stats.preconditioner_factorisations += 1
         sim.stats.time_jacobian_refresh += time.perf_counter() - t0
 
