@@ -12,9 +12,9 @@ import argparse
 import time
 from pathlib import Path
 
-from flagellum.fidelity import (FULL_METRICS, LADDER, QUICK_METRICS, REPORT_NOTES, load_done, missing_tasks,
+from flagellum_bench.fidelity import (FULL_METRICS, LADDER, QUICK_METRICS, REPORT_NOTES, load_done, missing_tasks,
                                 rows_from, run_fidelity)
-from flagellum.fidelity_report import write_report
+from flagellum_bench.report import write_report
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,4 +1,4 @@
-"""Table, JSON and Pareto plot of the fidelity ladder (``flagellum.fidelity``)."""
+"""Table, JSON and Pareto plot of the fidelity ladder (``flagellum_bench.fidelity``)."""
 
 from __future__ import annotations
 
