@@ -83,18 +83,30 @@ def turn_map_figure(tmap: TurnMap, title: str = "") -> Figure:
         t = [p.t_c for p in pts]
         ax.plot(t, [p.theta_deg for p in pts], "o", ms=3, color="tab:blue", alpha=0.6)
         ax.plot(t, [p.phi_deg for p in pts], "s", ms=3, alpha=0.7, label=f"φ, burst at phase {ph:g}°")
-    ax.plot(tc, th, "-", color="tab:blue", lw=1.6, label="θ (mean over phases)")
+    if len(phases) > 1:  # the spread over phases: theta from its lowest to its highest value at each t_c
+        lo = np.array([min(p.theta_deg for p in tmap.points if p.t_c == t) for t in tc])
+        hi = np.array([max(p.theta_deg for p in tmap.points if p.t_c == t) for t in tc])
+        ax.errorbar(tc, th, yerr=[th - lo, hi - th], fmt="-", color="tab:blue", lw=1.6, capsize=3,
+                    label=f"θ, mean over {len(phases)} phases (bars: lowest to highest)")
+    else:
+        ax.plot(tc, th, "-", color="tab:blue", lw=1.6, label=f"θ (one phase, {phases[0]:g}°: no spread)")
     ax.axhline(154.0, color="gray", ls=":", lw=1.0, label="paper: max θ = 154°")
     ax.set_xlabel("burst length t_c (s)")
     ax.set_ylabel("angle (deg)")
-    ax.legend(fontsize="x-small", loc="lower right")
+    ax.legend(fontsize="x-small", loc="upper left")
     top = ax.secondary_xaxis("top", functions=(lambda t: t / t_scale, lambda tb: tb * t_scale))
     top.set_xlabel("t̄_c = t_c EI / (μ L⁴)")
     tc2, psi, spread = tmap.psi_curve()
-    axp.errorbar(tc2, psi, yerr=spread, fmt="o-", ms=3, capsize=2)
+    if len(phases) > 1:
+        axp.errorbar(tc2, psi, yerr=spread, fmt="o-", ms=3, capsize=3)
+        axp.set_title(f"turn direction relative to the phase node (bars: largest deviation over {len(phases)} "
+                      "phases)", fontsize="small")
+    else:
+        axp.plot(tc2, psi, "o-", ms=3)
+        axp.set_title(f"turn direction relative to the phase node (one phase, {phases[0]:g}°: no spread)",
+                      fontsize="small")
     axp.set_xlabel("burst length t_c (s)")
     axp.set_ylabel("ψ: turn azimuth rel. to flagellum phase (deg)")
-    axp.set_title("turn direction relative to the phase node (± spread over phases)", fontsize="small")
     if title:
         fig.suptitle(title)
     fig.tight_layout()
