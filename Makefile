@@ -5,6 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 # The PyTorch this repository is tested with, installed before the package: the CPU build (a plain `torch`
 # would pull a multi-GB CUDA build). The package's [rl] extra asks only for a range (pyproject.toml).
+# [video] (moviepy 1.x, for RecordVideo) is installed here so that its test runs (pyproject.toml: why 1.x).
 TORCH_PIN := torch==2.13.0
 
 .PHONY: install test demo clean
@@ -16,7 +17,7 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --upgrade pip
 	$(BIN)/python -m pip install $(TORCH_PIN)
-	$(BIN)/python -m pip install -e ".[test,rl]"
+	$(BIN)/python -m pip install -e ".[test,rl,video]"
 	touch $(STAMP)
 
 test: install

@@ -1,7 +1,7 @@
 """Where tasks run: a local process pool or a Dask distributed cluster.
 
 Both offer the same four calls, used by ``batch.pool.run_tasks`` (sweeps, turn calibration,
-evaluation) and ``flagellum.fidelity.run_fidelity`` (``flagellum bench``): ``submit(task)`` ->
+evaluation) and ``flagellum_bench.fidelity.run_fidelity`` (``flagellum bench``): ``submit(task)`` ->
 future, ``as_completed(futures)`` -> futures as they finish, ``abort(futures)`` (Ctrl-C:
 drop what has not finished) and ``close()``. Futures answer ``result()`` with a
 ``PointOutcome``, or raise when the infrastructure failed (a worker process died).

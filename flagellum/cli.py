@@ -23,7 +23,7 @@ from flagellum.commands.common import DEFAULT_PRESET_ARG, UsageError, add_common
 PROG = "flagellum"
 #: Optional dependencies (top-level module -> (the package's extra that installs it, what it is)).
 OPTIONAL_MODULES = {"stable_baselines3": ("rl", "stable-baselines3"), "torch": ("rl", "PyTorch"),
-                    "tensorboard": ("rl", "tensorboard"), "moviepy": ("rl", "moviepy"), "rich": ("rl", "rich"),
+                    "tensorboard": ("rl", "tensorboard"), "moviepy": ("video", "moviepy"), "rich": ("rl", "rich"),
                     "distributed": ("cluster", "dask.distributed"), "dask": ("cluster", "dask")}
 
 

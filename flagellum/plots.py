@@ -10,6 +10,7 @@ from matplotlib.figure import Figure
 
 from flagellum_env.render import set_equal_3d
 from physics.run import Trajectory
+from physics.schedule import MotorSchedule
 
 M_TO_CM = 100.0
 
@@ -47,6 +48,19 @@ def trajectory_figure(traj: Trajectory, head_radius_m: float = 0.0, title: str |
     if title:
         ax.set_title(title)
     return fig
+
+
+def schedule_label(schedule: MotorSchedule, duration_s: float | None = None, max_steps: int = 4) -> str:
+    """The motor schedule in words for a plot title: "omega = 60 rpm" for a constant speed, "omega: 10 → 90 rpm at
+    t = 10 s" for steps (those that start before ``duration_s``); more than ``max_steps`` steps are summarised."""
+    steps = [(t, w) for t, w in schedule.steps if duration_s is None or t < duration_s or t == 0.0]
+    if len(steps) == 1:
+        return f"omega = {steps[0][1]:.4g} rpm"
+    speeds = " → ".join(f"{w:.4g}" for _, w in steps[:max_steps])
+    times = ", ".join(f"{t:.4g}" for t, _ in steps[1:max_steps])
+    if len(steps) > max_steps:
+        return f"omega: {speeds} → … rpm at t = {times}, … s ({len(steps)} steps)"
+    return f"omega: {speeds} rpm at t = {times} s"
 
 
 def save_trajectory_plot(traj: Trajectory, path: str | Path, head_radius_m: float = 0.0,

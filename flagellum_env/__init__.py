@@ -6,7 +6,7 @@
     import flagellum_env  # noqa: F401  (registers the ids)
 
     env = gym.make("FlagellumSteer-v0", path="random")         # the default preset, faithful
-    env = gym.make("FlagellumSteer-coarse-v0", path="random")  # the cheap one (it turns differently)
+    env = gym.make("FlagellumSteer-fast-v0", path="random")  # a looser step tolerance than the default
 
 | id                         | what                                               | preset   |
 |----------------------------|----------------------------------------------------|----------|

@@ -39,6 +39,20 @@ class Scene:
     path_name: str
 
 
+def _legend_handles() -> list:
+    """What each mark of a frame is (the same in both views)."""
+    from matplotlib.lines import Line2D
+
+    return [Line2D([], [], ls="--", color="0.6", lw=1.0, label="path"),
+            Line2D([], [], ls="", marker="x", color="k", ms=5, label="start"),
+            Line2D([], [], ls="", marker="o", color="tab:green", ms=5, label="waypoint reached"),
+            Line2D([], [], ls="", marker="o", mfc="none", color="tab:red", ms=5, label="waypoint to reach"),
+            Line2D([], [], ls=":", color="tab:red", lw=0.8, label="reach radius (target)"),
+            Line2D([], [], color="tab:blue", lw=1.0, label="head trail"),
+            Line2D([], [], color="k", lw=1.5, label="flagellum"),
+            Line2D([], [], ls="", marker="o", color="0.55", ms=7, label="head")]
+
+
 class Renderer:
     """Draws ``Scene``s into RGB arrays of shape (height, width, 3), uint8."""
 
@@ -47,6 +61,8 @@ class Renderer:
         self.figure = Figure(figsize=(self.width / dpi, self.height / dpi), dpi=dpi)
         self.canvas = FigureCanvasAgg(self.figure)
         self.axes = self.figure.subplots(1, 2)
+        self.figure.legend(handles=_legend_handles(), loc="lower center", ncol=4, fontsize=7, frameon=False,
+                           handlelength=1.8, columnspacing=1.2)
 
     def draw(self, scene: Scene) -> np.ndarray:
         """The frame of ``scene``: (height, width, 3) uint8."""
@@ -61,7 +77,7 @@ class Renderer:
         self.figure.suptitle(f"{scene.path_name}: t = {scene.time_s:.1f} s, motor {scene.motor_speed_rpm:.0f} rpm, "
                              f"L'/L = {scene.end_to_end_ratio:.2f} ({state}), "
                              f"waypoints {scene.n_reached}/{len(scene.vertices) - 1}", fontsize=9)
-        self.figure.subplots_adjust(left=0.1, right=0.98, bottom=0.1, top=0.86, wspace=0.35)
+        self.figure.subplots_adjust(left=0.1, right=0.98, bottom=0.24, top=0.88, wspace=0.35)
         self.canvas.draw()
         rgba = np.asarray(self.canvas.buffer_rgba())
         return np.ascontiguousarray(rgba[..., :3])

@@ -494,7 +494,8 @@ class FlagellumSteerFastEnv(FlagellumSteerEnv):
 
 class FlagellumSteerCoarseEnv(FlagellumSteerEnv):
     """``FlagellumSteer-coarse-v0``: ``FlagellumSteer-v0`` (``FlagellumSteerEnv``, whose docstring is the
-    manual) at the ``coarse`` preset, the cheapest.
+    manual) at the ``coarse`` preset. Not the cheapest any more: with the BDF3 + Newton-Krylov solvers of
+    ``faithful`` and ``fast`` (2026-12-02) they cost less per env step (docs/env.md, Speed).
 
     A coarser grid (N = 45 nodes instead of the paper's 122) with fixed 10 ms implicit Euler steps: it
     swims straight like ``paper`` (its steady speed at 10 rpm is within 0.3 % of the others) but **buckles later and turns

@@ -374,11 +374,15 @@ def raw_ppo_section(lines: list[str]) -> None:
     if not rows:
         lines += ["Started, but no PPO update finished.", ""]
         return
+    # the columns of agents.raw_ppo (SB3's logger) or, for the run made before it, the earlier script's
+    col = {k: (f"run/{k}" if "run/wall_s" in rows[0] else k) for k in ("wall_s", "episodes_total", "successes_total",
+                                                                    "load1")}
+    col["env_steps"] = "time/total_timesteps" if "time/total_timesteps" in rows[0] else "env_steps"
     last = rows[-1]
-    steps, wall = int(float(last["env_steps"])), float(last["wall_s"])
-    eps = int(float(last["episodes_total"] or 0))
-    succ = int(float(last["successes_total"] or 0))
-    loads = [float(r["load1"]) for r in rows if r.get("load1")]
+    steps, wall = int(float(last[col["env_steps"]])), float(last[col["wall_s"]])
+    eps = int(float(last[col["episodes_total"]] or 0))
+    succ = int(float(last[col["successes_total"]] or 0))
+    loads = [float(r[col["load1"]]) for r in rows if r.get(col["load1"]) not in (None, "", "nan")]
     lines += [f"`python scripts/train_raw_ppo.py --out {RAW_PPO} --n-envs {cfg.get('n_envs', '?')} --timesteps 100000 "
               f"--max-wall-min {meta.get('max_wall_min', '?')}` (preset `{cfg.get('preset', '?')}`, control_dt "
               f"{cfg.get('control_dt', '?')} s, one-turn planar paths, SB3 PPO `MlpPolicy` from scratch, the motor "

@@ -1,6 +1,7 @@
 """Full fidelity ladder: every configuration x every metric, written to docs/.
 
     python scripts/bench_fidelity.py [--metrics quick|full|M1,M2] [--config NAME ...] [--workers N] [--report-only]
+    python scripts/bench_fidelity.py --figure-only   # only the figure, from the committed docs/fidelity.json
 
 Resumable: finished tasks are kept in results/bench/fidelity_full.results.jsonl (committed); re-running skips them.
 Outputs docs/fidelity.json, docs/fidelity.md and docs/figures/fidelity_pareto.png.
@@ -9,12 +10,13 @@ Outputs docs/fidelity.json, docs/fidelity.md and docs/figures/fidelity_pareto.pn
 from __future__ import annotations
 
 import argparse
+import json
 import time
 from pathlib import Path
 
-from flagellum.fidelity import (FULL_METRICS, LADDER, QUICK_METRICS, REPORT_NOTES, load_done, missing_tasks,
+from flagellum_bench.fidelity import (FULL_METRICS, LADDER, QUICK_METRICS, REPORT_NOTES, load_done, missing_tasks,
                                 rows_from, run_fidelity)
-from flagellum.fidelity_report import write_report
+from flagellum_bench.report import pareto_plot, write_report
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -26,7 +28,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--workers", type=int, default=None)
     ap.add_argument("--results", default="results/bench/fidelity_full.results.jsonl")
     ap.add_argument("--report-only", action="store_true", help="run nothing; rebuild the report from --results")
+    ap.add_argument("--figure-only", action="store_true",
+                    help="run nothing; redraw docs/figures/fidelity_pareto.png from docs/fidelity.json")
     args = ap.parse_args(argv)
+    if args.figure_only:
+        pareto_plot(json.loads(Path("docs/fidelity.json").read_text()), Path("docs/figures/fidelity_pareto.png"))
+        print("wrote docs/figures/fidelity_pareto.png")
+        return 0
     metrics = {"full": FULL_METRICS, "quick": QUICK_METRICS}.get(args.metrics) or tuple(args.metrics.split(","))
     bad = [m for m in metrics if m not in FULL_METRICS]
     if bad:

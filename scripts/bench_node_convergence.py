@@ -14,8 +14,8 @@ import json
 import time
 from pathlib import Path
 
-from flagellum.fidelity import LADDER, load_done, run_fidelity
-from flagellum.node_convergence import METRIC, markdown, plot, sweep_configs, sweep_rows
+from flagellum_bench.fidelity import LADDER, load_done, run_fidelity
+from flagellum_bench.node_convergence import METRIC, markdown, plot, sweep_configs, sweep_rows
 
 
 def main(argv: list[str] | None = None) -> int:

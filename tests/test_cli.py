@@ -156,3 +156,14 @@ def test_simulate_on_ctrl_c_writes_partial_results_and_says_so(capsys, tmp_path,
     summary = json.loads((out / "summary.json").read_text())
     assert summary["interrupted"] is True and summary["steps"] == 3
     assert (out / "trajectory.npz").exists() and (out / "trajectory.png").exists()
+
+
+def test_the_simulate_plot_title_describes_the_schedule_not_its_mean():
+    from flagellum.plots import schedule_label
+    from physics.schedule import MotorSchedule
+
+    assert schedule_label(MotorSchedule(((0.0, 10.0), (10.0, 90.0))), 20.0) == "omega: 10 → 90 rpm at t = 10 s"
+    assert schedule_label(MotorSchedule(((0.0, 10.0), (10.0, 90.0))), 5.0) == "omega = 10 rpm"  # the step never came
+    assert schedule_label(MotorSchedule.constant(60.0)) == "omega = 60 rpm"
+    many = schedule_label(MotorSchedule(tuple((float(i), 10.0 + i) for i in range(7))), 20.0)
+    assert many.startswith("omega: 10 → 11 → 12 → 13 → … rpm") and "(7 steps)" in many

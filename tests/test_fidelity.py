@@ -6,9 +6,9 @@ import json
 
 import pytest
 
-from flagellum.fidelity import (FidelityConfig, load_done, missing_tasks, rows_from, run_fidelity,
+from flagellum_bench.fidelity import (FidelityConfig, load_done, missing_tasks, rows_from, run_fidelity,
                                 run_metric)
-from flagellum.fidelity_report import markdown, write_report
+from flagellum_bench.report import markdown, write_report
 
 # cheap stand-ins (N = 30, 50 ms steps): the machinery, not the physics, is under test here
 CHEAP = {"n_nodes": 30}
@@ -99,7 +99,7 @@ def test_a_record_measured_with_another_setup_is_stale(tmp_path):
 
 
 def test_node_convergence_rows_table_and_plot(tmp_path):
-    from flagellum.node_convergence import METRIC, markdown as nc_markdown, plot, sweep_configs, sweep_rows
+    from flagellum_bench.node_convergence import METRIC, markdown as nc_markdown, plot, sweep_configs, sweep_rows
 
     configs = sweep_configs()
     assert len({c.name for c in configs}) == len(configs)  # no duplicate grid points
@@ -120,7 +120,7 @@ def test_node_convergence_rows_table_and_plot(tmp_path):
 
 
 def test_relative_error_floors_angles_only():
-    from flagellum.fidelity import ANGLE_FLOOR_DEG, relative_error
+    from flagellum_bench.fidelity import ANGLE_FLOOR_DEG, relative_error
 
     assert relative_error("swim_per_turn_10rpm", 1.1, 1.0) == pytest.approx(0.1)
     # an angle near 0 is compared against the floor, not against itself
@@ -135,7 +135,7 @@ def test_bench_runs_its_tasks_on_a_dask_cluster_with_scheduler(tmp_path, monkeyp
     distributed = pytest.importorskip("distributed")
     import batch.backends as backends
     from flagellum.cli import main
-    from flagellum.fidelity import quick_configs, quick_tasks
+    from flagellum_bench.fidelity import quick_configs, quick_tasks
 
     def no_local_processes(workers):
         raise AssertionError("bench --scheduler started local worker processes")

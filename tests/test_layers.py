@@ -1,6 +1,7 @@
 """The packages form layers without cycles (read from the source with ``ast``; nothing is imported).
 
-Layers, bottom to top: physics -> batch -> flagellum_env -> agents -> flagellum (the CLI). A module
+Layers, bottom to top: physics -> batch -> flagellum_env -> agents -> flagellum_bench (benchmarks) -> flagellum
+(the CLI). A module
 may import its own package and the layers below it, never one above; and no two files import each
 other, directly or round a longer loop (imports inside functions count: they are cycles at run time).
 """
@@ -13,7 +14,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-LAYERS = ("physics", "batch", "flagellum_env", "agents", "flagellum")
+LAYERS = ("physics", "batch", "flagellum_env", "agents", "flagellum_bench", "flagellum")
 
 #: File cycles that exist on purpose for now, each with the reason it stays.
 KNOWN_CYCLES: set[frozenset[str]] = set()
@@ -138,3 +139,19 @@ def test_nothing_imports_the_command_line_package():
     importers = sorted(f"{name} -> {t}" for name, targets in import_graph().items() if not name.startswith("flagellum.")
                        and name != "flagellum" for t in targets if t.split(".")[0] == "flagellum")
     assert not importers, importers
+
+
+def test_no_script_imports_the_command_line_package():
+    """scripts/ call the library layers; the CLI package ``flagellum`` is imported by nothing but itself (and by
+    the tests of the command line)."""
+    modules = {**module_files(), "flagellum": ROOT / "flagellum" / "__init__.py"}
+    importers = sorted(f"{f.relative_to(ROOT)} -> {t}" for f in sorted((ROOT / "scripts").glob("*.py"))
+                       for t in imported_modules(f"scripts.{f.stem}", f, modules) if t.split(".")[0] == "flagellum")
+    assert not importers, importers
+
+
+def test_every_layer_is_packaged():
+    """pyproject.toml's package list names every layer, so that an install holds them all."""
+    tomllib = pytest.importorskip("tomllib")  # Python 3.11+
+    include = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"]["find"]["include"]
+    assert all(f"{pkg}*" in include for pkg in LAYERS), include

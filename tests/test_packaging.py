@@ -29,3 +29,12 @@ def test_the_rl_extra_asks_for_a_torch_range_that_the_makefiles_pin_satisfies():
 
 def test_threadpoolctl_is_a_dependency():
     assert "threadpoolctl" in {Requirement(r).name for r in _project()["dependencies"]}
+
+
+def test_moviepy_is_in_the_video_extra_only_and_at_a_version_without_a_pillow_cap():
+    """moviepy 2.x requires pillow < 12 (it downgraded pillow 13 -> 11.3); 1.0.3 does not."""
+    extras = _project()["optional-dependencies"]
+    assert not any(Requirement(r).name == "moviepy" for name, reqs in extras.items() if name != "video" for r in reqs)
+    (moviepy,) = [Requirement(r) for r in extras["video"] if Requirement(r).name == "moviepy"]
+    assert moviepy.specifier.contains("1.0.3") and not moviepy.specifier.contains("2.2.1"), moviepy
+    assert ".[test,rl,video]" in (ROOT / "Makefile").read_text()  # make test runs RecordVideo's test

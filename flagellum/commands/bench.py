@@ -6,7 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
-from flagellum.fidelity import BURST_RPM, BURST_TC
+from flagellum_bench.fidelity import BURST_RPM, BURST_TC
 from flagellum.commands.common import SCHEDULER_HELP, UsageError, ensure_dir, parse_workers
 
 NAME = "bench"
@@ -38,9 +38,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from flagellum.fidelity import (FULL_METRICS, LADDER, QUICK_METRICS, REPORT_NOTES, missing_tasks,
+    from flagellum_bench.fidelity import (FULL_METRICS, LADDER, QUICK_METRICS, REPORT_NOTES, missing_tasks,
                                     rows_from, run_fidelity)
-    from flagellum.fidelity_report import write_report
+    from flagellum_bench.report import write_report
     from batch.store import SweepError
 
     workers, scheduler = parse_workers(args)
@@ -78,8 +78,8 @@ def run(args: argparse.Namespace) -> int:
 def _run_quick(out: Path, results: Path, workers, scheduler, progress: bool, t0: float) -> int:
     import json
 
-    from flagellum.fidelity import quick_configs, quick_rows, quick_tasks, run_fidelity
-    from flagellum.fidelity_report import quick_markdown
+    from flagellum_bench.fidelity import quick_configs, quick_rows, quick_tasks, run_fidelity
+    from flagellum_bench.report import quick_markdown
     from batch.store import SweepError
 
     configs = quick_configs()

@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"interrupted at t = {t_end}; writing the partial results computed so far")
     elif result.error is not None:
         print(f"stopped at t = {t_end} by an error; writing the partial results computed so far")
-    paths = write_outputs(result, out, params.head_radius)
+    paths = write_outputs(result, out, params.head_radius, schedule)
     _report(result, paths)
     if result.error is not None:
         print(f"flagellum: simulation failed: {result.error}", file=sys.stderr)
@@ -84,14 +84,17 @@ def run(args: argparse.Namespace) -> int:
     return 130 if result.interrupted else 0
 
 
-def write_outputs(result: RunResult, out: Path, head_radius_m: float) -> dict[str, Path]:
-    """summary.json, trajectory.npz and trajectory.png in ``out``."""
-    from flagellum.plots import save_trajectory_plot  # matplotlib only when needed
+def write_outputs(result: RunResult, out: Path, head_radius_m: float,
+                  schedule: MotorSchedule | None = None) -> dict[str, Path]:
+    """summary.json, trajectory.npz and trajectory.png in ``out``; the plot's title describes ``schedule`` (else
+    the mean motor speed)."""
+    from flagellum.plots import save_trajectory_plot, schedule_label  # matplotlib only when needed
 
     paths = result.save(out)
     s = result.summary
-    title = (f"t = {_fmt(s['sim_time_s'], '.3g', ' s')}, omega = {_fmt(s['omega_rpm'], '.4g', ' rpm')}, "
-             f"b = {head_radius_m * 100:.3g} cm")
+    speed = (schedule_label(schedule, s["sim_time_s"]) if schedule is not None
+             else f"mean omega = {_fmt(s['omega_rpm'], '.4g', ' rpm')}")
+    title = f"t = {_fmt(s['sim_time_s'], '.3g', ' s')}, {speed}, b = {head_radius_m * 100:.3g} cm"
     paths["plot"] = save_trajectory_plot(result.trajectory, out / "trajectory.png", head_radius_m, title)
     return paths
 

@@ -1,6 +1,7 @@
-"""scripts/train_raw_ppo.py: a tiny PPO run on the raw FlagellumSteer-v0 writes its progress rows, checkpoints and
-meta; a SIGTERM stops it cleanly after the finished updates; --resume goes on without losing or repeating rows;
-the learning curve is drawn; bad options are one-line errors with status 2."""
+"""scripts/train_raw_ppo.py (library: agents/raw_ppo.py): a tiny PPO run on the raw FlagellumSteer-v0 (coarse
+preset) writes SB3's progress.csv, VecMonitor's monitor.csv, a checkpoint per update and meta; a SIGTERM stops it
+cleanly after the finished updates; --resume goes on without losing or repeating rows; the learning curve is
+drawn; bad options are one-line errors with status 2."""
 
 from __future__ import annotations
 
@@ -37,7 +38,19 @@ def _rows(file: Path) -> list[dict[str, str]]:
         return list(csv.DictReader(f))
 
 
+def _progress(out: Path) -> list[dict[str, str]]:
+    return _rows(out / "progress.csv")
+
+
+def _monitor(out: Path) -> list[dict[str, str]]:
+    lines = (out / "monitor.csv").read_text().splitlines()
+    assert lines[0].startswith("#{")  # VecMonitor's header line
+    return list(csv.DictReader(lines[1:]))
+
+
 def test_run_stop_resume_and_plot(script, tmp_path, monkeypatch):
+    """SB3's logger writes progress.csv, VecMonitor monitor.csv, CheckpointCallback a checkpoint per update; a
+    SIGTERM keeps the finished updates; --resume goes on without counting a step or an episode twice."""
     from flagellum_env.steer_env import FlagellumSteerEnv
 
     out = tmp_path / "run"
@@ -55,32 +68,35 @@ def test_run_stop_resume_and_plot(script, tmp_path, monkeypatch):
     assert script.main(["--out", str(out), "--timesteps", "16", *TINY], progress=False) == 128 + signal.SIGTERM
     assert signal.getsignal(signal.SIGTERM) is handler  # restored
     monkeypatch.setattr(FlagellumSteerEnv, "step", step)
-    rows = _rows(out / "progress.csv")
-    assert [int(r["env_steps"]) for r in rows] == [8]  # the finished update only
-    assert float(rows[0]["env_steps_per_s"]) > 0 and float(rows[0]["wall_s"]) > 0 and float(rows[0]["cpu_s"]) > 0
+    rows = _progress(out)
+    assert [int(r["time/total_timesteps"]) for r in rows] == [8]  # the finished update only
+    assert float(rows[0]["rollout/env_steps_per_s"]) > 0 and float(rows[0]["run/wall_s"]) > 0
+    assert float(rows[0]["run/cpu_s"]) > 0 and rows[0]["run/update"] == "1"
     ckpt = out / "checkpoints"
     assert (ckpt / "rl_model_8_steps.zip").is_file() and (ckpt / "rl_model_vecnormalize_8_steps.pkl").is_file()
     assert not (ckpt / "rl_model_16_steps.zip").exists()
+    assert (out / "model.zip").is_file() and (out / "vecnormalize.pkl").is_file()  # the last finished update's
     meta = json.loads((out / "meta.json").read_text())
     assert meta["sessions"][0]["status"] == "stopped: SIGTERM" and meta["total"]["env_steps"] == 8
     assert meta["config"]["preset"] == "coarse" and meta["config"]["seed"] == 0
     assert len(meta["sessions"][0]["loadavg_start"]) == 3 and meta["sessions"][0]["loadavg_end"]
-    # episodes that ended in the interrupted rollout are past the checkpoint: --resume drops them
-    assert any(int(r["env_steps"]) > 8 for r in _rows(out / "episodes.csv"))
+    kept = json.loads((ckpt / "rl_model_state_8_steps.json").read_text())["episodes_total"]
+    assert len(_monitor(out)) > kept  # episodes that ended after the checkpoint: --resume drops them
 
     assert script.main(["--out", str(out), "--resume", "--timesteps", "16"], progress=False) == 0
     assert script.main(["--out", str(out), "--resume", "--timesteps", "32"], progress=False) == 0
-    rows = _rows(out / "progress.csv")
-    assert [int(r["env_steps"]) for r in rows] == [8, 16, 24, 32]
-    assert [int(r["update"]) for r in rows] == [1, 2, 3, 4]
-    assert [float(r["wall_s"]) for r in rows] == sorted(float(r["wall_s"]) for r in rows)
-    episodes = _rows(out / "episodes.csv")
-    assert episodes and all(int(e["env_steps"]) <= 32 for e in episodes)
-    assert int(rows[-1]["episodes_total"]) == len(episodes) == sum(int(r["episodes"]) for r in rows)
-    ends = [int(e["env_steps"]) for e in episodes]
-    assert ends == sorted(ends) and len(set(ends)) == len(ends)  # one env: one episode per step at most
-    assert (ckpt / "rl_model_32_steps.zip").is_file() and json.loads(
-        (ckpt / "rl_model_state_32_steps.json").read_text())["env_steps"] == 32
+    rows = _progress(out)
+    assert [int(r["time/total_timesteps"]) for r in rows] == [8, 16, 24, 32]
+    assert [int(r["run/update"]) for r in rows] == [1, 2, 3, 4]
+    assert [float(r["run/wall_s"]) for r in rows] == sorted(float(r["run/wall_s"]) for r in rows)
+    episodes = _monitor(out)
+    state = json.loads((ckpt / "rl_model_state_32_steps.json").read_text())
+    assert state["env_steps"] == 32 and state["updates"] == 4
+    # every episode once: one env, so the lengths of the episodes add up to the steps at which each ended
+    assert len(episodes) == state["episodes_total"] == int(rows[-1]["run/episodes_total"]) > 0
+    assert sum(int(e["l"]) for e in episodes) <= 32
+    assert {"is_success", "buckling_events", "waypoint_index", "sim_time_s"} <= set(episodes[0])
+    assert sum(e["is_success"] == "True" for e in episodes) == state["successes_total"]
     assert (out / "model.zip").is_file() and (out / "vecnormalize.pkl").is_file()
     assert (out / "learning_curve.png").stat().st_size > 1000
     meta = json.loads((out / "meta.json").read_text())
@@ -90,6 +106,25 @@ def test_run_stop_resume_and_plot(script, tmp_path, monkeypatch):
     (out / "learning_curve.png").unlink()
     assert script.main(["--out", str(out), "--plot"]) == 0
     assert (out / "learning_curve.png").is_file()
+
+
+def test_a_run_logged_before_sb3s_logger_still_plots(script, tmp_path):
+    """results/agents/raw_ppo_faithful was written by the earlier script (its own column names)."""
+    out = tmp_path / "old"
+    out.mkdir()
+    (out / "progress.csv").write_text("update,env_steps,wall_s,ep_return_mean,success_rate\n1,64,300.0,-3.5,0.0\n"
+                                      "2,128,610.0,,\n")
+    assert script.main(["--out", str(out), "--plot"]) == 0
+    assert (out / "learning_curve.png").stat().st_size > 1000
+
+
+def test_help_describes_the_outputs(script, capsys):
+    with pytest.raises(SystemExit) as info:
+        script.main(["--help"])
+    assert info.value.code == 0
+    text = capsys.readouterr().out
+    for word in ("progress.csv", "monitor.csv", "CheckpointCallback", "--resume", "--quiet", "--max-wall-min"):
+        assert word in text
 
 
 def _usage_error(script, capsys, argv: list[str]) -> str:

@@ -1,7 +1,7 @@
 """Why the coarse presets turn less: the buckling onset against node count, time step and refresh rule.
 
 One metric, the turning angle after a t_c = 40 s burst at ``OMEGA_HIGH_RPM`` from steady 10 rpm
-swimming (``turn_tc40`` of ``flagellum.fidelity``), on a grid of discretisations that start from
+swimming (``turn_tc40`` of ``flagellum_bench.fidelity``), on a grid of discretisations that start from
 ``fast``'s numerics (Newton tolerance 1e-5, LSBT + Higdon head): node count N at h = 10 ms for two
 refresh tolerances, and the time step h at N = 122. The reference is ``paper``'s value from the
 fidelity ladder. Results are appended to a JSONL file as they finish (resumable).
@@ -12,7 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from flagellum.fidelity import FidelityConfig, relative_error
+from flagellum_bench.fidelity import FidelityConfig, relative_error
 
 NODE_COUNTS = (45, 60, 80, 100, 122)
 REFRESH_TOLS = (0.1, 0.03)

@@ -1,8 +1,9 @@
-"""Table, JSON and Pareto plot of the fidelity ladder (``flagellum.fidelity``)."""
+"""Table, JSON and Pareto plot of the fidelity ladder (``flagellum_bench.fidelity``)."""
 
 from __future__ import annotations
 
 import json
+import math
 import platform
 import time
 from pathlib import Path
@@ -53,27 +54,49 @@ def _turn_error(row: dict[str, Any]) -> float | None:
     return max(errs) if errs else None
 
 
+#: Preset names given to other configurations on 2026-12-02: a row measured before that date under the old name is
+#: labelled with today's name for that configuration (or as retired). name -> (date of the change, label).
+RENAMED = {"fast": ("2026-12-02", "coarse (N = 45, h = 10 ms; named 'fast' then)"),
+           "balanced": ("2026-12-02", "retired 'balanced' (paper grid, h = 20 ms)")}
+TODAYS_PRESETS = ("reference", "paper", "faithful", "fast", "coarse")
+
+
+def display_name(row: dict[str, Any]) -> tuple[str, bool]:
+    """(label, is one of today's presets) of a ladder row, by the names in force when it was measured."""
+    measured = sorted(row.get("measured") or [])
+    name = row["config"]
+    if name in RENAMED and measured and measured[-1][:10] < RENAMED[name][0]:
+        label = RENAMED[name][1]
+        return label, label.split(" ")[0] in TODAYS_PRESETS
+    return name, bool(row.get("preset")) and name in TODAYS_PRESETS
+
+
 def pareto_plot(rows: list[dict[str, Any]], path: Path) -> None:
-    """Error against real-time factor: swim speed (left) and the worst turning angle (right)."""
+    """Error against real-time factor: swim speed (left) and the worst turning angle (right). Points are numbered;
+    the legend below names them (today's presets as red circles, other configurations as blue squares) and the
+    title gives the dates the rows were measured."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
+    fig, axes = plt.subplots(1, 2, figsize=(12, 6.4))
     panels = ((axes[0], lambda r: r["errors"].get("swim_per_turn_10rpm"), "relative error of the swim speed (10 rpm)"),
               (axes[1], _turn_error, "largest relative error of θ, φ (t_c = 10, 20, 40 s)"))
+    shown = [r for r in rows if r["real_time_factor"] is not None]
+    names = [display_name(r) for r in shown]
     for ax, err_of, ylabel in panels:
         drawn = 0
-        for r in rows:
-            rtf, err = r["real_time_factor"], err_of(r)
-            if rtf is None or err is None:
+        for k, (r, (label, preset)) in enumerate(zip(shown, names), 1):
+            err = err_of(r)
+            if err is None:
                 continue
-            err = max(err, 1e-4)
-            ax.scatter(rtf, err, marker="o" if r["preset"] else "s", s=70 if r["preset"] else 30,
-                       color="C3" if r["preset"] else "C0")
-            ax.annotate(r["config"] + (" (preset)" if r["preset"] else ""), (rtf, err), fontsize=7,
-                        xytext=(4, 3), textcoords="offset points")
+            rtf, err = r["real_time_factor"], max(err, 1e-4)
+            ax.scatter(rtf, err, marker="o" if preset else "s", s=150 if preset else 110,
+                       color="C3" if preset else "C0", zorder=3)
+            ax.annotate(str(k), (rtf, err), ha="center", va="center", fontsize=7, color="white", weight="bold",
+                        zorder=4)
             drawn += 1
         if not drawn:
             ax.text(0.5, 0.5, "not measured", ha="center", va="center", transform=ax.transAxes)
@@ -83,9 +106,14 @@ def pareto_plot(rows: list[dict[str, Any]], path: Path) -> None:
         ax.set_xlabel("real-time factor at 10 rpm (simulated s per wall s, one core)")
         ax.set_ylabel(ylabel)
         ax.grid(True, which="both", alpha=0.3)
-    fig.suptitle("Fidelity ladder: error vs paper against speed (red circles: presets; dashed: 10 %; "
-                 "errors below 1e-4 drawn at 1e-4)", fontsize=10)
-    fig.tight_layout()
+    handles = [Line2D([], [], ls="", marker="o" if preset else "s", color="C3" if preset else "C0", ms=7,
+                      label=f"{k}  {label}") for k, (label, preset) in enumerate(names, 1)]
+    fig.legend(handles=handles, loc="lower center", ncol=3, fontsize=8, frameon=False, handletextpad=0.3)
+    dates = sorted({d[:10] for r in shown for d in r.get("measured", [])})
+    when = "-" if not dates else dates[0] if len(dates) == 1 else f"{dates[0]} to {dates[-1]}"
+    fig.suptitle(f"Fidelity ladder measured {when}: error against paper vs speed (red circles: today's presets; "
+                 "dashed: 10 %; errors below 1e-4 drawn at 1e-4)", fontsize=10)
+    fig.tight_layout(rect=(0, 0.05 + 0.028 * math.ceil(len(handles) / 3), 1, 1))
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
     plt.close(fig)
