@@ -121,6 +121,65 @@ def test_gmres_converges_on_a_buckled_snapshot(contact):
     assert ms.direction(q, h, b, 1e-4, 120)[1] <= 20  # the preconditioner keeps the count small
 
 
+def _python_iteration(ms, q, y, h):
+    """The Newton-Krylov iteration as it was written in Python before it was compiled (one direction per
+    ``ms.direction`` call, the residual by ``ms.residual``): the reference of the compiled loop."""
+    from physics.implicit_residual import block_max_abs
+    from physics.newton_krylov import GMRES_RTOL
+
+    sim = ms.sim
+    nm, p = sim.numerics, sim.params
+    nd = q.size
+    step_scale = max(block_max_abs(q - sim.q, sim._pos), 1e-6 * p.rod_radius)
+    rate = ms.contraction
+    rate.start()
+    for it in range(nm.newton_max_iter):
+        r, r_y, grad, f, inertia, frames = ms.residual(q, y, h)
+        y_scale = max(float(np.abs(f).max()), sim._f_floor)
+        if sim._converged(r, grad, f, inertia) and float(np.abs(r_y).max()) <= nm.newton_tol * y_scale:
+            return q, r, grad, f, frames, it + 1
+        z, its, _ = ms.direction(q, h, np.concatenate([r, r_y]), GMRES_RTOL)
+        assert its > 0
+        q = q - z[:nd]
+        y = y - z[nd:]
+        dz = block_max_abs(z[:nd], sim._pos)
+        converged = (it >= 1 and dz <= max(nm.newton_tol * step_scale, 1e-10 * p.rod_radius)
+                     and block_max_abs(z[:nd], sim._twist) <= max(nm.newton_tol, 1e-10))
+        if not converged:
+            converged = rate.converged(sim.correction_size(z[:nd]) / nm.step_tol)
+        if converged:
+            r, r_y, grad, f, inertia, frames = ms.residual(q, y, h)
+            return q, r, grad, f, frames, it + 1
+    raise AssertionError("the Python iteration did not converge")
+
+
+@pytest.mark.parametrize("make, h", [(_torque_free, 0.03), (lambda: _buckled(True), 0.01)],
+                         ids=["torque-free head", "buckled, contact"])
+def test_compiled_iteration_is_the_python_iteration_bit_for_bit(make, h):
+    """``MobilityStep.solve`` (one compiled call) gives exactly the iterate, forces and frames of the Python
+    iteration it replaced, from the same step set-up, contact state and contraction-rate state."""
+    import copy
+
+    sim = make()
+    ms, q, y, h = _open_step(sim, h)  # a step the predictor does not solve
+    saved = {k: copy.deepcopy(getattr(sim, k)) for k in ("_contact_q", "_contact_pad", "_contact_candidates",
+                                                          "_contact_none") if hasattr(sim, k)}
+    rate = (ms.contraction.rho, ms.contraction._age)
+    n0 = sim.stats.newton_iterations
+    ref = _python_iteration(ms, q.copy(), y.copy(), h)
+    for k, v in saved.items():
+        setattr(sim, k, v)
+    ms.contraction.rho, ms.contraction._age = rate
+    got = ms.solve(q.copy(), y.copy(), h)
+    assert ref[5] >= 2 and sim.stats.newton_iterations - n0 == ref[5]  # at least one GMRES direction
+    for a, b in zip(got[:4], ref[:4]):
+        assert np.array_equal(a, b)
+    for a, b in zip(got[4], ref[4]):
+        assert np.array_equal(a, b)
+    if make is not _torque_free:
+        assert sim._last_contact[1] > 0  # contact was active in the step compared
+
+
 def test_newton_krylov_step_equals_the_direct_step():
     """The same steps (fixed BDF3 steps of 5 ms from the same state) by the direct chord iteration and by
     Newton-Krylov, both to a tight Newton tolerance: the same configuration after 0.3 s at 150 rpm."""
