@@ -21,11 +21,13 @@ Newton on (q, y) with the exact Jacobian applied matrix-free,
          [-sigma B P / h,                        sigma A    ]],
 
 each direction from GMRES (right-preconditioned, Saad & Schultz 1986) to a relative ``GMRES_RTOL``.
-The preconditioner is the block factorisation of J with A^{-1} replaced by the local resistance R_loc
-of resistive-force theory (``rft``, Lighthill's coefficients) and the head's flow coupling dropped,
-so its Schur complement S = M/h^2 + K + K_c + (D + P_f^T R_loc P_f) / h is banded (half-bandwidth 10,
-contact blocks where they fall inside the band): one banded LU per step (LAPACK gbtrf), two banded
-solves and two block-diagonal products per application.
+The preconditioner is the block factorisation of J with A replaced by its band (entries between nodes at
+most ``MOBILITY_BAND_NODES`` apart) in the y-block, the head's flow coupling kept, and the Schur complement
+replaced by the banded S = M/h^2 + K + K_c + (D + P_f^T R_loc P_f) / h, R_loc the local resistance of
+resistive-force theory (``rft``, Lighthill's coefficients; half-bandwidth 10, contact blocks where they fall
+inside the band). Both banded matrices are symmetric and were positive definite at every step measured:
+two banded Cholesky factorisations per step (``banded_cholesky``; the LU of ``banded_lu`` where a pivot is
+not positive), three banded solves per application.
 
 Prescribed DOFs (the motor's Dirichlet twist) are identity rows and columns, as in the direct solver.
 
@@ -43,6 +45,7 @@ import numpy as np
 from numba import njit
 
 from physics.banded_jacobian import add_banded_drag, add_blocks_to_banded, banded_dirichlet
+from physics.banded_cholesky import banded_cholesky, banded_cholesky_solve, lower_band
 from physics.banded_lu import banded_lu, banded_solve
 from physics.contact import candidate_pairs, contact_kernel, head_candidates, within_reach
 from physics.errors import StepFailed
@@ -96,8 +99,8 @@ def contact_matvec_add(nodes: np.ndarray, blocks: np.ndarray, v: np.ndarray, out
 def preconditioner_band(ab: np.ndarray, mass: np.ndarray, h: float, rloc: np.ndarray, first: int,
                         head_t: float, head_r: float, nodes: np.ndarray, blocks: np.ndarray,
                         prescribed: np.ndarray) -> np.ndarray:
-    """S = K + M/h^2 + (D + R_loc)/h (+ the contact blocks inside the band), prescribed DOFs as identity,
-    in the storage of ``banded_lu``: (n, 3 bw + 1), s[j, 2 bw + i - j] = S[i, j].
+    """S = K + M/h^2 + (D + R_loc)/h (+ the contact blocks inside the band), prescribed DOFs as identity, in
+    the general-banded storage of ``ab`` (2 bw + 1, n), band[bw + i - j, j] = S[i, j]. Symmetric.
 
     ab: elastic Hessian (2 bw + 1, n); rloc (M, 3, 3) N s/m for the flagellum nodes, the first of which is
     node ``first``; head_t, head_r: head drag N s/m and N m s (0 without a head / spin)."""
@@ -106,10 +109,43 @@ def preconditioner_band(ab: np.ndarray, mass: np.ndarray, h: float, rloc: np.nda
     add_blocks_to_banded(band, nodes, blocks)
     for k in prescribed:
         banded_dirichlet(band, k)
-    bw = (ab.shape[0] - 1) // 2
-    s = np.zeros((ab.shape[1], 3 * bw + 1))
+    return band
+
+
+@njit(cache=True)
+def factor_symmetric_band(band: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """Factorise the symmetric banded matrix in general-banded storage (2 bw + 1, n): Cholesky
+    (``banded_cholesky``; pivots of length 0) where it is positive definite, else the partial-pivoting LU of
+    ``banded_lu``. Returns (factor, pivots, info); solve with ``factor_solve``."""
+    bw = (band.shape[0] - 1) // 2
+    n = band.shape[1]
+    c = np.ascontiguousarray(band[bw:, :].T)
+    if banded_cholesky(c, bw) == 0:
+        return c, np.zeros(0, dtype=np.int64), 0
+    s = np.zeros((n, 3 * bw + 1))
     s[:, bw:] = band.T
-    return s
+    piv, info = banded_lu(s, bw, bw)
+    return s, piv, info
+
+
+@njit(cache=True)
+def factor_mobility_band(A: np.ndarray, bw: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """Factorise the entries of the symmetric mobility A (n, n) within bw of the diagonal, as
+    ``factor_symmetric_band`` does."""
+    c = lower_band(A, bw)
+    if banded_cholesky(c, bw) == 0:
+        return c, np.zeros(0, dtype=np.int64), 0
+    s = band_of(A, bw)
+    piv, info = banded_lu(s, bw, bw)
+    return s, piv, info
+
+
+@njit(cache=True)
+def factor_solve(f: np.ndarray, piv: np.ndarray, bw: int, b: np.ndarray) -> np.ndarray:
+    """x = S^{-1} b for a factor of ``factor_symmetric_band`` / ``factor_mobility_band`` (half-bandwidth bw)."""
+    if piv.shape[0] == 0:
+        return banded_cholesky_solve(f, bw, b)
+    return banded_solve(f, bw, bw, piv, b)
 
 
 @njit(cache=True)
@@ -118,19 +154,19 @@ def preconditioner_factors(q: np.ndarray, frames_old: tuple, rest: tuple, mass: 
                            nodes_c: np.ndarray, blocks_c: np.ndarray, prescribed: np.ndarray, A: np.ndarray,
                            abw: int):
     """The preconditioner of a step at the predictor q, compiled: the elastic Hessian at q (ab, banded), the
-    banded LU of S (``preconditioner_band``; local RFT drag with Lighthill's coefficients zeta N s/m^2) and
-    the banded LU of the mobility's band within abw of the diagonal. Returns (ab, (lu, piv, info),
-    (alu, apiv, ainfo)): info / ainfo = j + 1 if pivot j is zero."""
+    factor of S (``preconditioner_band``; local RFT drag with Lighthill's coefficients zeta N s/m^2) and
+    that of the mobility's band within abw of the diagonal (``factor_symmetric_band``: Cholesky, or LU where a
+    pivot is not positive). Returns (ab, (lu, piv, info), (alu, apiv, ainfo)): info / ainfo = j + 1 if the
+    LU's pivot j is zero."""
     d1_old, t_old, rt_old = frames_old
     l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ = rest
     x = nodes_array(q)
     rloc = rft_blocks(np.ascontiguousarray(x[first:]), zeta_perp, zeta_par)
     t, d1, d2, rt, m1, m2 = rod_frames(q, d1_old, t_old, rt_old)
     ab = elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ)
-    lu = preconditioner_band(ab, mass, h, rloc, first, head_t, head_r, nodes_c, blocks_c, prescribed)
-    piv, info = banded_lu(lu, BANDWIDTH, BANDWIDTH)
-    alu = band_of(A, abw)
-    apiv, ainfo = banded_lu(alu, abw, abw)
+    lu, piv, info = factor_symmetric_band(preconditioner_band(ab, mass, h, rloc, first, head_t, head_r, nodes_c,
+                                                              blocks_c, prescribed))
+    alu, apiv, ainfo = factor_mobility_band(A, abw)
     return ab, (lu, piv, info), (alu, apiv, ainfo)
 
 
@@ -222,7 +258,7 @@ def precondition(z: np.ndarray, nd: int, vdofs: np.ndarray, prescribed: np.ndarr
     ``abw`` of the diagonal) and the Schur complement by the banded S (``lu``)."""
     a = z[:nd]
     b = z[nd:]
-    t = banded_solve(alu, abw, abw, apiv, b) / sigma
+    t = factor_solve(alu, apiv, abw, b) / sigma
     nv = vdofs.shape[0]
     c = drag_and_coupling(np.zeros(nv), t, Kh, g, 0.0, 0.0, has_head, spin)
     rhs = a.copy()
@@ -230,7 +266,7 @@ def precondition(z: np.ndarray, nd: int, vdofs: np.ndarray, prescribed: np.ndarr
         rhs[vdofs[i]] -= c[i]
     for k in prescribed:
         rhs[k] = a[k]
-    x = banded_solve(lu, BANDWIDTH, BANDWIDTH, piv, rhs)
+    x = factor_solve(lu, piv, BANDWIDTH, rhs)
     V = np.empty(nv)
     for i in range(nv):
         V[i] = x[vdofs[i]] / h
@@ -238,7 +274,7 @@ def precondition(z: np.ndarray, nd: int, vdofs: np.ndarray, prescribed: np.ndarr
         for i in range(nv):
             if vdofs[i] == k:
                 V[i] = 0.0
-    y = t + banded_solve(alu, abw, abw, apiv, head_flow_apply(V, H, g, has_head, spin))
+    y = t + factor_solve(alu, apiv, abw, head_flow_apply(V, H, g, has_head, spin))
     out = np.empty_like(z)
     out[:nd] = x
     out[nd:] = y

@@ -69,7 +69,7 @@ class StepStats:
     newton_iterations: int = 0
     resistance_refreshes: int = 0
     jacobian_factorisations: int = 0  # dense LUs (direct solver) or banded Newton solves (rft)
-    preconditioner_factorisations: int = 0  # banded LUs of the Newton-Krylov preconditioner
+    preconditioner_factorisations: int = 0  # set-ups of the Newton-Krylov preconditioner (two banded factorisations)
     krylov_iterations: int = 0  # GMRES iterations of the Newton-Krylov steps
     krylov_steps: int = 0  # steps solved by Newton-Krylov (the rest by the chord iteration)
     halvings: int = 0
@@ -485,7 +485,7 @@ class Simulator:
                 continue
             rejected = False
             self._commit(q, base, grad, f, t, d1, rt, t_new=t_end if last else None)
-            proposal = next_step(h, err, base.order)
+            proposal = next_step(h, err, base.order, keep=not self._solver.krylov)
             if h < self._h and proposal >= h:  # a step shortened to land on t_end says nothing against h
                 proposal = max(proposal, self._h)
             self._h = min(proposal, dt)

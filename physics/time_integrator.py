@@ -176,15 +176,16 @@ def error_norm(q_new: np.ndarray, base: StepBase, weights: np.ndarray, tol: floa
     return float(np.max(np.abs(q_new - base.q_pred) * weights)) * (k / (1.0 + k)) / tol
 
 
-def next_step(h: float, err: float, order: int) -> float:
+def next_step(h: float, err: float, order: int, keep: bool = True) -> float:
     """The step (s) after one of length h with error ratio ``err`` (error / tolerance) at ``order``:
     the classic controller h (SAFETY / err)^(1/(p+1)), growth at most GROW_MAX, shrink at least
-    SHRINK_MIN; a growth below KEEP_BELOW keeps h (a changed h_e costs a refactorisation)."""
+    SHRINK_MIN; with ``keep``, a growth below KEEP_BELOW keeps h (a changed h_e costs a refactorisation of
+    a reused Jacobian; a Newton-Krylov step factorises its preconditioner anyway: no reason to keep h)."""
     if err <= 0.0:
         fac = GROW_MAX
     else:
         fac = min(GROW_MAX, max(SHRINK_MIN, SAFETY * err ** (-1.0 / (order + 1))))
-    if 1.0 <= fac < KEEP_BELOW:
+    if keep and 1.0 <= fac < KEEP_BELOW:
         return h
     return h * fac
 

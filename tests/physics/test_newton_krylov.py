@@ -213,6 +213,48 @@ def test_compiled_banded_lu_is_lapacks():
         np.testing.assert_allclose(banded_solve(s, kl, kl, p2, b), x_ref, rtol=1e-12, atol=1e-12 * np.abs(x_ref).max())
 
 
+def test_compiled_banded_cholesky_is_lapacks():
+    from scipy.linalg import cho_solve_banded, cholesky_banded
+
+    from physics.banded_cholesky import banded_cholesky, banded_cholesky_solve
+
+    rng = np.random.default_rng(5)
+    n, kd = 150, 10
+    lower = np.zeros((kd + 1, n))
+    lower[1:] = rng.normal(size=(kd, n))
+    lower[0] = 2.0 * kd + rng.random(n)  # diagonally dominant: positive definite
+    for d in range(1, kd + 1):
+        lower[d, n - d:] = 0.0
+    ref = cholesky_banded(lower, lower=True)
+    c = np.ascontiguousarray(lower.T)
+    assert banded_cholesky(c, kd) == 0
+    np.testing.assert_allclose(c, ref.T, rtol=1e-13, atol=1e-13)
+    b = rng.normal(size=n)
+    np.testing.assert_allclose(banded_cholesky_solve(c, kd, b), cho_solve_banded((ref, True), b), rtol=1e-12)
+
+
+def test_a_symmetric_band_that_is_not_positive_definite_is_factorised_by_lu():
+    from physics.newton_krylov import factor_solve, factor_symmetric_band
+
+    rng = np.random.default_rng(6)
+    n, bw = 60, 10
+    dense = np.zeros((n, n))
+    for i in range(n):
+        for j in range(max(0, i - bw), min(n, i + bw + 1)):
+            dense[i, j] = rng.normal()
+    dense = dense + dense.T
+    for shift, cholesky in ((0.0, False), (60.0, True)):  # indefinite, then positive definite
+        S = dense + shift * np.eye(n)
+        band = np.zeros((2 * bw + 1, n))
+        for j in range(n):
+            for i in range(max(0, j - bw), min(n, j + bw + 1)):
+                band[bw + i - j, j] = S[i, j]
+        f, piv, info = factor_symmetric_band(band)
+        assert info == 0 and (piv.size == 0) == cholesky
+        b = rng.normal(size=n)
+        np.testing.assert_allclose(factor_solve(f, piv, bw, b), np.linalg.solve(S, b), rtol=1e-9, atol=1e-12)
+
+
 def test_a_run_that_cannot_meet_its_tolerance_raises_simulation_error_with_newton_krylov():
     p, n = configure("faithful", {"n_nodes": 20, "integrator": "bdf3", "newton_krylov": True, "step_tol": 1e-12,
                                   "h_start": 1e-3, "h_min": 5e-4})
