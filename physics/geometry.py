@@ -18,6 +18,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from scipy.optimize import brentq
 
 from physics.params import SwimmerParams
@@ -101,3 +102,24 @@ def nodes_of(q: np.ndarray) -> np.ndarray:
 
 def thetas_of(q: np.ndarray) -> np.ndarray:
     return q[3::4]
+
+
+@njit(cache=True)
+def edge_stretch_extremes(q: np.ndarray, l_bar: np.ndarray) -> tuple[bool, int, float, int, float]:
+    """(all of q finite, index and value of the smallest edge length / rest length, index and value of the
+    largest) for the DOF vector q (4n-1,) and the rest lengths l_bar (n-1,), m."""
+    for v in q:
+        if not math.isfinite(v):
+            return False, -1, math.nan, -1, math.nan
+    i_min = i_max = 0
+    r_min, r_max = math.inf, -math.inf
+    for i in range(l_bar.shape[0]):
+        dx = q[4 * i + 4] - q[4 * i]
+        dy = q[4 * i + 5] - q[4 * i + 1]
+        dz = q[4 * i + 6] - q[4 * i + 2]
+        r = math.sqrt(dx * dx + dy * dy + dz * dz) / l_bar[i]
+        if r < r_min:
+            r_min, i_min = r, i
+        if r > r_max:
+            r_max, i_max = r, i
+    return True, i_min, r_min, i_max, r_max
