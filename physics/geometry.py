@@ -94,10 +94,20 @@ def pack_q(nodes: np.ndarray, theta: np.ndarray) -> np.ndarray:
     return q
 
 
-def nodes_of(q: np.ndarray) -> np.ndarray:
-    """Node positions (n, 3) from q (4n-1,)."""
+@njit(cache=True)
+def nodes_array(q: np.ndarray) -> np.ndarray:
+    """Node positions (n, 3), m, of the DOF vector q (4n-1,): a new C-contiguous array (compiled)."""
     n = (q.shape[0] + 1) // 4
-    return np.stack([q[0::4], q[1::4], q[2::4]], axis=1) if n else np.zeros((0, 3))
+    x = np.empty((n, 3))
+    for i in range(n):
+        for k in range(3):
+            x[i, k] = q[4 * i + k]
+    return x
+
+
+def nodes_of(q: np.ndarray) -> np.ndarray:
+    """Node positions (n, 3) from q (4n-1,) (a new array)."""
+    return nodes_array(np.asarray(q, dtype=np.float64))
 
 
 def thetas_of(q: np.ndarray) -> np.ndarray:

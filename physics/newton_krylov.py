@@ -49,6 +49,7 @@ from physics.banded_cholesky import banded_cholesky, banded_cholesky_solve, lowe
 from physics.banded_lu import banded_lu, banded_solve
 from physics.contact import candidate_pairs, contact_kernel, head_candidates, within_reach
 from physics.errors import StepFailed
+from physics.geometry import nodes_array
 from physics.elastic import BANDWIDTH, elastic_gradient_kernel, elastic_hessian_banded_kernel, rod_frames
 from physics.implicit_residual import assemble_residual, block_max_abs, generalised_velocity
 from physics.rft import rft_blocks
@@ -342,17 +343,6 @@ def krylov_direction(b: np.ndarray, rtol: float, max_iter: int, nd: int, vdofs: 
             return x, m, abs(gv[k + 1]) / beta
     return np.zeros(n), -1, abs(gv[max_iter]) / beta
 
-
-
-@njit(cache=True)
-def nodes_array(q: np.ndarray) -> np.ndarray:
-    """Node positions (n, 3), m, of the DOF vector q (4n-1,) (``geometry.nodes_of``, contiguous)."""
-    n = (q.shape[0] + 1) // 4
-    x = np.empty((n, 3))
-    for i in range(n):
-        for k in range(3):
-            x[i, k] = q[4 * i + k]
-    return x
 
 
 @njit(cache=True)

@@ -47,6 +47,7 @@ from physics.elastic import elastic_gradient_kernel, rest_from_configuration, ro
 from physics.errors import SimulationError
 from physics.geometry import edge_stretch_extremes, initial_nodes, layout_for, nodes_of, pack_q
 from physics.anderson import AndersonMixing
+from physics.body_frame import transported_body_frame
 from physics.contact import ContactModel
 from physics.implicit_residual import assemble_residual, block_max_abs, generalised_velocity
 from physics.params import NumericsConfig, SwimmerParams
@@ -508,7 +509,6 @@ class Simulator:
     def _commit(self, q, base: StepBase, grad, f, t, d1, rt, t_new: float | None = None) -> None:
         h = base.h
         dq = q - self.q
-        old_axis = self.body_frame[:, 0].copy()
         self._v_prev = self.v if h == self._h_prev else None
         self._h_prev = h
         self.v = dq / h if base.order == 1 and base.h_eff == h else velocity_of(q, base)
@@ -523,40 +523,7 @@ class Simulator:
         self.node_forces = np.stack([f[0::4], f[1::4], f[2::4]], axis=1)
         self.head_axial_torque = float(f[3]) if self.head_spins else 0.0
         self.motor_torque = float(grad[3])
-        self._update_body_frame(old_axis, dq[3] - h * self.omega)
+        self.body_frame = transported_body_frame(self.body_frame, q[0:3], q[4:7], dq[3] - h * self.omega,
+                                                 self.head_spins)
         if self.contact is not None:
             self.contact_energy, self.contact_count = self._last_contact
-
-    def _update_body_frame(self, old_axis: np.ndarray, dpsi: float) -> None:
-        """Transport the body frame to the new axis, then spin it by the head's rotation dpsi."""
-        x = self.nodes
-        new_axis = x[0] - x[1]  # -t^0: head (or motor shaft) axis
-        new_axis /= np.linalg.norm(new_axis)
-        y = _transport(self.body_frame[:, 1], old_axis, new_axis)
-        if self.head_spins:  # spin by dpsi about t0 = -X_b
-            y = _rotate_about(y, new_axis, -dpsi)
-        y -= (y @ new_axis) * new_axis
-        y /= np.linalg.norm(y)
-        self.body_frame = np.stack([new_axis, y, _cross3(new_axis, y)], axis=1)
-
-
-def _transport(u: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Parallel transport of u from unit vector a to unit vector b (minimal rotation)."""
-    c = _cross3(a, b)
-    s = np.linalg.norm(c)
-    if s < 1e-14:
-        return u.copy()
-    return _rotate_about(u, c / s, math.atan2(s, float(a @ b)))
-
-
-def _rotate_about(u: np.ndarray, k: np.ndarray, ang: float) -> np.ndarray:
-    """Rodrigues rotation of u about unit axis k by ang radians."""
-    return u * math.cos(ang) + _cross3(k, u) * math.sin(ang) + k * (k @ u) * (1 - math.cos(ang))
-
-
-def _cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a x b for two 3-vectors: the same arithmetic as np.cross, without its array overhead
-    (np.cross on single vectors was ~9 % of a step)."""
-    a0, a1, a2 = float(a[0]), float(a[1]), float(a[2])
-    b0, b1, b2 = float(b[0]), float(b[1]), float(b[2])
-    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
