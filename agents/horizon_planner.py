@@ -102,7 +102,7 @@ class HorizonConfig:
     psi_prior_weight: float = 2.0
     psi_min_theta_deg: float = 20.0
     time_floor_s: float = 0.15
-    risk: float = 0.5
+    risk: float = 1.0
     second_spread: float = 0.5
     spread_length_m: float = 0.05
     weight_next: float = 0.3
@@ -113,7 +113,7 @@ class HorizonConfig:
     planar_weight: float = 2.0
     planar_look_m: float = 0.05
     cruise_cost: float = 0.1
-    burst_cost_m: float = 0.0025
+    burst_cost_m: float = 0.005
     improvement_m: float = 0.003
     replan_s: float = 5.0
 
