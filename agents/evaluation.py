@@ -148,6 +148,7 @@ def _lines(file: Path) -> list[str]:
 def summarise(records: Sequence[dict[str, Any]], controllers: Sequence[str]) -> dict[str, Any]:
     """``{"per_path": [...], "aggregate": {...}}`` from episode records."""
     per_path = [{"path": r["path"], "controller": r["controller"], "status": r["status"], "error": r.get("error"),
+                 "n_waypoints": r.get("n_waypoints"),
                  **{m: r.get(m) for m in METRICS}, "trace": r.get("trajectory")} for r in records]
     aggregate = {}
     for c in controllers:
