@@ -113,8 +113,8 @@ class HorizonConfig:
     planar_weight: float = 2.0
     planar_look_m: float = 0.05
     cruise_cost: float = 0.1
-    burst_cost_m: float = 0.005
-    improvement_m: float = 0.003
+    burst_cost_m: float = 0.015
+    improvement_m: float = 0.005
     replan_s: float = 5.0
 
     def __post_init__(self) -> None:
