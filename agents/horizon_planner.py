@@ -18,7 +18,8 @@ the straight line of the last heading) is scored against the remaining waypoints
   distance plus a penalty graded by how far behind it is, as in ``graded_line_miss``),
 - once A is passed within the reach radius, the closest approach of the rest of the path to the
   waypoint after it, B (weight ``weight_next``),
-- the 10 cm corridor: predicted points farther than ``corridor_soft_m`` from the segment being
+- the largest predicted distance from the path (``track_weight``), and the 10 cm corridor: predicted
+  points farther than ``corridor_soft_m`` from the segment being
   followed cost ``corridor_weight`` per metre beyond it (and 1 m past ``corridor_hard_m``),
 - on planar segments (previous waypoint, A and B at z = 0 in the start frame) the largest
   predicted |z| and the last heading's out-of-plane slope (``planar_weight``),
@@ -54,7 +55,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from agents.adaptive_planner import AdaptivePlanner, _AdaptiveEpisode
-from agents.online_turn_map import OnlineTurnMap
+from agents.online_turn_map import OnlineMapConfig, OnlineTurnMap
 from agents.turn_map import TurnMap
 from flagellum_env.turn_geometry import perpendicular_basis, wrap_angle
 from flagellum_env.turn_measurement import summarise_cruise
@@ -83,6 +84,8 @@ class HorizonConfig:
     after the first has been observed); its predicted spread costs ``spread_length_m`` x the
     angle's standard deviation (rad). weight_next: weight of the waypoint after the next.
     hit_fraction: a waypoint passed within this x the reach radius counts as reached.
+    track_weight: per metre of the largest predicted distance from the path (the segment being followed,
+    the next one once its waypoint is passed): keeps corners tight (cross-track is what is measured).
     corridor_soft_m / corridor_weight / corridor_hard_m: the corridor's soft and hard limits.
     planar_weight: per metre of predicted |z| on planar segments (the heading's slope counts over
     ``planar_look_m``). cruise_cost: per metre of cruise; burst_cost_m: per burst.
@@ -90,7 +93,7 @@ class HorizonConfig:
     replan_s: search again after this long while cruising (s of simulated time).
     """
 
-    cruise_m: tuple[float, ...] = (0.0, 0.005, 0.015, 0.03)
+    cruise_m: tuple[float, ...] = (0.0, 0.005, 0.015, 0.03, 0.05)
     second_cruise_m: tuple[float, ...] = (0.0, 0.02)
     map_time_step_s: float = 0.2
     second_map_times: int = 6
@@ -107,6 +110,7 @@ class HorizonConfig:
     spread_length_m: float = 0.05
     weight_next: float = 0.3
     hit_fraction: float = 0.6
+    track_weight: float = 0.5
     corridor_soft_m: float = 0.07
     corridor_weight: float = 10.0
     corridor_hard_m: float = 0.095
@@ -127,7 +131,8 @@ class HorizonConfig:
         for name in ("map_time_step_s", "phase_step_deg", "second_phase_step_deg", "psi_prior_std_deg",
                      "spread_length_m", "hit_fraction", "corridor_soft_m", "corridor_hard_m", "replan_s"):
             require_finite(f"HorizonConfig.{name}", getattr(self, name), 0.0, lo_open=True)
-        for name in ("psi_prior_weight", "psi_min_theta_deg", "time_floor_s", "min_turn_deg", "risk", "second_spread", "weight_next", "corridor_weight", "planar_weight",
+        for name in ("psi_prior_weight", "psi_min_theta_deg", "time_floor_s", "track_weight", "min_turn_deg", "risk",
+                     "second_spread", "weight_next", "corridor_weight", "planar_weight",
                      "planar_look_m", "cruise_cost", "burst_cost_m", "improvement_m"):
             require_finite(f"HorizonConfig.{name}", getattr(self, name), 0.0)
         for name in ("second_map_times", "beam"):
@@ -337,7 +342,7 @@ def sequence_cost(sit: Situation, points: list[np.ndarray], h_last: np.ndarray, 
         xt = np.where(k <= where, _point_seg(v, sit.segment_start, A), _point_seg(v, A, seg2_end))
         xt_max = np.maximum(xt_max, xt)
         z_max = np.maximum(z_max, np.abs(v[..., 2]))
-    cost = cost + cfg.corridor_weight * np.maximum(xt_max - cfg.corridor_soft_m, 0.0)
+    cost = cost + cfg.track_weight * xt_max + cfg.corridor_weight * np.maximum(xt_max - cfg.corridor_soft_m, 0.0)
     cost = cost + np.where(xt_max > cfg.corridor_hard_m, 1.0, 0.0)
     if sit.planar:
         cost = cost + cfg.planar_weight * (z_max + cfg.planar_look_m * np.abs(h_last[..., 2]))
@@ -443,6 +448,12 @@ def search(sit: Situation, model: TurnModel, cfg: HorizonConfig) -> MoveChoice:
 
 
 # --- the controller -----------------------------------------------------------------------------
+#: The online correction the horizon planner starts from: the adaptive planner's, with the prior spread of the
+#: ratio-turn bias at 0.15 s instead of 0.3 s. Bursts flown by L'/L on the dev swimmers (E, mu, b within 10 %,
+#: seeds 5000-5002) ended within 0.05-0.15 s of map time of the planned turn; at 0.3 s (sigma points at
+#: +-0.52 s, past the branch's peak) the nominal swimmer split the square's corners into 22 + 78 deg.
+HORIZON_ONLINE = OnlineMapConfig(prior_bias_std_s=0.15)
+
 @dataclass
 class _HorizonEpisode(_AdaptiveEpisode):
     next_search: int = 0                          # env step of the next search while cruising
@@ -464,6 +475,8 @@ class HorizonPlanner(AdaptivePlanner):
     @classmethod
     def for_env(cls, env, turn_map: TurnMap, config=None, online=None, carry_over: bool = False,  # type: ignore[override]
                 horizon: HorizonConfig | None = None) -> HorizonPlanner:
+        """A horizon planner for this env. ``online`` defaults to ``HORIZON_ONLINE``."""
+        online = online or HORIZON_ONLINE
         base = AdaptivePlanner.for_env(env, turn_map, config, online, carry_over)
         return cls(turn_map, base.layout, base.control_dt, base.reach_radius_m, base.action_of, config, online,
                    carry_over, base.end_slice, base.reference, horizon=horizon)
