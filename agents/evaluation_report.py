@@ -21,7 +21,7 @@ AGGREGATE_ROWS = (("episodes", "episodes", 1, 0), ("success rate (%)", "success_
                   ("waypoints reached (mean)", "waypoints_reached", 1, 2),
                   ("mean cross-track (cm)", "mean_cross_track_m", 100, 2),
                   ("max cross-track (cm)", "max_cross_track_m", 100, 2),
-                  ("max Δz/ΔL, planar paths (%)", "max_out_of_plane_ratio", 100, 2), ("time (s)", "time_s", 1, 0),
+                  ("max Δz/ΔL, mean over planar paths (%)", "max_out_of_plane_ratio", 100, 2), ("time (s)", "time_s", 1, 0),
                   ("energy (mJ)", "energy_J", 1e3, 2), ("buckling events", "buckling_events", 1, 1),
                   ("wall time per path (s)", "wall_time_s", 1, 0), ("episodes ending in an error", "failed_runs", 1, 0))
 
@@ -137,7 +137,8 @@ def folder_report(folder: str | Path, fig_dir: str | Path | None = None, name: s
         f"E, μ, b within ±{rand['youngs_modulus'] * 100:g} %, helix ±{rand['geometry'] * 100:g} %")
     seeds = sorted(set(res.get("seeds", {}).values()))
     lines = [f"### {name}: {setting} ({res.get('preset')} preset)", "",
-             f"Folder `{folder}`" + (f"; env seeds {seeds[0]}-{seeds[-1]}" if seeds else "") + ".", ""]
+             f"Folder `{folder}`" + ((f"; env seeds {seeds[0]}-{seeds[-1]}" if len(seeds) > 1 else
+                                     f"; env seed {seeds[0]} for every path") if seeds else "") + ".", ""]
     lines += aggregate_table(res, controllers) + [""] + paired_table(res, controllers) + [""]
     if res.get("missing"):
         lines += [f"Not finished: {', '.join(res['missing'])}.", ""]
