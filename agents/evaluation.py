@@ -84,13 +84,13 @@ def check_controllers(controllers: Sequence[str], paths: Sequence[WaypointPath],
 def evaluate(paths: Sequence[WaypointPath], controllers: Sequence[str], preset: str, out_dir: str | os.PathLike,
              workers: int | None = None, resume: bool = False, env_overrides: dict[str, Any] | None = None,
              progress: bool = True, report_only: bool = False, seed_per_path: bool = False,
-             scheduler: Any | None = None) -> dict[str, Any]:
+             scheduler: Any | None = None, seed0: int = 0) -> dict[str, Any]:
     """Run every (controller, path) episode (parallel, resumable) and write the results files.
 
     ``report_only``: run nothing; write the results files from the episodes already in
     ``out_dir`` (the others are listed under ``missing``). ``seed_per_path``: the env is reset
-    with seed k for the k-th path (every controller meets the same draws; with randomisation,
-    each path its own swimmer) instead of seed 0 for all. ``scheduler``: a Dask scheduler (address or
+    with seed ``seed0 + k`` for the k-th path (every controller meets the same draws; with randomisation,
+    each path its own swimmer) instead of ``seed0`` for all. ``scheduler``: a Dask scheduler (address or
     cluster) instead of ``workers`` local processes (``batch.pool.run_tasks``).
     """
     for c in controllers:
@@ -103,7 +103,9 @@ def evaluate(paths: Sequence[WaypointPath], controllers: Sequence[str], preset: 
     if not report_only:
         check_controllers(controllers, paths, preset, env_overrides)
     env_kw = tuple(sorted((env_overrides or {}).items()))
-    tasks = [EpisodeTask(c, p, preset, env_kw, seed=k if seed_per_path else 0)
+    if isinstance(seed0, bool) or not isinstance(seed0, int) or seed0 < 0:
+        raise ValueError(f"seed0={seed0!r} is not allowed; allowed: an integer >= 0")
+    tasks = [EpisodeTask(c, p, preset, env_kw, seed=seed0 + k if seed_per_path else seed0)
              for c in controllers for k, p in enumerate(paths)]
     with ResultsStore(out, resume or report_only) as store:
         lost: list[tuple[Any, str]] = []
@@ -115,6 +117,7 @@ def evaluate(paths: Sequence[WaypointPath], controllers: Sequence[str], preset: 
     results = summarise([r for r in records if r is not None], controllers)
     results["preset"] = preset
     results["env_overrides"] = dict(env_overrides or {})
+    results["seeds"] = {p.name: (seed0 + k if seed_per_path else seed0) for k, p in enumerate(paths)}
     results["missing"] = [t.label() for t, r in zip(tasks, records, strict=True) if r is None]
     (out / "results.json").write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")
     (out / "results.md").write_text(results_markdown(results), encoding="utf-8")
@@ -145,6 +148,7 @@ def _lines(file: Path) -> list[str]:
 def summarise(records: Sequence[dict[str, Any]], controllers: Sequence[str]) -> dict[str, Any]:
     """``{"per_path": [...], "aggregate": {...}}`` from episode records."""
     per_path = [{"path": r["path"], "controller": r["controller"], "status": r["status"], "error": r.get("error"),
+                 "n_waypoints": r.get("n_waypoints"),
                  **{m: r.get(m) for m in METRICS}, "trace": r.get("trajectory")} for r in records]
     aggregate = {}
     for c in controllers:

@@ -3,7 +3,8 @@
 Controllers are named by a spec string (``make_controller``): ``rule`` (the turn planner with
 the preset's turn map, ``agents.assets.default_turn_map``), ``rule:MAP.json`` (another
 map), ``adaptive`` / ``adaptive:MAP.json`` (the turn planner correcting its map online from the
-turns it observes, ``agents.adaptive_planner``), ``ppo`` (the PPO agent shipped in ``agents/pretrained/``) and ``ppo:DIR`` (an agent folder
+turns it observes, ``agents.adaptive_planner``), ``horizon`` / ``horizon:MAP.json`` (a receding-horizon
+search of two moves -- cruise, then burst -- over that corrected map, ``agents.horizon_planner``), ``ppo`` (the PPO agent shipped in ``agents/pretrained/``) and ``ppo:DIR`` (an agent folder
 written by ``flagellum train``, or its ``model.zip``). Each has the stable-baselines3
 ``predict(obs, state, episode_start, deterministic)`` call, so the loop does not care which.
 
@@ -45,14 +46,15 @@ METRICS = ("success", "waypoints_reached", "mean_cross_track_m", "max_cross_trac
 #: grow by up to ~100 deg per second of burst (paper preset), so it steps every 0.1 s.
 #: The PPO agent corrects the planner's turns (agents.residual_planner), so it steps like the planner.
 CONTROLLER_ENV_DEFAULTS: dict[str, dict[str, Any]] = {"rule": {"control_dt": 0.1}, "adaptive": {"control_dt": 0.1},
-                                                      "ppo": {"control_dt": 0.1}}
+                                                      "horizon": {"control_dt": 0.1}, "ppo": {"control_dt": 0.1}}
 
 
-_ALLOWED_SPECS = "'rule', 'rule:TURN_MAP.json', 'adaptive', 'adaptive:TURN_MAP.json', 'ppo', 'ppo:AGENT_DIR'"
+_ALLOWED_SPECS = ("'rule', 'rule:TURN_MAP.json', 'adaptive', 'adaptive:TURN_MAP.json', 'horizon', "
+                  "'horizon:TURN_MAP.json', 'ppo', 'ppo:AGENT_DIR'")
 
 
 def controller_kind(spec: str) -> str:
-    """``"rule"``, ``"adaptive"`` or ``"ppo"`` from ``KIND`` or ``KIND:FILE``; ValueError otherwise (also for
+    """``"rule"``, ``"adaptive"``, ``"horizon"`` or ``"ppo"`` from ``KIND`` or ``KIND:FILE``; ValueError otherwise (also for
     ``KIND:`` with nothing after the colon, which would silently mean the default map or agent)."""
     kind, sep, arg = spec.partition(":") if isinstance(spec, str) else ("", "", "")
     if kind not in CONTROLLER_ENV_DEFAULTS:
@@ -76,15 +78,17 @@ def make_controller(spec: str, env, preset: str):
     """The controller named by ``spec`` for this env (see the module docstring)."""
     kind = controller_kind(spec)
     arg = spec.split(":", 1)[1] if ":" in spec else None
-    if kind in ("rule", "adaptive"):
+    if kind in ("rule", "adaptive", "horizon"):
         from agents.adaptive_planner import AdaptivePlanner
+        from agents.horizon_planner import HorizonPlanner
         from agents.turn_map import TurnMap
         from agents.turn_planner import RulePlanner
 
         path = Path(arg) if arg else default_turn_map(preset)
         if not path.is_file():
             raise ValueError(missing_turn_map_message(path, preset, given=arg is not None))
-        return (RulePlanner if kind == "rule" else AdaptivePlanner).for_env(env, TurnMap.load(path))
+        planner = {"rule": RulePlanner, "adaptive": AdaptivePlanner, "horizon": HorizonPlanner}[kind]
+        return planner.for_env(env, TurnMap.load(path))
     from agents.ppo_policy import load_ppo_controller
 
     return load_ppo_controller(arg, env, preset)

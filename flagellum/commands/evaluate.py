@@ -6,7 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from flagellum.commands.common import DEFAULT_PRESET_ARG, SCHEDULER_HELP, UsageError, parse_number, parse_workers
+from flagellum.commands.common import (DEFAULT_PRESET_ARG, SCHEDULER_HELP, UsageError, parse_int, parse_number,
+                                       parse_workers)
 
 NAME = "evaluate"
 HELP = "run each controller on each path (parallel, resumable); write results.json and results.md"
@@ -23,7 +24,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="'square', 'eval' (the 20 evaluation paths shipped with the package), path files (JSON) "
                              "or folders of them")
     parser.add_argument("--controller", action="append", required=True,
-                        help="rule | rule:MAP.json | adaptive | adaptive:MAP.json | ppo | ppo:AGENT_DIR (repeatable)")
+                        help="rule | rule:MAP.json | adaptive | adaptive:MAP.json | horizon | horizon:MAP.json | ppo | ppo:AGENT_DIR (repeatable)")
     parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/evaluate"), help="default out/evaluate")
     parser.add_argument("--workers", metavar="N", help="local worker processes (default: one per core)")
     parser.add_argument("--scheduler", metavar="ADDR", help=SCHEDULER_HELP)
@@ -33,10 +34,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--randomize", metavar="F",
                         help="model error: each path's swimmer has E, mu and b drawn within +-F (a fraction, e.g. "
                              "0.05) and the helix pitch and radius within +-G (--randomize-geometry, default 0.4 F), "
-                             "while the controllers keep the nominal turn map; the k-th path uses env seed k")
+                             "while the controllers keep the nominal turn map; the k-th path uses env seed SEED0 + k")
     parser.add_argument("--randomize-geometry", metavar="G",
                         help="with --randomize: the helix pitch and radius within +-G (a fraction in [0, 0.5]; "
                              "default 0.4 F)")
+    parser.add_argument("--seed0", metavar="N", default="0",
+                        help="env seed of the first path, an integer >= 0 (default 0); with --randomize the k-th path's "
+                             "swimmer is drawn with seed N + k, so swimmers no earlier run met come from seeds of your "
+                             "choice")
     parser.add_argument("--no-progress", action="store_true", help="do not show the progress bar")
 
 
@@ -49,6 +54,7 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     workers, scheduler = parse_workers(args)
+    seed0 = parse_int("--seed0", args.seed0, 0)
     overrides = None
     if args.randomize is not None:
         f = parse_number("--randomize", args.randomize, "a fraction in (0, 0.5]", positive=True)
@@ -67,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         results = evaluate(paths, args.controller, args.preset, args.out, workers=workers, scheduler=scheduler,
                            resume=args.resume, progress=not args.no_progress, report_only=args.report_only,
-                           env_overrides=overrides, seed_per_path=overrides is not None)
+                           env_overrides=overrides, seed_per_path=overrides is not None, seed0=seed0)
     except (ValueError, SweepError) as exc:  # a bad controller name, a locked or used DIR
         raise UsageError(str(exc)) from None
     except EpisodesNotRun as exc:  # workers died: the partial summary is written, the status says it is partial

@@ -41,6 +41,22 @@ def test_evaluate_writes_results_and_resumes(tmp_path, monkeypatch):
     assert partial["missing"] == ["rule on other"] and len(partial["per_path"]) == 1
 
 
+def test_seed0_draws_each_paths_swimmer_from_its_own_seed_and_the_report_pairs_them(tmp_path):
+    from agents.evaluation_report import folder_report
+
+    out = tmp_path / "eval"
+    other = path_from_waypoints([[0.0, 0.004, 0.0]], name="other", reach_radius_m=0.002)
+    res = evaluate([SHORT, other], ["rule"], "coarse", out, workers=1, progress=False, seed_per_path=True, seed0=7)
+    assert res["seeds"] == {"short": 7, "other": 8}
+    with pytest.raises(ValueError, match="seed0"):
+        evaluate([SHORT], ["rule"], "coarse", tmp_path / "e2", workers=1, progress=False, seed0=-1)
+    lines = folder_report(out, tmp_path / "figures", "short_paths")
+    text = "\n".join(lines)
+    assert "| other (8) | " in text and "| short (7) | yes (1/1)" in text
+    assert "env seeds 7-8" in text
+    assert (tmp_path / "figures" / "short_paths.png").is_file()
+
+
 def test_episode_metrics_from_a_trace():
     path = path_from_waypoints([[0.1, 0.0, 0.0], [0.1, 0.1, 0.0]])
     heads = np.array([[0, 0, 0], [0.05, 0.01, 0.002], [0.1, 0.05, -0.004]])
@@ -88,6 +104,7 @@ def test_resolve_paths_errors_and_folders(tmp_path):
 @pytest.mark.parametrize("argv, message", [
     (["evaluate", "--paths", "nowhere.json", "--controller", "rule"], "allowed: 'square', 'eval'"),
     (["evaluate", "--paths", "square", "--controller", "magic"], "controller 'magic' is not allowed"),
+    (["evaluate", "--paths", "square", "--controller", "rule", "--seed0", "-1"], "--seed0 '-1' is not allowed"),
     (["follow", "--path", "square", "--controller", "ppo:no_agent_here"], "no trained PPO agent"),
     (["follow", "--path", "square", "--controller", "rule:nomap.json"], "no turn map at 'nomap.json'"),
     (["calibrate-turns", "--preset", "coarse", "--t-c", "-1"], "--t-c '-1' is not allowed"),
