@@ -20,13 +20,11 @@ Inputs (each made by a committed command; missing ones are reported as not measu
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from agents.evaluation import summarise
 from agents.follow_plots import save
 from agents_report import ROWS, _fmt  # the same metric rows as docs/agents.md
 
