@@ -481,9 +481,10 @@ class FlagellumSteerFastEnv(FlagellumSteerEnv):
     """``FlagellumSteer-fast-v0``: ``FlagellumSteer-v0`` (``FlagellumSteerEnv``, whose docstring is the
     manual) at the ``fast`` preset.
 
-    The paper's grid (N = 122) and variable-step BDF2 as ``faithful``, with a ten times looser local error
-    tolerance (``step_tol`` 1e-3): the same swimmer and grid at a lower cost per step, with larger
-    integration errors (docs/fidelity.md measures the presets against ``paper``). Every
+    The paper's grid (N = 122) and variable-step BDF3 with Newton-Krylov steps as ``faithful``, with a ten
+    times looser local error tolerance (``step_tol`` 1e-3): the same swimmer and grid at a lower cost per step,
+    with larger integration errors (docs/bench_quick.md measures the presets against ``reference``: turn
+    angle within 0.9 %). Every
     argument and default is ``FlagellumSteer-v0``'s except ``preset="fast"``; ``max_episode_steps`` = 400
     at registration as there.
     """
