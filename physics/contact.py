@@ -342,6 +342,27 @@ def add_blocks_to_dense(J: np.ndarray, nodes: np.ndarray, blocks: np.ndarray, st
                             J[stride * ip + k, stride * iq + m] += v
 
 
+@njit(cache=True)
+def contact_broad_phase(x: np.ndarray, model: tuple, pad: float) -> tuple[np.ndarray, np.ndarray]:
+    """The broad phase: (rod-rod candidate pairs (P, 2), head candidate edges (H,)) at x (n, 3), m, with boxes
+    padded by the contact distance, the activation margin and ``pad`` (m). model = ``ContactModel.model``:
+    (arc, first_rod_edge, min_arc_gap, b, first_head_edge, r0, eps, k)."""
+    arc, first_rod_edge, min_arc_gap, b, first_head_edge, r0, eps = model[:7]
+    reach = 2.0 * r0 + eps + pad
+    pairs = within_reach(x, candidate_pairs(x, arc, first_rod_edge, min_arc_gap, reach), reach)
+    if b > 0.0:
+        head = head_candidates(x, first_head_edge, b + r0 + eps + pad)
+    else:
+        head = np.zeros(0, dtype=np.int64)
+    return pairs, head
+
+
+#: what the compiled kernels take for a scene without contact: no pairs, no head edges, a placeholder model
+NO_PAIRS = np.zeros((0, 2), dtype=np.int64)
+NO_EDGES = np.zeros(0, dtype=np.int64)
+NO_CONTACT_MODEL = (np.zeros(1), 0, 0.0, 0.0, 0, 0.0, 0.0, 0.0)
+
+
 class ContactModel:
     """Contact of one swimmer: which edges take part, distances, stiffness (SI).
 
@@ -362,19 +383,17 @@ class ContactModel:
         self.first_rod_edge = 1 if has_head else 0
         self.first_head_edge = 2  # e0 and e1 are attached to the head
         self.min_arc_gap = math.pi * self.r0
-        self._no_edges = np.zeros(0, dtype=np.int64)
+
+    @property
+    def model(self) -> tuple:
+        """(arc, first_rod_edge, min_arc_gap, b, first_head_edge, r0, eps, k): what the compiled kernels take."""
+        return (self.arc, self.first_rod_edge, self.min_arc_gap, self.b, self.first_head_edge, self.r0, self.eps,
+                self.k)
 
     def broad_phase(self, x: np.ndarray, pad: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """(rod-rod candidate pairs (P,2), head candidate edges (H,)) at x (n,3), m, with boxes
         padded by the contact distance, the activation margin and ``pad`` (m)."""
-        x = np.ascontiguousarray(x)
-        reach = 2.0 * self.r0 + self.eps + pad
-        pairs = within_reach(x, candidate_pairs(x, self.arc, self.first_rod_edge, self.min_arc_gap, reach), reach)
-        if self.b > 0.0:
-            head = head_candidates(x, self.first_head_edge, self.b + self.r0 + self.eps + pad)
-        else:
-            head = self._no_edges
-        return pairs, head
+        return contact_broad_phase(np.ascontiguousarray(x), self.model, pad)
 
     def evaluate(self, x: np.ndarray, candidates: tuple[np.ndarray, np.ndarray] | None = None):
         """(E J, grad (3n,) N, nodes (A,4), Hessian blocks (A,12,12) N/m) at x (n,3), m."""

@@ -11,7 +11,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from physics.elastic.rod_energy import banded_to_dense
+from physics.contact import contact_broad_phase, contact_kernel
+from physics.elastic.rod_energy import banded_to_dense, elastic_gradient_kernel, rod_frames
+from physics.geometry import nodes_array
 
 
 @njit(cache=True)
@@ -133,3 +135,49 @@ def rotate_dense_blocks(R: np.ndarray, Q: np.ndarray, spin: bool) -> np.ndarray:
         if spin:
             out[nv - 1, j] = tmp[nv - 1, j]
     return out
+
+
+@njit(cache=True)
+def internal_forces_at(q: np.ndarray, frames_old: tuple, rest: tuple, contact_on: bool, model: tuple,
+                       cstate: tuple, q_start: np.ndarray, pos: np.ndarray, first_step: bool):
+    """``Simulator.internal_forces`` from compiled code: the gradient of the elastic (eqns 5a-5c) and contact
+    energies at q (ndof,) N and N m, the frames of q, the contact state (redone when q left the padded
+    broad-phase boxes) and the active contacts (energy J, nodes (A, 4), Hessian blocks (A, 12, 12) N/m).
+
+    frames_old = (d1, t, ref_twist) of the step's start; rest = the 7 rest arrays; cstate = (q of the
+    broad phase, its pad m, pairs, head edges, none active)."""
+    d1_old, t_old, rt_old = frames_old
+    l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ = rest
+    t, d1, d2, rt, m1, m2 = rod_frames(q, d1_old, t_old, rt_old)
+    grad = elastic_gradient_kernel(q, d1, d2, rt, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ)
+    cq, pad, pairs, head, none = cstate
+    e_c = 0.0
+    nodes_c = np.zeros((0, 4), dtype=np.int64)
+    blocks_c = np.zeros((0, 12, 12))
+    if contact_on:
+        if block_max_abs(q - cq, pos) > 0.5 * pad:  # the iterate left the padded boxes: redo the broad phase
+            x = nodes_array(q)
+            move = 0.0 if first_step else block_max_abs(q - q_start, pos)
+            pad = max(0.5 * model[5], 2.0 * move)
+            pairs, head = contact_broad_phase(x, model, pad)
+            none = pairs.shape[0] == 0 and head.shape[0] == 0
+            cq = q.copy()
+        if not none:
+            e_c, g_c, nodes_c, blocks_c = contact_kernel(nodes_array(q), pairs, model[3], head, model[5],
+                                                         model[6], model[7])
+            if nodes_c.shape[0]:
+                for k in range(3):
+                    grad[k::4] += g_c[k::3]
+    return grad, (t, d1, d2, rt, m1, m2), (cq, pad, pairs, head, none), e_c, nodes_c, blocks_c
+
+
+@njit(cache=True)
+def forces_converged(r: np.ndarray, grad: np.ndarray, f: np.ndarray, inertia: np.ndarray, pos: np.ndarray,
+                     free_twist: np.ndarray, tol: float, f_floor: float, r0: float) -> bool:
+    """``Simulator._converged``: the force residual below tol relative to the largest force term, per block."""
+    s_pos = max(block_max_abs(grad, pos), block_max_abs(f, pos), block_max_abs(inertia, pos), f_floor)
+    if block_max_abs(r, pos) > tol * s_pos:
+        return False
+    s_tw = max(block_max_abs(grad, free_twist), block_max_abs(f, free_twist), block_max_abs(inertia, free_twist),
+               f_floor * r0)
+    return block_max_abs(r, free_twist) <= tol * s_tw

@@ -47,11 +47,12 @@ from numba import njit
 from physics.banded_jacobian import add_banded_drag, add_blocks_to_banded, banded_dirichlet
 from physics.banded_cholesky import banded_cholesky, banded_cholesky_solve, lower_band
 from physics.banded_lu import banded_lu, banded_solve
-from physics.contact import candidate_pairs, contact_kernel, head_candidates, within_reach
+from physics.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS
 from physics.errors import StepFailed
 from physics.geometry import nodes_array
-from physics.elastic import BANDWIDTH, elastic_gradient_kernel, elastic_hessian_banded_kernel, rod_frames
-from physics.implicit_residual import assemble_residual, block_max_abs, generalised_velocity
+from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel, rod_frames
+from physics.implicit_residual import (assemble_residual, block_max_abs, forces_converged, generalised_velocity,
+                                       internal_forces_at)
 from physics.rft import rft_blocks
 from physics.time_integrator import NONLINEAR_ERROR_FRACTION, ContractionRate
 
@@ -346,54 +347,6 @@ def krylov_direction(b: np.ndarray, rtol: float, max_iter: int, nd: int, vdofs: 
 
 
 @njit(cache=True)
-def contact_broad_phase(x: np.ndarray, model: tuple, pad: float) -> tuple[np.ndarray, np.ndarray]:
-    """``ContactModel.broad_phase`` from compiled code: (rod-rod pairs (P, 2), head edges (H,)) at x (n, 3), m.
-    model = (arc, first_rod_edge, min_arc_gap, b, first_head_edge, r0, eps, k) of the ``ContactModel``."""
-    arc, first_rod_edge, min_arc_gap, b, first_head_edge, r0, eps = model[:7]
-    reach = 2.0 * r0 + eps + pad
-    pairs = within_reach(x, candidate_pairs(x, arc, first_rod_edge, min_arc_gap, reach), reach)
-    if b > 0.0:
-        head = head_candidates(x, first_head_edge, b + r0 + eps + pad)
-    else:
-        head = np.zeros(0, dtype=np.int64)
-    return pairs, head
-
-
-@njit(cache=True)
-def internal_forces_at(q: np.ndarray, frames_old: tuple, rest: tuple, contact_on: bool, model: tuple,
-                       cstate: tuple, q_start: np.ndarray, pos: np.ndarray, first_step: bool):
-    """``Simulator.internal_forces`` from compiled code: the gradient of the elastic (eqns 5a-5c) and contact
-    energies at q (ndof,) N and N m, the frames of q, the contact state (redone when q left the padded
-    broad-phase boxes) and the active contacts (energy J, nodes (A, 4), Hessian blocks (A, 12, 12) N/m).
-
-    frames_old = (d1, t, ref_twist) of the step's start; rest = the 7 rest arrays; cstate = (q of the
-    broad phase, its pad m, pairs, head edges, none active)."""
-    d1_old, t_old, rt_old = frames_old
-    l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ = rest
-    t, d1, d2, rt, m1, m2 = rod_frames(q, d1_old, t_old, rt_old)
-    grad = elastic_gradient_kernel(q, d1, d2, rt, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ)
-    cq, pad, pairs, head, none = cstate
-    e_c = 0.0
-    nodes_c = np.zeros((0, 4), dtype=np.int64)
-    blocks_c = np.zeros((0, 12, 12))
-    if contact_on:
-        if block_max_abs(q - cq, pos) > 0.5 * pad:  # the iterate left the padded boxes: redo the broad phase
-            x = nodes_array(q)
-            move = 0.0 if first_step else block_max_abs(q - q_start, pos)
-            pad = max(0.5 * model[5], 2.0 * move)
-            pairs, head = contact_broad_phase(x, model, pad)
-            none = pairs.shape[0] == 0 and head.shape[0] == 0
-            cq = q.copy()
-        if not none:
-            e_c, g_c, nodes_c, blocks_c = contact_kernel(nodes_array(q), pairs, model[3], head, model[5],
-                                                         model[6], model[7])
-            if nodes_c.shape[0]:
-                for k in range(3):
-                    grad[k::4] += g_c[k::3]
-    return grad, (t, d1, d2, rt, m1, m2), (cq, pad, pairs, head, none), e_c, nodes_c, blocks_c
-
-
-@njit(cache=True)
 def mobility_residual(q: np.ndarray, y: np.ndarray, h: float, grad: np.ndarray, base: tuple, system: tuple,
                       hydro: tuple):
     """(r_q (ndof,) N / N m, r_y (3M,) N, f (ndof,), inertia (ndof,)) at (q, y) for the internal forces grad
@@ -408,18 +361,6 @@ def mobility_residual(q: np.ndarray, y: np.ndarray, h: float, grad: np.ndarray, 
     r, f, inertia = assemble_residual(q, q_hat, v_hat, h_eff, mass, grad, G, _EYE, vdofs, head_spins, prescribed)
     r_y = sigma * (A @ y - head_flow_apply(V, H, g, has_head, spin))
     return r, r_y, f, inertia
-
-
-@njit(cache=True)
-def forces_converged(r: np.ndarray, grad: np.ndarray, f: np.ndarray, inertia: np.ndarray, pos: np.ndarray,
-                     free_twist: np.ndarray, tol: float, f_floor: float, r0: float) -> bool:
-    """``Simulator._converged``: the force residual below tol relative to the largest force term, per block."""
-    s_pos = max(block_max_abs(grad, pos), block_max_abs(f, pos), block_max_abs(inertia, pos), f_floor)
-    if block_max_abs(r, pos) > tol * s_pos:
-        return False
-    s_tw = max(block_max_abs(grad, free_twist), block_max_abs(f, free_twist), block_max_abs(inertia, free_twist),
-               f_floor * r0)
-    return block_max_abs(r, free_twist) <= tol * s_tw
 
 
 _RATE_MAX_AGE = ContractionRate.MAX_AGE
@@ -590,12 +531,11 @@ class MobilityStep:
         nm, p = sim.numerics, sim.params
         contact = sim.contact
         if contact is not None:
-            model = (contact.arc, contact.first_rod_edge, contact.min_arc_gap, contact.b, contact.first_head_edge,
-                     contact.r0, contact.eps, contact.k)
+            model = contact.model
             pairs, head = sim._contact_candidates
             cstate = (sim._contact_q, sim._contact_pad, pairs, head, sim._contact_none)
         else:
-            model, cstate = _NO_CONTACT_MODEL, (q, 0.0, *_NO_CANDIDATES, True)
+            model, cstate = NO_CONTACT_MODEL, (q, 0.0, NO_PAIRS, NO_EDGES, True)
         rate = self.contraction
         code, q, y, r, grad, f, frames, cstate, (e_c, count), (evaluated, its), (rate.rho, rate._age), value = (
             newton_krylov_loop(q, y, h, sim.q, (sim.d1, sim.tangent, sim.ref_twist), sim.rest_arrays,
@@ -620,9 +560,3 @@ class MobilityStep:
                                        f"(max force residual {value:.3e})")
         t, d1, d2, rt, m1, m2 = frames
         return q, r, grad, f, (t, d1, rt)
-
-
-
-
-_NO_CONTACT_MODEL = (np.zeros(1), 0, 0.0, 0.0, 0, 0.0, 0.0, 0.0)
-_NO_CANDIDATES = (np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64))

@@ -43,13 +43,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from physics.elastic import elastic_gradient_kernel, rest_from_configuration, rod_frames
+from physics.elastic import rest_from_configuration, rod_frames
 from physics.errors import SimulationError
 from physics.geometry import edge_stretch_extremes, initial_nodes, layout_for, nodes_of, pack_q
 from physics.anderson import AndersonMixing
 from physics.body_frame import transported_body_frame
-from physics.contact import ContactModel
-from physics.implicit_residual import assemble_residual, block_max_abs, generalised_velocity
+from physics.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS, ContactModel
+from physics.implicit_residual import (assemble_residual, block_max_abs, forces_converged, generalised_velocity,
+                                       internal_forces_at)
 from physics.params import NumericsConfig, SwimmerParams
 from physics.step_solvers import BandedNewtonSolver, DenseChordSolver, StepFailed
 from physics.threads import one_blas_thread
@@ -77,12 +78,11 @@ class StepStats:
     substeps: int = 0  # accepted integration steps (= steps with fixed steps and no halving)
     rejected_steps: int = 0  # adaptive steps retried smaller (error too large or Newton failure)
     # wall seconds spent in each part of the step
-    time_elastic: float = 0.0  # frames + elastic gradient
+    time_elastic: float = 0.0  # frames + elastic and contact gradients
     time_hydro: float = 0.0  # applying the resistance (LSBT solves / matvecs)
     time_linear_solve: float = 0.0  # chord-iteration back-substitutions
     time_resistance_refresh: float = 0.0  # LSBT mobility + Cholesky
     time_jacobian_refresh: float = 0.0  # elastic Hessian, dense R, LU
-    time_contact: float = 0.0  # contact broad and narrow phase in the residual
 
 
 def lumped_masses(params: SwimmerParams, l_bar: np.ndarray, ndof: int, head_spins: bool) -> np.ndarray:
@@ -305,7 +305,7 @@ class Simulator:
 
     def _contact_broad_phase(self, q_pred: np.ndarray) -> None:
         """This step's contact candidates, padded by twice the predicted motion of any node (and at
-        least r0 / 2): the Newton iterates stay that close to the predictor (checked in ``_residual``)."""
+        least r0 / 2): the Newton iterates stay that close to the predictor (checked by ``internal_forces``)."""
         x_pred = nodes_of(q_pred)
         move = float(np.abs(q_pred[self._pos] - self.q[self._pos]).max()) if self.step_count else 0.0
         self._contact_pad = max(0.5 * self.params.rod_radius, 2.0 * move)
@@ -320,24 +320,21 @@ class Simulator:
         return model.gaps(self.nodes)
 
     def internal_forces(self, q: np.ndarray):
-        """(gradient of the elastic and contact energies at q (ndof,) N and N m, frames (t, d1, rt) at q)."""
+        """(gradient of the elastic and contact energies at q (ndof,) N and N m, frames (t, d1, rt) at q); the
+        contact broad phase is redone when q has left this step's padded boxes (``internal_forces_at``)."""
         t0 = time.perf_counter()
-        t, d1, d2, rt, m1, m2 = self.frames_at(q)
-        grad = elastic_gradient_kernel(q, d1, d2, rt, m1, m2, *self.rest_arrays)
         if self.contact is not None:
-            tc = time.perf_counter()
-            if block_max_abs(q - self._contact_q, self._pos) > 0.5 * self._contact_pad:
-                self._contact_broad_phase(q)  # the iterate left the padded boxes: redo the broad phase
-                self._contact_q = q.copy()
-            if self._contact_none:
-                self._last_contact = (0.0, 0)
-            else:
-                e_c, g_c, nodes_c, _ = self.contact_terms(q)
-                if nodes_c.shape[0]:
-                    for k in range(3):
-                        grad[k::4] += g_c[k::3]
-                self._last_contact = (e_c, nodes_c.shape[0])
-            self.stats.time_contact += time.perf_counter() - tc
+            model = self.contact.model
+            cstate = (self._contact_q, self._contact_pad, *self._contact_candidates, self._contact_none)
+        else:
+            model, cstate = NO_CONTACT_MODEL, (q, 0.0, NO_PAIRS, NO_EDGES, True)
+        grad, (t, d1, d2, rt, m1, m2), cstate, e_c, nodes_c, _ = internal_forces_at(
+            q, (self.d1, self.tangent, self.ref_twist), self.rest_arrays, self.contact is not None, model, cstate,
+            self.q, self._pos, self.step_count == 0)
+        if self.contact is not None:
+            self._contact_q, self._contact_pad, pairs, head, self._contact_none = cstate
+            self._contact_candidates = (pairs, head)
+            self._last_contact = (e_c, nodes_c.shape[0])
         self.stats.time_elastic += time.perf_counter() - t0
         return grad, (t, d1, rt)
 
@@ -370,14 +367,8 @@ class Simulator:
         return r, grad, f, inertia, frames
 
     def _converged(self, r, grad, f, inertia) -> bool:
-        tol = self.numerics.newton_tol
-        pos, tw = self._pos, self._free_twist
-        s_pos = max(block_max_abs(grad, pos), block_max_abs(f, pos), block_max_abs(inertia, pos), self._f_floor)
-        if block_max_abs(r, pos) > tol * s_pos:
-            return False
-        s_tw = max(block_max_abs(grad, tw), block_max_abs(f, tw), block_max_abs(inertia, tw),
-                   self._f_floor * self.params.rod_radius)
-        return block_max_abs(r, tw) <= tol * s_tw
+        return forces_converged(r, grad, f, inertia, self._pos, self._free_twist, self.numerics.newton_tol,
+                                self._f_floor, self.params.rod_radius)
 
     def _euler_base(self, h: float) -> StepBase:
         """Implicit Euler from the current state, started from the constant-acceleration predictor of the

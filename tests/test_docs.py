@@ -152,7 +152,7 @@ def test_code_block_runs(tmp_path, name, line, lang, marker, text):
     kind, form, limit = how_to_run(marker)
     if kind == "set-up":
         assert all(c.startswith(("make ", "pip ")) or not c.strip() for c in text.splitlines()), f"{name}:{line}"
-        pytest.skip("set-up lines (CI runs them)")
+        pytest.skip("set-up block (make / pip lines): .ci/run itself runs make install and make test")
     _scratch(tmp_path)
     if kind == "shortened":
         text = shortened(text, form, tmp_path)
