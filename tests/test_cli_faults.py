@@ -250,6 +250,10 @@ def test_sigterm_stops_evaluate_and_its_workers(tmp_path, one_turn):
     proc = _cli(["evaluate", "--paths", str(one_turn), "--controller", "rule", "--workers", "1", "--no-progress",
                  "--out", str(tmp_path / "o")], tmp_path)
     workers = _wait_for_workers(proc, 1)
+    # a worker that exists but is still reading its start-up data from the parent (multiprocessing's
+    # spawn_main) prints EOFError when the parent goes first: signal once it has started (a known race of
+    # multiprocessing's start-up, seen once in CI on 2026-12-02; the signal during real work is what this tests)
+    time.sleep(3.0)
     try:
         proc.send_signal(signal.SIGTERM)
         _, err = proc.communicate(timeout=120)
