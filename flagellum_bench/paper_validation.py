@@ -23,8 +23,8 @@ Runs (``ValidationRun``):
 (``GRID_RPM`` for every head and reading; the headless swimmer once, all readings being the same swimmer
 without a head), omega_b bisected on L'/L(100 s) < 0.98 to a bracket of ``BRACKET_RPM``, the Fig. 5(d)
 turns (``TURN_TC_BAR`` x ``TURN_PHASES_DEG``), then the convergence runs at ``tight_step_tol`` (the final
-omega_b bracket ends, R8's point and R9's largest turn) and, with ``check_preset``, the same at another
-preset (e.g. ``paper``, the fixed 1 ms step).
+omega_b bracket ends, R8's point and R9's largest turn) and, with ``check_preset``, the points of those at
+another preset (e.g. ``paper``, the fixed 1 ms step).
 """
 
 from __future__ import annotations
@@ -285,17 +285,17 @@ class ValidationPlan:
             for tcb in TURN_TC_BAR:
                 for ph in TURN_PHASES_DEG:
                     turns.append(ValidationRun("turn", reading, 0.012, t_c_of(tcb), ph, preset=self.preset))
-        checks = [(self.preset, self.tight_step_tol)] if self.tight_step_tol is not None else []
+        checks = [(self.preset, self.tight_step_tol, True)] if self.tight_step_tol is not None else []
         if self.check_preset is not None:
-            checks.append((self.check_preset, None))
-        for preset, tol in checks:
+            checks.append((self.check_preset, None, False))  # points only: a turn at 1 ms steps costs ~4 CPU-min
+        for preset, tol, with_turns in checks:
             for reading in self.readings:
                 lo, hi = self.bracket(records, reading, 0.012)
                 if lo is not None and hi is not None and hi - lo <= BRACKET_RPM:
                     tight += [ValidationRun("point", reading, 0.012, w, preset=preset, step_tol=tol)
                               for w in sorted({LOW_RPM, lo, hi})]
                 tc = self.largest_turn_tc(records, reading)
-                if tc is not None:
+                if tc is not None and with_turns:
                     tight += [ValidationRun("turn", reading, 0.012, tc, ph, preset=preset, step_tol=tol)
                               for ph in TURN_PHASES_DEG]
         return [run for run in grid + bisect + turns + tight if run.point_id not in records]

@@ -9,7 +9,7 @@ The runs (``flagellum_bench.paper_validation``): 19 motor speeds (10-100 rpm) pe
 100 s (t_bar = 1.02) from rest; omega_b bisected on L'/L(100 s) < 0.98 to +-1 rpm; Fig. 5(d)'s protocol
 (steady 10 rpm, a burst of t_c at 60 rpm from four rotation phases, back to 10 rpm) for 12 burst lengths
 0.05 <= t_bar_c <= 0.6; then omega_b's bracket ends, R8's point and R9's largest turn again at
-``--tight-step-tol`` and (``--check-preset``) at another preset. Each finished run is one line of
+``--tight-step-tol``, and (``--check-preset``) the bracket ends and R8's point at another preset. Each finished run is one line of
 ``<out>/results.jsonl``: an interrupted run (Ctrl-C, SIGTERM, kill) resumes where it stopped; a folder made
 with other settings is refused. The report (docs/validation.json, docs/validation.md,
 docs/figures/fig4_*.png, fig5d.png) is rebuilt from the records.
@@ -35,7 +35,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--tight-step-tol", type=float, default=1e-5,
                     help="step_tol of the convergence runs (default 1e-5; faithful's is 1e-4)")
     ap.add_argument("--check-preset", default=None, choices=preset_names(),
-                    help="also run the convergence runs at this preset (e.g. paper: implicit Euler at 1 ms)")
+                    help="also run omega_b's bracket ends and R8's point at this preset (e.g. paper: implicit Euler at 1 ms)")
     ap.add_argument("--report-only", action="store_true", help="rebuild the report from the records; run nothing")
     args = ap.parse_args(argv)
     if args.workers is not None and args.workers < 1:

@@ -104,7 +104,8 @@ def test_convergence_runs_follow_the_final_bracket_and_the_largest_turn():
                                 "theta_deg": 100 - 400 * (tcb - 0.45) ** 2 + ph / 100}
     assert plan.largest_turn_tc(recs, "paper") == t_c_of(0.45)
     turns = [t for t in plan.pending(recs) if t.kind == "turn"]
-    assert {t.value for t in turns} == {t_c_of(0.45)} and len(turns) == 2 * len(TURN_PHASES_DEG)
+    assert {t.value for t in turns} == {t_c_of(0.45)} and len(turns) == len(TURN_PHASES_DEG)  # not at check_preset
+    assert {(t.preset, t.step_tol) for t in turns} == {("faithful", 1e-5)}
 
 
 def test_unknown_reading_is_refused():
