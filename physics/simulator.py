@@ -21,7 +21,8 @@ is halved up to ``max_substeps`` times, a failing adaptive step retried at a qua
 
 Contact (``physics.contact``, on unless ``numerics.contact`` is false): head-rod and rod-rod
 penalty energies join the elastic energy in eqn (6): their gradient is in the residual, their
-Hessian in every Jacobian the solvers factorise.
+Hessian in every Jacobian the solvers factorise. Their broad phase is padded by the step's predicted motion
+plus a skin and kept while the nodes stay inside it (a Verlet list), redone within a step if an iterate leaves it.
 
 Motor (Sec. 2.5): the twist angle theta^0 of the first edge is the motor shaft.
 * ``head_rotation="torque_free"`` (default, eqn 13): theta^0 = psi + omega t where psi is the
@@ -30,6 +31,9 @@ Motor (Sec. 2.5): the twist angle theta^0 of the first edge is the motor shaft.
   theta^0 is the torque the motor passes from flagellum to head, so the head spins until
   the axial torques balance, as in eqn (13).
 * ``head_rotation="fixed"``: the head does not spin; theta^0 = omega t (Dirichlet).
+* ``head_rotation="paper"``: as ``fixed``, with the head flow and force of eqns (10)-(11) as printed
+  (``higdon_head.head_operators_as_printed``). ``numerics.head_model="stokes"`` keeps the head's own drag
+  and drops its flow coupling with the flagellum (any reading).
 * no head (b = 0): the first edge is a 2-delta motor shaft along the axis (``geometry``) with
   the Dirichlet twist theta = omega t; the base node translates freely.
 """
