@@ -343,7 +343,8 @@ def _fig4ab(records: dict, plan: ValidationPlan, path: Path) -> None:
 
     p = SwimmerParams()
     fig = plt.figure(figsize=(12, 4.2))
-    picks = [(plan.readings[0], 10.0), (plan.readings[0], 60.0), ("paper" if "paper" in plan.readings else plan.readings[-1], 60.0)]
+    buckled = [(k, 60.0) for k in ("paper", "stokes_head", "fixed") if k in plan.readings]
+    picks = ([(plan.readings[0], 10.0)] + buckled + [(plan.readings[0], 60.0)])[:3]  # a stable helix, then R11's 60 rpm
     for k, (reading, rpm) in enumerate(picks):
         pts = [r for r in plan.points(records, reading, 0.012) if r["error"] is None and r["value"] == rpm]
         if not pts:
@@ -369,7 +370,7 @@ def _fig4ab(records: dict, plan: ValidationPlan, path: Path) -> None:
         ax.set_zlabel("z (cm)", fontsize=7)
         ax.tick_params(labelsize=6)
     fig.suptitle("Fig. 4(a, b): head (grey sphere, b = 1.2 cm) and rod at its real thickness (r0 = 1 mm)")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 0.94))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
