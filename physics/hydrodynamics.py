@@ -72,7 +72,6 @@ class ResistanceOperator:
         self.m3 = a.shape[0]
         self.a = a  # the mobility A_reg (3M, 3M), m/(N s): all that the mobility form needs
         self._inv: np.ndarray | None = None
-        self._R: np.ndarray | None = None  # R, formed by ``dense``
         self._chol: tuple[np.ndarray, bool] | None = None
         self._smoothing = smoothing
         if not factorize_lazily:
@@ -132,13 +131,7 @@ class ResistanceOperator:
         return self._inv
 
     def apply(self, V: np.ndarray) -> np.ndarray:
-        """R V for generalised velocities V (nv,); returns minus the hydrodynamic generalised force. Once the
-        explicit inverse is kept (a reused operator), R itself is formed and applied as one matrix-vector
-        product (~15 us instead of ~150 us of small products)."""
-        if self._R is None and self._inv is not None:
-            self.dense()
-        if self._R is not None:
-            return self._R @ V
+        """R V for generalised velocities V (nv,); returns minus the hydrodynamic generalised force."""
         if not self.has_head:
             return self.solve(V)
         m3 = self.m3
@@ -155,12 +148,7 @@ class ResistanceOperator:
         return out
 
     def dense(self) -> np.ndarray:
-        """R, (nv, nv); formed once and kept (the same array is returned again: do not modify it)."""
-        if self._R is None:
-            self._R = self._form_dense()
-        return self._R
-
-    def _form_dense(self) -> np.ndarray:
+        """R, (nv, nv)."""
         c = self.inverse()
         if not self.has_head:
             return c.copy()

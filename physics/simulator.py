@@ -64,8 +64,6 @@ from physics.time_integrator import (SAFETY, SHRINK_MIN, ContractionRate, Histor
 
 _EYE3 = np.eye(3)
 _NO_CONTACT_NODES = np.zeros((0, 4), dtype=np.int64)
-#: extra pad of the contact broad phase, in r0, so that its candidates serve several steps (``_contact_broad_phase``)
-CONTACT_SKIN = 1.0
 _NO_CONTACT_BLOCKS = np.zeros((0, 12, 12))
 
 
@@ -181,7 +179,6 @@ class Simulator:
         self.contact_energy = 0.0  # J, at the last step
         self.contact_count = 0  # active contact interactions at the last step
         self._last_contact = (0.0, 0)
-        self._contact_q: np.ndarray | None = None  # where this step's contact candidates were found
         # chord-iteration caches
         self._solver = (DenseChordSolver(self) if self.numerics.hydro_model == "lsbt"
                         else BandedNewtonSolver(self))
@@ -250,7 +247,6 @@ class Simulator:
             setattr(self, k, np.array(v, dtype=float) if isinstance(v, np.ndarray) else v)
         self.step_count = int(self.step_count)
         self._solver.reset()  # factorisations are rebuilt at the next step
-        self._contact_q = None  # and so are the contact candidates
         self._v_prev = None
         self._h_prev = -1.0
         self._restart = True
@@ -312,20 +308,13 @@ class Simulator:
         return self.contact.evaluate(nodes_of(q), self._contact_candidates)
 
     def _contact_broad_phase(self, q_pred: np.ndarray) -> None:
-        """This step's contact candidates. The step needs them padded by twice the predicted motion of any node
-        (at least r0 / 2): the Newton iterates stay that close to the predictor (checked by ``internal_forces``).
-        They are found with ``CONTACT_SKIN`` * r0 more pad and kept over the next steps while every node stays
-        within that skin of where they were found (a Verlet list: Verlet 1967)."""
+        """This step's contact candidates, padded by twice the predicted motion of any node (and at
+        least r0 / 2): the Newton iterates stay that close to the predictor (checked by ``internal_forces``)."""
+        x_pred = nodes_of(q_pred)
         move = float(np.abs(q_pred[self._pos] - self.q[self._pos]).max()) if self.step_count else 0.0
-        need = max(0.5 * self.params.rod_radius, 2.0 * move)
-        if self._contact_q is not None and self.step_count:
-            drift = float(np.abs(q_pred[self._pos] - self._contact_q[self._pos]).max())
-            if drift + 0.5 * need <= 0.5 * self._contact_pad:  # the iterates stay inside the padded boxes
-                return
-        self._contact_pad = need + CONTACT_SKIN * self.params.rod_radius
-        self._contact_candidates = self.contact.broad_phase(nodes_of(q_pred), self._contact_pad)
+        self._contact_pad = max(0.5 * self.params.rod_radius, 2.0 * move)
+        self._contact_candidates = self.contact.broad_phase(x_pred, self._contact_pad)
         self._contact_none = len(self._contact_candidates[0]) == 0 and len(self._contact_candidates[1]) == 0
-        self._contact_q = q_pred.copy()
 
     def min_gaps(self) -> tuple[float, float]:
         """(smallest rod-rod gap d - 2 r0 over non-adjacent edges, smallest head gap d - b - r0), m,
@@ -399,6 +388,7 @@ class Simulator:
         q[self.prescribed] = self.q[self.prescribed] + base.h * self.omega
         if self.contact is not None:
             self._contact_broad_phase(q)
+            self._contact_q = q.copy()
         self._solver.begin_step(q, h)
         if self._solver.krylov:  # the resistance was rebuilt: Newton-Krylov in the mobility form
             self.stats.krylov_steps += 1

@@ -185,27 +185,3 @@ def test_rod_pulled_onto_itself_keeps_its_gap():
     g_rr, g_h = _run_min_gaps(sim, 4.0)
     assert sim.contact_count >= 1
     assert 0.0 < g_rr < EPS and g_h > 0.0
-
-
-def test_reused_candidates_miss_no_contact(monkeypatch):
-    """The broad phase's candidates, kept over several steps (a Verlet list: ``Simulator._contact_broad_phase``),
-    give at every step the contacts of a fresh broad phase at the accepted shape, and the broad phase runs on
-    fewer than half of the steps."""
-    from physics import simulator as sm
-
-    sim = _Pulled.make(59, 25, 0.06, contact=True)
-    calls = []
-    broad = type(sim.contact).broad_phase
-    monkeypatch.setattr(type(sim.contact), "broad_phase", lambda self, x, pad=0.0: calls.append(pad) or broad(self, x, pad))
-    touching = 0
-    for _ in range(250):
-        sim.step()
-        E, g, nodes, _ = sim.contact.evaluate(sim.nodes, sim.contact.broad_phase(sim.nodes, 0.0))
-        calls.pop()  # the check's own call
-        E_kept, g_kept, nodes_kept, _ = sim.contact.evaluate(sim.nodes, sim._contact_candidates)
-        assert sim.contact_count == len(nodes) == len(nodes_kept)
-        assert E_kept == pytest.approx(E, rel=1e-12, abs=1e-300)
-        np.testing.assert_allclose(g_kept, g, rtol=1e-12, atol=1e-12 * np.abs(g).max())
-        touching += len(nodes) > 0
-    assert touching > 50  # the rod rests on itself for most of the run
-    assert len(calls) < 0.5 * sim.step_count and sm.CONTACT_SKIN > 0
