@@ -21,8 +21,8 @@ is halved up to ``max_substeps`` times, a failing adaptive step retried at a qua
 
 Contact (``physics.contact``, on unless ``numerics.contact`` is false): head-rod and rod-rod
 penalty energies join the elastic energy in eqn (6): their gradient is in the residual, their
-Hessian in every Jacobian the solvers factorise. Their broad phase is padded by the step's predicted motion
-plus a skin and kept while the nodes stay inside it (a Verlet list), redone within a step if an iterate leaves it.
+Hessian in every Jacobian the solvers factorise. Their broad phase runs once per step, padded by the step's
+predicted motion, and is redone within the step if an iterate leaves its boxes.
 
 Motor (Sec. 2.5): the twist angle theta^0 of the first edge is the motor shaft.
 * ``head_rotation="torque_free"`` (default, eqn 13): theta^0 = psi + omega t where psi is the
