@@ -8,7 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from physics import NumericsConfig, SwimmerParams, configure, preset_names
-from physics.presets import DEFAULT_PRESET
+from physics.presets import DEFAULT_PRESET, PRESETS
 
 
 class UsageError(Exception):
@@ -18,8 +18,9 @@ class UsageError(Exception):
 #: ``--preset`` help when a command's default is the parameter defaults.
 PARAMETER_DEFAULTS = "the parameter defaults: the paper's model at h = 1 ms, as 'paper'"
 #: ``--preset`` default of every command that runs the swimmer, and what it means.
-DEFAULT_PRESET_ARG = (DEFAULT_PRESET, f"{DEFAULT_PRESET} (the paper's grid with error-controlled BDF2 steps; "
-                                      "its accuracy against 'paper': docs/fidelity.md)")
+DEFAULT_PRESET_ARG = (DEFAULT_PRESET, f"{DEFAULT_PRESET} (the paper's grid with error-controlled "
+                                      f"{PRESETS[DEFAULT_PRESET]['numerics']['integrator'].upper()} steps; "
+                                      "its accuracy against 'reference': docs/bench_quick.md)")
 
 
 def add_common_arguments(parser: argparse.ArgumentParser, accepts_set: bool = True,
@@ -39,7 +40,7 @@ def add_common_arguments(parser: argparse.ArgumentParser, accepts_set: bool = Tr
     default, meaning = preset
     parser.add_argument("--preset", choices=preset_names(), default=default,
                         help="speed/accuracy preset" + (", applied before --set" if accepts_set else "")
-                             + f" (paper = the reference; see docs/fidelity.md); default: {meaning}")
+                             + f" (reference = the converged yardstick, paper = the paper's 1 ms implicit Euler; errors of each: docs/bench_quick.md); default: {meaning}")
 
 
 def parse_overrides(items: Sequence[str]) -> dict[str, str]:
