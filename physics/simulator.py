@@ -52,6 +52,7 @@ from physics.errors import SimulationError
 from physics.geometry import edge_stretch_extremes, initial_nodes, layout_for, nodes_of, pack_q
 from physics.anderson import AndersonMixing
 from physics.body_frame import transported_body_frame
+from physics.chord_iteration import chord_solve, compiled_chord_applies
 from physics.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS, ContactModel
 from physics.implicit_residual import (assemble_residual, block_max_abs, forces_converged, generalised_velocity,
                                        internal_forces_at)
@@ -183,6 +184,8 @@ class Simulator:
         self._solver = (DenseChordSolver(self) if self.numerics.hydro_model == "lsbt"
                         else BandedNewtonSolver(self))
         self._f_floor = 1e-9 * p.bending_stiffness / p.axial_length**2
+        #: steady steps by the compiled chord iteration where it applies (False: always the Python reference)
+        self.compiled_chord = True
         self._initial_nodes = nodes_of(q0)
 
     # --- public API -----------------------------------------------------------------
@@ -394,6 +397,16 @@ class Simulator:
             self.stats.krylov_steps += 1
             first = 1 if p.has_head else 0
             return self._solver.mobility.solve(q, -self.node_forces[first:].ravel(), h)
+        if self.compiled_chord and compiled_chord_applies(self):
+            return chord_solve(self, q, h)  # the iteration below, compiled (bit-identical)
+        return self._chord_python(q, h)
+
+    def _chord_python(self, q: np.ndarray, h: float):
+        """The chord iteration of a step from the predictor q (ndof,) at the effective step h (s), in Python: the
+        reference of the compiled ``chord_iteration.chord_solve`` and the path of the configurations it does not
+        take (Anderson mixing, a single iteration, the banded RFT solver). Returns (q, r, grad, f, (t, d1,
+        ref_twist)) at convergence; raises ``StepFailed``."""
+        nm, p = self.numerics, self.params
         hist = [math.inf, math.inf]
         accel = AndersonMixing(self._anderson_weights, self.numerics.anderson_depth)
         step_scale = max(block_max_abs(q - self.q, self._pos), 1e-6 * p.rod_radius)

@@ -80,6 +80,7 @@ class DenseChordSolver:
         self.x_hyd: np.ndarray | None = None
         self.since_hydro = 0
         self.lu = None
+        self.piv1: np.ndarray | None = None
         self.lu_h = -1.0
         self.x_jac: np.ndarray | None = None
         self.Qh = self.Qj = _EYE
@@ -125,6 +126,7 @@ class DenseChordSolver:
             raise StepFailed("Jacobian", "non-finite entries in the Newton Jacobian")
         self.x_jac = nodes_of(q)
         self.lu = lu_factor(J, check_finite=False)
+        self.piv1 = (self.lu[1] + 1).astype(np.int32)  # LAPACK's 1-based pivots (``chord_iteration``)
         self.lu_h = h
         sim.stats.jacobian_factorisations += 1
         sim.stats.time_jacobian_refresh += time.perf_counter() - t0
