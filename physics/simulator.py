@@ -314,7 +314,7 @@ class Simulator:
         """This step's contact candidates, padded by twice the predicted motion of any node (and at
         least r0 / 2): the Newton iterates stay that close to the predictor (checked by ``internal_forces``)."""
         x_pred = nodes_of(q_pred)
-        move = float(np.abs(q_pred[self._pos] - self.q[self._pos]).max()) if self.step_count else 0.0
+        move = block_max_abs(q_pred - self.q, self._pos) if self.step_count else 0.0
         self._contact_pad = max(0.5 * self.params.rod_radius, 2.0 * move)
         self._contact_candidates = self.contact.broad_phase(x_pred, self._contact_pad)
         self._contact_none = len(self._contact_candidates[0]) == 0 and len(self._contact_candidates[1]) == 0
@@ -528,7 +528,7 @@ class Simulator:
             self._history.push(self.time, self.q, self.v)
         self.motor_angle += h * self.omega
         self._solver.end_step()
-        self.node_forces = np.stack([f[0::4], f[1::4], f[2::4]], axis=1)
+        self.node_forces = nodes_of(f)  # the (n, 3) node blocks of f
         self.head_axial_torque = float(f[3]) if self.head_spins else 0.0
         self.motor_torque = float(grad[3])
         self.body_frame = transported_body_frame(self.body_frame, q[0:3], q[4:7], dq[3] - h * self.omega,

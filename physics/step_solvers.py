@@ -154,8 +154,9 @@ class DenseChordSolver:
         x_pred = nodes_of(q_pred)
         self.jac_fresh = False
         self.krylov = False
+        fit = None  # best_fit_rotation(x_hyd, x_pred), computed once
         if nm.newton_krylov and self.hyd is not None and not nm.single_iteration:
-            Qh, dev = best_fit_rotation(self.x_hyd, x_pred)
+            Qh, dev = fit = best_fit_rotation(self.x_hyd, x_pred)
             if self.since_hydro >= nm.hydro_refresh_max_steps or dev > nm.hydro_refresh_tol * p.rod_radius:
                 # the shape has changed: rebuild the resistance at x_pred and solve this step by Newton-Krylov
                 self._refresh_hydro(q_pred, lazy=True)
@@ -173,7 +174,7 @@ class DenseChordSolver:
             if self.since_hydro >= nm.hydro_refresh_max_steps:
                 self._refresh_hydro(q_pred)
             else:
-                Qh, dev = best_fit_rotation(self.x_hyd, x_pred)
+                Qh, dev = fit if fit is not None else best_fit_rotation(self.x_hyd, x_pred)
                 if dev > nm.hydro_refresh_tol * p.rod_radius:
                     self._refresh_hydro(q_pred)
             if self.since_hydro == 0 and nm.jacobian_refresh == "resistance":
@@ -191,7 +192,7 @@ class DenseChordSolver:
 
     def _contacts_changed(self, q: np.ndarray) -> bool:
         sim = self.sim
-        if sim.contact is None:
+        if sim.contact is None or sim._contact_none:  # no candidates: no contact at all (an empty signature)
             return False
         # a contact the Jacobian lacks: its stiffness would be missing from the chord iteration. One
         # that has ended only leaves extra stiffness (slower, still contracting): no refresh for that
