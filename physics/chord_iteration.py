@@ -245,11 +245,11 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
               sim._anderson_weights, sim._free_twist)
     frames_old = (sim.d1, sim.tangent, sim.ref_twist)
     tols = (nm.newton_tol, nm.newton_max_iter, nm.step_tol, sim._f_floor, p.rod_radius, step_scale)
-    if hyd.has_head:
-        H, g, K, drag_t = hyd.H, hyd.g, hyd.K, hyd.drag_t
+    if hyd.has_head:  # K only for the printed head (a C-contiguous placeholder otherwise: one compiled variant)
+        H, g, K, drag_t = hyd.H, hyd.g, (hyd.K if hyd.printed else _NO_K), hyd.drag_t
         drag_r = hyd.drag_r if hyd.spin else 0.0
     else:
-        H, g, K, drag_t, drag_r = _NO_HEAD_H, _NO_HEAD_G, _NO_HEAD_K, 0.0, 0.0
+        H, g, K, drag_t, drag_r = _NO_HEAD_H, _NO_HEAD_G, _NO_K, 0.0, 0.0
     # placeholders of the types the loop's residual returns (read only when resuming at an increment)
     carried = (q, q, q, (sim.tangent, sim.d1, sim.d1, sim.ref_twist, sim.d1, sim.d1), 0.0, 0)
     it, phase, hist = 0, AT_RESIDUAL, (np.inf, np.inf)
@@ -295,4 +295,4 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
 
 _NO_HEAD_H = np.zeros((0, 3))
 _NO_HEAD_G = np.zeros(0)
-_NO_HEAD_K = np.asfortranarray(np.zeros((3, 0)))
+_NO_K = np.zeros((3, 0))
