@@ -13,9 +13,11 @@ the presets ``faithful`` and ``fast`` use BDF3), with error-controlled steps ins
 local drag) evaluated at the predicted geometry. The nonlinear system is solved by Newton-type
 iterations on the full residual, so a converged step solves eqn (6) up to the resistance's geometry
 lag. Two regimes (``step_solvers``): while the resistance is reused through a rigid rotation (steady
-swimming), the chord iteration on the reused dense factorisation; when it is rebuilt (the shape has
-changed: buckling, relaxation) and ``newton_krylov`` is on, Newton-Krylov in the mobility form
-(``newton_krylov``: GMRES with a banded preconditioner, no dense factorisation). A failing fixed step
+swimming), the chord iteration on the reused dense factorisation (one compiled call per step attempt,
+``chord_iteration``; ``_chord_python`` is its Python reference and the path of Anderson mixing and single
+iterations); when it is rebuilt (the shape has changed: buckling, relaxation) and ``newton_krylov`` is on,
+Newton-Krylov in the mobility form (``newton_krylov``: GMRES with a banded preconditioner, no dense
+factorisation). A failing fixed step
 is halved up to ``max_substeps`` times, a failing adaptive step retried at a quarter, before a
 ``SimulationError`` names the step, time and quantity.
 
@@ -82,7 +84,8 @@ class StepStats:
     halvings: int = 0
     substeps: int = 0  # accepted integration steps (= steps with fixed steps and no halving)
     rejected_steps: int = 0  # adaptive steps retried smaller (error too large or Newton failure)
-    # wall seconds spent in each part of the step
+    # wall seconds spent in each part of the step; the first three only on the Python paths (the compiled chord
+    # and Newton-Krylov iterations are not split into parts)
     time_elastic: float = 0.0  # frames + elastic and contact gradients
     time_hydro: float = 0.0  # applying the resistance (LSBT solves / matvecs)
     time_linear_solve: float = 0.0  # chord-iteration back-substitutions

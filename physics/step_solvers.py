@@ -7,7 +7,10 @@ A scene pays only for what it uses:
   more than ``hydro_refresh_tol`` * r0 since the last time, and the dense Jacobian
   M/h^2 + K + R/h only when the chord iteration stops contracting. In between both are reused
   through the best-fit rigid rotation of the configuration (exact for a rigid motion, see
-  ``rigid_alignment``), which makes a steadily rotating flagellum cheap.
+  ``rigid_alignment``), which makes a steadily rotating flagellum cheap. The chord iteration on them runs
+  compiled (``chord_iteration.chord_solve``); ``hydro_force``, ``increment`` and ``on_stall`` are the pieces
+  of its Python reference (``Simulator._chord_python``), and ``on_stall`` is also where the compiled loop
+  hands a stall back.
 * ``BandedNewtonSolver`` (hydro_model="rft"): local drag, so R is block-diagonal, the Jacobian
   stays banded (half-bandwidth 10) and each Newton iteration is an O(N) banded solve with the
   exact Jacobian. No dense matrix anywhere.
