@@ -30,19 +30,17 @@ import numpy as np
 from numba import njit
 
 from physics.compiled_lapack import NUMPY_BLAS, getrs, numpy_dot, numpy_matvec, potrs_upper
-from physics.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS
 from physics.errors import StepFailed
 from physics.hydrodynamics import _INVERSE_AFTER_SOLVES, HydroError
 from physics.implicit_residual import (assemble_residual, block_max_abs, forces_converged, generalised_velocity,
                                        internal_forces_at, rotate_node_blocks)
-from physics.time_integrator import NONLINEAR_ERROR_FRACTION, ContractionRate
+from physics.time_integrator import contraction_update
 
 #: outcome codes of ``chord_loop``
 CONVERGED, NONFINITE_RESIDUAL, NEWTON_FAILED, STALL, NEED_INVERSE, HYDRO_FAILED, GETRS_FAILED = range(7)
 #: where ``chord_loop`` starts: at an iteration's residual, at its increment (after a stall), at the final
 #: residual of an iterate accepted by the contraction-rate test
 AT_RESIDUAL, AT_INCREMENT, AT_FINAL_RESIDUAL = range(3)
-_RATE_MAX_AGE = ContractionRate.MAX_AGE
 _NO_MATRIX = np.asfortranarray(np.zeros((2, 2)))  # stands for the inverse or the factor not (yet) there
 
 
@@ -191,13 +189,8 @@ def chord_loop(q: np.ndarray, h: float, it: int, phase: int, hist: tuple, carrie
             return (CONVERGED, q, it, phase, (h1, h2), (r, grad, f, fr, e_c, count), cstate, (rho, prev, age),
                     applies, evaluated, 0.0)
         if adaptive:  # ContractionRate.converged
-            size = np.max(np.abs(z) * weights) / step_tol
-            if prev > 0.0:
-                rho = max(0.3 * rho, size / prev)
-                age = 0
-            prev = size
-            rho_now = rho if age < _RATE_MAX_AGE else 1.0
-            if size * min(1.0, rho_now) <= NONLINEAR_ERROR_FRACTION:
+            converged, rho, prev, age = contraction_update(np.max(np.abs(z) * weights) / step_tol, rho, prev, age)
+            if converged:
                 phase = AT_FINAL_RESIDUAL
                 continue
         it += 1
@@ -233,12 +226,7 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
     if nm.step_tol > 0.0:
         rate.start()
     rstate = (rate.rho, -1.0 if rate._prev is None else rate._prev, rate._age)
-    if contact is not None:
-        model = contact.model
-        pairs, head = sim._contact_candidates
-        cstate = (sim._contact_q, sim._contact_pad, pairs, head, sim._contact_none)
-    else:
-        model, cstate = NO_CONTACT_MODEL, (q, 0.0, NO_PAIRS, NO_EDGES, True)
+    model, cstate = sim.contact_state(q)
     b = sim._base
     base = (b.q_hat, b.v_hat, b.h_eff)
     system = (sim.mass, sim.vdofs, sim.prescribed, sim.head_spins, sim.omega, sim._pos, sim._twist,
@@ -265,10 +253,7 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
         hyd._applies = applies
         sim.stats.newton_iterations += evaluated
         r, grad, f, fr, e_c, count = carried
-        if contact is not None:
-            sim._contact_q, sim._contact_pad, pairs, head, sim._contact_none = cstate
-            sim._contact_candidates = (pairs, head)
-            sim._last_contact = (e_c, count)
+        sim.keep_contact_state(cstate, e_c, count)
         rate.rho, prev, rate._age = rstate
         rate._prev = None if prev < 0.0 else prev
         if code == CONVERGED:

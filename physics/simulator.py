@@ -333,20 +333,30 @@ class Simulator:
         """(gradient of the elastic and contact energies at q (ndof,) N and N m, frames (t, d1, rt) at q); the
         contact broad phase is redone when q has left this step's padded boxes (``internal_forces_at``)."""
         t0 = time.perf_counter()
-        if self.contact is not None:
-            model = self.contact.model
-            cstate = (self._contact_q, self._contact_pad, *self._contact_candidates, self._contact_none)
-        else:
-            model, cstate = NO_CONTACT_MODEL, (q, 0.0, NO_PAIRS, NO_EDGES, True)
+        model, cstate = self.contact_state(q)
         grad, (t, d1, d2, rt, m1, m2), cstate, e_c, nodes_c, _ = internal_forces_at(
             q, (self.d1, self.tangent, self.ref_twist), self.rest_arrays, self.contact is not None, model, cstate,
             self.q, self._pos, self.step_count == 0)
+        self.keep_contact_state(cstate, e_c, nodes_c.shape[0])
+        self.stats.time_elastic += time.perf_counter() - t0
+        return grad, (t, d1, rt)
+
+    def contact_state(self, q: np.ndarray) -> tuple[tuple, tuple]:
+        """(contact model, contact state) as the compiled kernels take them (``internal_forces_at``): the model
+        tuple and (q of the broad phase, its pad m, candidate pairs, head edges, none active); placeholders
+        without contact (q: the iterate)."""
+        if self.contact is None:
+            return NO_CONTACT_MODEL, (q, 0.0, NO_PAIRS, NO_EDGES, True)
+        return self.contact.model, (self._contact_q, self._contact_pad, *self._contact_candidates,
+                                    self._contact_none)
+
+    def keep_contact_state(self, cstate: tuple, energy: float, count: int) -> None:
+        """Store the contact state a compiled kernel returns and the last evaluation's contact energy (J) and
+        number of active interactions (no-op without contact)."""
         if self.contact is not None:
             self._contact_q, self._contact_pad, pairs, head, self._contact_none = cstate
             self._contact_candidates = (pairs, head)
-            self._last_contact = (e_c, nodes_c.shape[0])
-        self.stats.time_elastic += time.perf_counter() - t0
-        return grad, (t, d1, rt)
+            self._last_contact = (energy, count)
 
     def contact_hessian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Active contact interactions at q: node quadruples (A, 4) and Hessian blocks (A, 12, 12), N/m."""
@@ -386,15 +396,21 @@ class Simulator:
         q = self.q + h * (2.0 * self.v - self._v_prev) if self._v_prev is not None else self.q + h * self.v
         return StepBase(h, h, self.q, self.v, q, 1, None)
 
-    def _try_step(self, base: StepBase):
-        nm, p = self.numerics, self.params
+    def _step_start(self, base: StepBase) -> np.ndarray:
+        """Begin a step from ``base``: the iteration's start (ndof,), the predictor with the motor's prescribed twist
+        at the step's end, and this step's contact broad phase around it."""
         self._base = base
-        h = base.h_eff  # the solvers see the effective step of the scheme (physics.time_integrator)
         q = base.q_pred.copy()
         q[self.prescribed] = self.q[self.prescribed] + base.h * self.omega
         if self.contact is not None:
             self._contact_broad_phase(q)
             self._contact_q = q.copy()
+        return q
+
+    def _try_step(self, base: StepBase):
+        p = self.params
+        q = self._step_start(base)
+        h = base.h_eff  # the solvers see the effective step of the scheme (physics.time_integrator)
         self._solver.begin_step(q, h)
         if self._solver.krylov:  # the resistance was rebuilt: Newton-Krylov in the mobility form
             self.stats.krylov_steps += 1

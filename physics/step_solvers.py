@@ -61,6 +61,10 @@ class StepSystem(Protocol):
 
     def contact_terms(self, q: np.ndarray) -> tuple: ...
 
+    def contact_state(self, q: np.ndarray) -> tuple: ...
+
+    def keep_contact_state(self, cstate: tuple, energy: float, count: int) -> None: ...
+
 
 _EYE = np.eye(3)
 # A Jacobian factorised at step h_J is reused for steps h with h / h_J in this band (the chord

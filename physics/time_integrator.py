@@ -84,14 +84,21 @@ class History:
 SCHEME_ORDER = {"euler": 1, "bdf2": 2, "bdf3": 3, "bdf4": 4}
 
 
-def bdf_coefficients(t_new: float, times: list[float]) -> np.ndarray:
+@njit(cache=True)
+def bdf_coefficients(t_new: float, times: np.ndarray) -> np.ndarray:
     """alpha_j of the variable-step BDF formula q'(t_new) ~ sum_j alpha_j q(tau_j) over the nodes
-    tau_0 = t_new, tau_j = times[-j] (newest first): the derivative at t_new of the Lagrange basis
+    tau_0 = t_new, tau_j = times[-j] (times (k,) s, oldest first): the derivative at t_new of the Lagrange basis
     polynomials (Hairer & Wanner, *Solving ODEs II*, Sec. III.5). (k+1,), 1/s."""
-    tau = [t_new] + list(reversed(times))
-    k = len(tau) - 1
+    k = times.shape[0]
+    tau = np.empty(k + 1)
+    tau[0] = t_new
+    for j in range(1, k + 1):
+        tau[j] = times[k - j]
     alpha = np.empty(k + 1)
-    alpha[0] = sum(1.0 / (tau[0] - tau[m]) for m in range(1, k + 1))
+    a0 = 0.0
+    for m in range(1, k + 1):
+        a0 += 1.0 / (tau[0] - tau[m])
+    alpha[0] = a0
     for j in range(1, k + 1):
         num = 1.0
         for m in range(1, k + 1):
@@ -151,31 +158,17 @@ def base_kernel(times: np.ndarray, qs: tuple, vs: tuple, h: float, order: int):
     if order == 1:
         q_hat, v_hat, h_eff = q0, v0, h
     else:
-        tau = np.empty(order + 1)  # bdf_coefficients(t_new, the newest ``order`` times)
-        tau[0] = t_new
-        for j in range(1, order + 1):
-            tau[j] = times[m - j]
-        a0 = 0.0
-        for k in range(1, order + 1):
-            a0 += 1.0 / (tau[0] - tau[k])
+        alpha = bdf_coefficients(t_new, times[m - order:])
         q_hat = np.zeros(nd)
         v_hat = np.zeros(nd)
         for j in range(1, order + 1):
-            num = 1.0
-            for k in range(1, order + 1):
-                if k != j:
-                    num *= tau[0] - tau[k]
-            den = 1.0
-            for k in range(order + 1):
-                if k != j:
-                    den *= tau[j] - tau[k]
-            c = (num / den) / a0
+            c = alpha[j] / alpha[0]
             qj, vj = qs[m - j], vs[m - j]
             for i in range(nd):
                 q_hat[i] -= c * qj[i]
             for i in range(nd):
                 v_hat[i] -= c * vj[i]
-        h_eff = 1.0 / a0
+        h_eff = 1.0 / alpha[0]
     if m < 2:
         q_pred = np.empty(nd)
         for i in range(nd):
@@ -244,6 +237,23 @@ def next_step(h: float, err: float, order: int, keep: bool = True) -> float:
 NONLINEAR_ERROR_FRACTION = 0.1
 
 
+#: steps after which an unmeasured contraction rate counts as 1 (``ContractionRate.MAX_AGE``)
+RATE_MAX_AGE = 10
+
+
+@njit(cache=True)
+def contraction_update(size: float, rho: float, prev: float, age: int) -> tuple[bool, float, float, int]:
+    """``ContractionRate.converged`` for compiled loops: after a correction of weighted size ``size`` (in units
+    of step_tol), from the rate state (rho, the previous correction's size in this step or -1 for none, age in
+    steps): (converged, rho, prev, age)."""
+    if prev > 0.0:
+        rho = max(0.3 * rho, size / prev)
+        age = 0
+    prev = size
+    rho_now = rho if age < RATE_MAX_AGE else 1.0
+    return size * min(1.0, rho_now) <= NONLINEAR_ERROR_FRACTION, rho, prev, age
+
+
 class ContractionRate:
     """The convergence test of the Newton / chord iteration of an error-controlled step (CVODE's): the rate
     rho = max(0.3 rho_old, |dz_m| / |dz_{m-1}|), measured whenever a step takes two corrections or more, is
@@ -253,7 +263,7 @@ class ContractionRate:
     step takes two corrections and measures it again). One instance per iteration scheme (the chord iteration
     and Newton-Krylov contract at very different rates)."""
 
-    MAX_AGE = 10
+    MAX_AGE = RATE_MAX_AGE
 
     def __init__(self) -> None:
         self.rho = 1.0

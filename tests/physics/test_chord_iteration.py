@@ -47,12 +47,7 @@ def _open_chord_step(sim: Simulator, h: float, fresh: bool = False):
     (and rebuild the resistance) at the predictor, so the chord iteration runs wherever the step would have gone
     to Newton-Krylov. Returns (q, h_eff)."""
     base = sim._base_for(h)
-    sim._base = base
-    q = base.q_pred.copy()
-    q[sim.prescribed] = sim.q[sim.prescribed] + base.h * sim.omega
-    if sim.contact is not None:
-        sim._contact_broad_phase(q)
-        sim._contact_q = q.copy()
+    q = sim._step_start(base)
     solver = sim._solver
     solver.begin_step(q, base.h_eff)
     if fresh or solver.krylov:
