@@ -201,8 +201,9 @@ def _within_reach_reference(x, pairs, reach):
 
 
 def test_within_reach_with_its_box_bound_keeps_exactly_the_pairs_of_the_closest_point_test():
-    """Random segments around the reach (some at reach x (1 +- 1e-9), where only the exact test decides), far
-    from the origin too: the box lower bound never drops a pair the closest-point test keeps."""
+    """Random segments around the reach (some at reach x (1 +- 1e-9), where only the exact test decides; some
+    axis-aligned at reach x (1 +- 1e-7, 1e-12), where the box bound is as tight as it gets), far from the origin too:
+    the box lower bound never drops a pair the closest-point test keeps."""
     from physics.contact import within_reach
 
     rng = np.random.default_rng(11)
@@ -220,5 +221,14 @@ def test_within_reach_with_its_box_bound_keeps_exactly_the_pairs_of_the_closest_
             mid = 0.5 * (x[i] + x[i + 1])
             x[j] = mid + reach * (1.0 + rng.choice([-1e-9, 0.0, 1e-9])) * nrm - 1e-4 * e
             x[j + 1] = x[j] + 2e-4 * e
+        elif trial % 4 == 1:  # axis-aligned parallel segments: their boxes are as far apart as they are
+            i, j = 5, 17
+            k, m = rng.choice(3, size=2, replace=False)
+            x[i + 1] = x[i].copy()
+            x[i + 1, k] += 1.2e-3
+            x[j] = x[i].copy()
+            x[j, m] += reach * (1.0 + rng.choice([-1e-7, -1e-12, 0.0, 1e-12, 1e-7]))
+            x[j + 1] = x[j].copy()
+            x[j + 1, k] += 1.2e-3
         got = within_reach(x, pairs, reach)
         assert np.array_equal(got, _within_reach_reference(x, pairs, reach))
