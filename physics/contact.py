@@ -52,11 +52,13 @@ def _closest_params(a, b, c, d):
     d1 = b - a
     d2 = d - c
     r = a - c
-    aa = d1 @ d1
-    ee = d2 @ d2
-    f = d2 @ r
-    cc = d1 @ r
-    bb = d1 @ d2
+    return _closest_from_dots(d1 @ d1, d2 @ d2, d2 @ r, d1 @ r, d1 @ d2)
+
+
+@njit(cache=True)
+def _closest_from_dots(aa, ee, f, cc, bb):
+    """``_closest_params`` from the dot products of d1 = b - a, d2 = d - c, r = a - c: aa = d1.d1, ee = d2.d2,
+    f = d2.r, cc = d1.r, bb = d1.d2."""
     den = aa * ee - bb * bb
     if den > 1e-12 * aa * ee:
         s = (bb * f - cc * ee) / den
@@ -226,12 +228,29 @@ def candidate_pairs(x: np.ndarray, arc: np.ndarray, first_edge: int, min_arc_gap
 def within_reach(x: np.ndarray, pairs: np.ndarray, reach: float) -> np.ndarray:
     """The pairs of ``pairs`` whose centre lines are closer than ``reach`` (m). (P',2) int64."""
     keep = np.zeros(pairs.shape[0], dtype=np.bool_)
+    # the arithmetic of ``_closest_params`` and w = (1-s) a + s b - (1-t) c - t d, in buffers (no temporaries)
+    d1, d2, r, w = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    reach2 = reach * reach
     for p in range(pairs.shape[0]):
         i, j = pairs[p, 0], pairs[p, 1]
-        a, b, c, d = x[i], x[i + 1], x[j], x[j + 1]
-        s, t = _closest_params(a, b, c, d)
-        w = (1.0 - s) * a + s * b - (1.0 - t) * c - t * d
-        keep[p] = w @ w < reach * reach
+        # the distance between the two segments' boxes is a lower bound of theirs: a pair whose boxes are beyond
+        # reach by a relative 1e-6 of reach^2 (far above the rounding of either computation) is out of reach, and
+        # the closest-point test below would say so too
+        g2 = 0.0
+        for k in range(3):
+            g = max(min(x[i, k], x[i + 1, k]) - max(x[j, k], x[j + 1, k]),
+                    min(x[j, k], x[j + 1, k]) - max(x[i, k], x[i + 1, k]), 0.0)
+            g2 += g * g
+        if g2 > reach2 * (1.0 + 1e-6):
+            continue
+        for k in range(3):
+            d1[k] = x[i + 1, k] - x[i, k]
+            d2[k] = x[j + 1, k] - x[j, k]
+            r[k] = x[i, k] - x[j, k]
+        s, t = _closest_from_dots(d1 @ d1, d2 @ d2, d2 @ r, d1 @ r, d1 @ d2)
+        for k in range(3):
+            w[k] = (1.0 - s) * x[i, k] + s * x[i + 1, k] - (1.0 - t) * x[j, k] - t * x[j + 1, k]
+        keep[p] = w @ w < reach2
     return pairs[keep]
 
 

@@ -47,14 +47,13 @@ from numba import njit
 from physics.banded_jacobian import add_banded_drag, add_blocks_to_banded, banded_dirichlet
 from physics.banded_cholesky import banded_cholesky, banded_cholesky_solve, lower_band
 from physics.banded_lu import banded_lu, banded_solve
-from physics.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS
 from physics.errors import StepFailed
 from physics.geometry import nodes_array
 from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel, rod_frames
 from physics.implicit_residual import (assemble_residual, block_max_abs, forces_converged, generalised_velocity,
                                        internal_forces_at)
 from physics.rft import rft_blocks
-from physics.time_integrator import NONLINEAR_ERROR_FRACTION, ContractionRate
+from physics.time_integrator import ContractionRate, contraction_update
 
 #: relative residual reduction asked of GMRES for each Newton direction
 GMRES_RTOL = 1e-4
@@ -363,7 +362,6 @@ def mobility_residual(q: np.ndarray, y: np.ndarray, h: float, grad: np.ndarray, 
     return r, r_y, f, inertia
 
 
-_RATE_MAX_AGE = ContractionRate.MAX_AGE
 #: outcome codes of ``newton_krylov_loop``
 CONVERGED, NONFINITE_RESIDUAL, KRYLOV_FAILED, NEWTON_FAILED = 0, 1, 2, 3
 
@@ -430,13 +428,7 @@ def newton_krylov_loop(q: np.ndarray, y: np.ndarray, h: float, q_start: np.ndarr
         converged = (it >= 1 and dz <= max(newton_tol * step_scale, 1e-10 * r0)
                      and block_max_abs(dq, twist) <= max(newton_tol, 1e-10))
         if adaptive and not converged:  # ContractionRate.converged
-            size = np.max(np.abs(dq) * weights) / step_tol
-            if prev > 0.0:
-                rho = max(0.3 * rho, size / prev)
-                age = 0
-            prev = size
-            rho_now = rho if age < _RATE_MAX_AGE else 1.0
-            converged = size * min(1.0, rho_now) <= NONLINEAR_ERROR_FRACTION
+            converged, rho, prev, age = contraction_update(np.max(np.abs(dq) * weights) / step_tol, rho, prev, age)
         grad, fr, cstate, e_c, nodes_c, blocks_c = internal_forces_at(q, frames_old, rest, contact_on, model,
                                                                       cstate, q_start, pos, first_step)
         r, r_y, f, inertia = mobility_residual(q, y, h, grad, base, system, hydro)
@@ -530,12 +522,7 @@ class MobilityStep:
         sim = self.sim
         nm, p = sim.numerics, sim.params
         contact = sim.contact
-        if contact is not None:
-            model = contact.model
-            pairs, head = sim._contact_candidates
-            cstate = (sim._contact_q, sim._contact_pad, pairs, head, sim._contact_none)
-        else:
-            model, cstate = NO_CONTACT_MODEL, (q, 0.0, NO_PAIRS, NO_EDGES, True)
+        model, cstate = sim.contact_state(q)
         rate = self.contraction
         code, q, y, r, grad, f, frames, cstate, (e_c, count), (evaluated, its), (rate.rho, rate._age), value = (
             newton_krylov_loop(q, y, h, sim.q, (sim.d1, sim.tangent, sim.ref_twist), sim.rest_arrays,
@@ -546,10 +533,7 @@ class MobilityStep:
                                (rate.rho, rate._age)))
         sim.stats.newton_iterations += evaluated
         sim.stats.krylov_iterations += its
-        if contact is not None:
-            sim._contact_q, sim._contact_pad, pairs, head, sim._contact_none = cstate
-            sim._contact_candidates = (pairs, head)
-            sim._last_contact = (e_c, count)
+        sim.keep_contact_state(cstate, e_c, count)
         if code == NONFINITE_RESIDUAL:
             raise StepFailed("residual", "non-finite (NaN/inf) force residual")
         if code == KRYLOV_FAILED:

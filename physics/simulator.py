@@ -13,9 +13,11 @@ the presets ``faithful`` and ``fast`` use BDF3), with error-controlled steps ins
 local drag) evaluated at the predicted geometry. The nonlinear system is solved by Newton-type
 iterations on the full residual, so a converged step solves eqn (6) up to the resistance's geometry
 lag. Two regimes (``step_solvers``): while the resistance is reused through a rigid rotation (steady
-swimming), the chord iteration on the reused dense factorisation; when it is rebuilt (the shape has
-changed: buckling, relaxation) and ``newton_krylov`` is on, Newton-Krylov in the mobility form
-(``newton_krylov``: GMRES with a banded preconditioner, no dense factorisation). A failing fixed step
+swimming), the chord iteration on the reused dense factorisation (one compiled call per step attempt,
+``chord_iteration``; ``_chord_python`` is its Python reference and the path of Anderson mixing and single
+iterations); when it is rebuilt (the shape has changed: buckling, relaxation) and ``newton_krylov`` is on,
+Newton-Krylov in the mobility form (``newton_krylov``: GMRES with a banded preconditioner, no dense
+factorisation). A failing fixed step
 is halved up to ``max_substeps`` times, a failing adaptive step retried at a quarter, before a
 ``SimulationError`` names the step, time and quantity.
 
@@ -52,6 +54,7 @@ from physics.errors import SimulationError
 from physics.geometry import edge_stretch_extremes, initial_nodes, layout_for, nodes_of, pack_q
 from physics.anderson import AndersonMixing
 from physics.body_frame import transported_body_frame
+from physics.chord_iteration import chord_solve, compiled_chord_applies
 from physics.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS, ContactModel
 from physics.implicit_residual import (assemble_residual, block_max_abs, forces_converged, generalised_velocity,
                                        internal_forces_at)
@@ -81,7 +84,8 @@ class StepStats:
     halvings: int = 0
     substeps: int = 0  # accepted integration steps (= steps with fixed steps and no halving)
     rejected_steps: int = 0  # adaptive steps retried smaller (error too large or Newton failure)
-    # wall seconds spent in each part of the step
+    # wall seconds spent in each part of the step; the first three only on the Python paths (the compiled chord
+    # and Newton-Krylov iterations are not split into parts)
     time_elastic: float = 0.0  # frames + elastic and contact gradients
     time_hydro: float = 0.0  # applying the resistance (LSBT solves / matvecs)
     time_linear_solve: float = 0.0  # chord-iteration back-substitutions
@@ -183,6 +187,8 @@ class Simulator:
         self._solver = (DenseChordSolver(self) if self.numerics.hydro_model == "lsbt"
                         else BandedNewtonSolver(self))
         self._f_floor = 1e-9 * p.bending_stiffness / p.axial_length**2
+        #: steady steps by the compiled chord iteration where it applies (False: always the Python reference)
+        self.compiled_chord = True
         self._initial_nodes = nodes_of(q0)
 
     # --- public API -----------------------------------------------------------------
@@ -311,7 +317,7 @@ class Simulator:
         """This step's contact candidates, padded by twice the predicted motion of any node (and at
         least r0 / 2): the Newton iterates stay that close to the predictor (checked by ``internal_forces``)."""
         x_pred = nodes_of(q_pred)
-        move = float(np.abs(q_pred[self._pos] - self.q[self._pos]).max()) if self.step_count else 0.0
+        move = block_max_abs(q_pred - self.q, self._pos) if self.step_count else 0.0
         self._contact_pad = max(0.5 * self.params.rod_radius, 2.0 * move)
         self._contact_candidates = self.contact.broad_phase(x_pred, self._contact_pad)
         self._contact_none = len(self._contact_candidates[0]) == 0 and len(self._contact_candidates[1]) == 0
@@ -327,20 +333,30 @@ class Simulator:
         """(gradient of the elastic and contact energies at q (ndof,) N and N m, frames (t, d1, rt) at q); the
         contact broad phase is redone when q has left this step's padded boxes (``internal_forces_at``)."""
         t0 = time.perf_counter()
-        if self.contact is not None:
-            model = self.contact.model
-            cstate = (self._contact_q, self._contact_pad, *self._contact_candidates, self._contact_none)
-        else:
-            model, cstate = NO_CONTACT_MODEL, (q, 0.0, NO_PAIRS, NO_EDGES, True)
+        model, cstate = self.contact_state(q)
         grad, (t, d1, d2, rt, m1, m2), cstate, e_c, nodes_c, _ = internal_forces_at(
             q, (self.d1, self.tangent, self.ref_twist), self.rest_arrays, self.contact is not None, model, cstate,
             self.q, self._pos, self.step_count == 0)
+        self.keep_contact_state(cstate, e_c, nodes_c.shape[0])
+        self.stats.time_elastic += time.perf_counter() - t0
+        return grad, (t, d1, rt)
+
+    def contact_state(self, q: np.ndarray) -> tuple[tuple, tuple]:
+        """(contact model, contact state) as the compiled kernels take them (``internal_forces_at``): the model
+        tuple and (q of the broad phase, its pad m, candidate pairs, head edges, none active); placeholders
+        without contact (q: the iterate)."""
+        if self.contact is None:
+            return NO_CONTACT_MODEL, (q, 0.0, NO_PAIRS, NO_EDGES, True)
+        return self.contact.model, (self._contact_q, self._contact_pad, *self._contact_candidates,
+                                    self._contact_none)
+
+    def keep_contact_state(self, cstate: tuple, energy: float, count: int) -> None:
+        """Store the contact state a compiled kernel returns and the last evaluation's contact energy (J) and
+        number of active interactions (no-op without contact)."""
         if self.contact is not None:
             self._contact_q, self._contact_pad, pairs, head, self._contact_none = cstate
             self._contact_candidates = (pairs, head)
-            self._last_contact = (e_c, nodes_c.shape[0])
-        self.stats.time_elastic += time.perf_counter() - t0
-        return grad, (t, d1, rt)
+            self._last_contact = (energy, count)
 
     def contact_hessian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Active contact interactions at q: node quadruples (A, 4) and Hessian blocks (A, 12, 12), N/m."""
@@ -380,20 +396,36 @@ class Simulator:
         q = self.q + h * (2.0 * self.v - self._v_prev) if self._v_prev is not None else self.q + h * self.v
         return StepBase(h, h, self.q, self.v, q, 1, None)
 
-    def _try_step(self, base: StepBase):
-        nm, p = self.numerics, self.params
+    def _step_start(self, base: StepBase) -> np.ndarray:
+        """Begin a step from ``base``: the iteration's start (ndof,), the predictor with the motor's prescribed twist
+        at the step's end, and this step's contact broad phase around it."""
         self._base = base
-        h = base.h_eff  # the solvers see the effective step of the scheme (physics.time_integrator)
         q = base.q_pred.copy()
         q[self.prescribed] = self.q[self.prescribed] + base.h * self.omega
         if self.contact is not None:
             self._contact_broad_phase(q)
             self._contact_q = q.copy()
+        return q
+
+    def _try_step(self, base: StepBase):
+        p = self.params
+        q = self._step_start(base)
+        h = base.h_eff  # the solvers see the effective step of the scheme (physics.time_integrator)
         self._solver.begin_step(q, h)
         if self._solver.krylov:  # the resistance was rebuilt: Newton-Krylov in the mobility form
             self.stats.krylov_steps += 1
             first = 1 if p.has_head else 0
             return self._solver.mobility.solve(q, -self.node_forces[first:].ravel(), h)
+        if self.compiled_chord and compiled_chord_applies(self):
+            return chord_solve(self, q, h)  # the iteration below, compiled (bit-identical)
+        return self._chord_python(q, h)
+
+    def _chord_python(self, q: np.ndarray, h: float):
+        """The chord iteration of a step from the predictor q (ndof,) at the effective step h (s), in Python: the
+        reference of the compiled ``chord_iteration.chord_solve`` and the path of the configurations it does not
+        take (Anderson mixing, a single iteration, the banded RFT solver). Returns (q, r, grad, f, (t, d1,
+        ref_twist)) at convergence; raises ``StepFailed``."""
+        nm, p = self.numerics, self.params
         hist = [math.inf, math.inf]
         accel = AndersonMixing(self._anderson_weights, self.numerics.anderson_depth)
         step_scale = max(block_max_abs(q - self.q, self._pos), 1e-6 * p.rod_radius)
@@ -515,7 +547,7 @@ class Simulator:
             self._history.push(self.time, self.q, self.v)
         self.motor_angle += h * self.omega
         self._solver.end_step()
-        self.node_forces = np.stack([f[0::4], f[1::4], f[2::4]], axis=1)
+        self.node_forces = nodes_of(f)  # the (n, 3) node blocks of f
         self.head_axial_torque = float(f[3]) if self.head_spins else 0.0
         self.motor_torque = float(grad[3])
         self.body_frame = transported_body_frame(self.body_frame, q[0:3], q[4:7], dq[3] - h * self.omega,

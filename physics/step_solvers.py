@@ -7,7 +7,10 @@ A scene pays only for what it uses:
   more than ``hydro_refresh_tol`` * r0 since the last time, and the dense Jacobian
   M/h^2 + K + R/h only when the chord iteration stops contracting. In between both are reused
   through the best-fit rigid rotation of the configuration (exact for a rigid motion, see
-  ``rigid_alignment``), which makes a steadily rotating flagellum cheap.
+  ``rigid_alignment``), which makes a steadily rotating flagellum cheap. The chord iteration on them runs
+  compiled (``chord_iteration.chord_solve``); ``hydro_force``, ``increment`` and ``on_stall`` are the pieces
+  of its Python reference (``Simulator._chord_python``), and ``on_stall`` is also where the compiled loop
+  hands a stall back.
 * ``BandedNewtonSolver`` (hydro_model="rft"): local drag, so R is block-diagonal, the Jacobian
   stays banded (half-bandwidth 10) and each Newton iteration is an O(N) banded solve with the
   exact Jacobian. No dense matrix anywhere.
@@ -58,6 +61,10 @@ class StepSystem(Protocol):
 
     def contact_terms(self, q: np.ndarray) -> tuple: ...
 
+    def contact_state(self, q: np.ndarray) -> tuple: ...
+
+    def keep_contact_state(self, cstate: tuple, energy: float, count: int) -> None: ...
+
 
 _EYE = np.eye(3)
 # A Jacobian factorised at step h_J is reused for steps h with h / h_J in this band (the chord
@@ -80,6 +87,7 @@ class DenseChordSolver:
         self.x_hyd: np.ndarray | None = None
         self.since_hydro = 0
         self.lu = None
+        self.piv1: np.ndarray | None = None
         self.lu_h = -1.0
         self.x_jac: np.ndarray | None = None
         self.Qh = self.Qj = _EYE
@@ -125,6 +133,7 @@ class DenseChordSolver:
             raise StepFailed("Jacobian", "non-finite entries in the Newton Jacobian")
         self.x_jac = nodes_of(q)
         self.lu = lu_factor(J, check_finite=False)
+        self.piv1 = (self.lu[1] + 1).astype(np.int32)  # LAPACK's 1-based pivots (``chord_iteration``)
         self.lu_h = h
         sim.stats.jacobian_factorisations += 1
         sim.stats.time_jacobian_refresh += time.perf_counter() - t0
@@ -152,8 +161,9 @@ class DenseChordSolver:
         x_pred = nodes_of(q_pred)
         self.jac_fresh = False
         self.krylov = False
+        fit = None  # best_fit_rotation(x_hyd, x_pred), computed once
         if nm.newton_krylov and self.hyd is not None and not nm.single_iteration:
-            Qh, dev = best_fit_rotation(self.x_hyd, x_pred)
+            Qh, dev = fit = best_fit_rotation(self.x_hyd, x_pred)
             if self.since_hydro >= nm.hydro_refresh_max_steps or dev > nm.hydro_refresh_tol * p.rod_radius:
                 # the shape has changed: rebuild the resistance at x_pred and solve this step by Newton-Krylov
                 self._refresh_hydro(q_pred, lazy=True)
@@ -171,7 +181,7 @@ class DenseChordSolver:
             if self.since_hydro >= nm.hydro_refresh_max_steps:
                 self._refresh_hydro(q_pred)
             else:
-                Qh, dev = best_fit_rotation(self.x_hyd, x_pred)
+                Qh, dev = fit if fit is not None else best_fit_rotation(self.x_hyd, x_pred)
                 if dev > nm.hydro_refresh_tol * p.rod_radius:
                     self._refresh_hydro(q_pred)
             if self.since_hydro == 0 and nm.jacobian_refresh == "resistance":
@@ -189,7 +199,7 @@ class DenseChordSolver:
 
     def _contacts_changed(self, q: np.ndarray) -> bool:
         sim = self.sim
-        if sim.contact is None:
+        if sim.contact is None or sim._contact_none:  # no candidates: no contact at all (an empty signature)
             return False
         # a contact the Jacobian lacks: its stiffness would be missing from the chord iteration. One
         # that has ended only leaves extra stiffness (slower, still contracting): no refresh for that

@@ -36,6 +36,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 #: step-size controller: safety factor, largest growth and shrink per step, and the band of
 #: growth factors in which the step is kept as it is (so factorisations at h_e stay valid)
@@ -83,14 +84,21 @@ class History:
 SCHEME_ORDER = {"euler": 1, "bdf2": 2, "bdf3": 3, "bdf4": 4}
 
 
-def bdf_coefficients(t_new: float, times: list[float]) -> np.ndarray:
+@njit(cache=True)
+def bdf_coefficients(t_new: float, times: np.ndarray) -> np.ndarray:
     """alpha_j of the variable-step BDF formula q'(t_new) ~ sum_j alpha_j q(tau_j) over the nodes
-    tau_0 = t_new, tau_j = times[-j] (newest first): the derivative at t_new of the Lagrange basis
+    tau_0 = t_new, tau_j = times[-j] (times (k,) s, oldest first): the derivative at t_new of the Lagrange basis
     polynomials (Hairer & Wanner, *Solving ODEs II*, Sec. III.5). (k+1,), 1/s."""
-    tau = [t_new] + list(reversed(times))
-    k = len(tau) - 1
+    k = times.shape[0]
+    tau = np.empty(k + 1)
+    tau[0] = t_new
+    for j in range(1, k + 1):
+        tau[j] = times[k - j]
     alpha = np.empty(k + 1)
-    alpha[0] = sum(1.0 / (tau[0] - tau[m]) for m in range(1, k + 1))
+    a0 = 0.0
+    for m in range(1, k + 1):
+        a0 += 1.0 / (tau[0] - tau[m])
+    alpha[0] = a0
     for j in range(1, k + 1):
         num = 1.0
         for m in range(1, k + 1):
@@ -120,51 +128,71 @@ def step_base(history: History, h: float, scheme: str) -> StepBase:
     ``scheme`` "euler", "bdf2", "bdf3" or "bdf4" (its largest order; ``scheme_order`` gives the order of this
     step). BDF-p is v_{n+1} = sum_j alpha_j q_{n+1-j} (``bdf_coefficients``), the same formula for the
     acceleration from the velocities, so h_e = 1/alpha_0, q^ = -sum_{j>=1} alpha_j q_{n+1-j} / alpha_0 and
-    likewise v^. The error estimate needs order + 1 earlier points (see the module doc)."""
+    likewise v^. The error estimate needs order + 1 earlier points (see the module doc). Computed by the
+    compiled ``base_kernel`` (the arithmetic of the Python form it replaced, in the same order)."""
     pts = history.points
     order = scheme_order(scheme, len(pts))
-    t0, q0, v0 = pts[-1]
+    use = pts[-(order + 1):]
+    q_hat, v_hat, h_eff, q_pred, ratio = base_kernel(np.array([p[0] for p in use]), tuple(p[1] for p in use),
+                                                     tuple(p[2] for p in use), h, order)
+    return StepBase(h, h_eff, q_hat, v_hat, q_pred, order, None if ratio < 0.0 else ratio)
+
+
+@njit(cache=True)
+def base_kernel(times: np.ndarray, qs: tuple, vs: tuple, h: float, order: int):
+    """(q^, v^, h_e, predictor, error ratio k or -1 for none) of a step of h (s) at ``order`` from the last m
+    accepted points (times (m,) s, qs and vs m arrays (ndof,), newest last; m = order + 1, or fewer right after
+    a restart; m >= order for order >= 2).
+
+    BDF base over the newest ``order`` points (``step_base``); predictor: the polynomial through the m points at
+    t_n + h (q_n + h v_n with one point), and the error ratio k = E_c / E_p of the corrector when there are
+    order + 1 points: with S_m = sum_{j<m} 1 / (t_{n+1} - t_{n-j}), the predictor misses by E_p = c pi(t_{n+1}),
+    the corrector by E_c = E_p (1 - S_{p+1} / S_p) (c = q^{(p+1)} / (p+1)!, pi the node polynomial of the p + 1
+    earlier points), so k = S_{p+1} / S_p - 1: 1/2 (Euler), 2/9 (BDF2), 3/22 (BDF3), 12/125 (BDF4) at constant
+    steps."""
+    m = times.shape[0]
+    t0 = times[m - 1]
+    q0, v0 = qs[m - 1], vs[m - 1]
+    nd = q0.shape[0]
+    t_new = t0 + h
     if order == 1:
         q_hat, v_hat, h_eff = q0, v0, h
     else:
-        use = pts[-order:]
-        alpha = bdf_coefficients(t0 + h, [p[0] for p in use])
-        q_hat = np.zeros_like(q0)
-        v_hat = np.zeros_like(v0)
+        alpha = bdf_coefficients(t_new, times[m - order:])
+        q_hat = np.zeros(nd)
+        v_hat = np.zeros(nd)
         for j in range(1, order + 1):
-            _, qj, vj = use[-j]
-            q_hat -= (alpha[j] / alpha[0]) * qj
-            v_hat -= (alpha[j] / alpha[0]) * vj
+            c = alpha[j] / alpha[0]
+            qj, vj = qs[m - j], vs[m - j]
+            for i in range(nd):
+                q_hat[i] -= c * qj[i]
+            for i in range(nd):
+                v_hat[i] -= c * vj[i]
         h_eff = 1.0 / alpha[0]
-    q_pred, ratio = _predict(history, h, order)
-    return StepBase(h, h_eff, q_hat, v_hat, q_pred, order, ratio)
-
-
-def _predict(history: History, h: float, order: int) -> tuple[np.ndarray, float | None]:
-    """Polynomial extrapolation through the last order + 1 points to t_n + h, and the error ratio
-    k = E_c / E_p of the corrector of that order (None with too few points: then the extrapolation through
-    the points there are, or q_n + h v_n, with no estimate).
-
-    With S_m = sum_{j<m} 1 / (t_{n+1} - t_{n-j}): the predictor misses by E_p = c pi(t_{n+1}), the corrector
-    by E_c = E_p (1 - S_{p+1} / S_p) (c = q^{(p+1)} / (p+1)!, pi the node polynomial of the p + 1 earlier
-    points), so k = S_{p+1} / S_p - 1: 1/2 (Euler), 2/9 (BDF2), 3/22 (BDF3), 12/125 (BDF4) at constant steps."""
-    pts = history.points
-    t0, q0, v0 = pts[-1]
-    if len(pts) < 2:
-        return q0 + h * v0, None
-    use = pts[-(order + 1):]
-    t_new = t0 + h
-    q_pred = np.zeros_like(q0)
-    for i, (ti, qi, _) in enumerate(use):
+    if m < 2:
+        q_pred = np.empty(nd)
+        for i in range(nd):
+            q_pred[i] = q0[i] + h * v0[i]
+        return q_hat, v_hat, h_eff, q_pred, -1.0
+    q_pred = np.zeros(nd)
+    for a in range(m):
         w = 1.0
-        for m, (tm, _, _) in enumerate(use):
-            if m != i:
-                w *= (t_new - tm) / (ti - tm)
-        q_pred += w * qi
-    if len(pts) < order + 1:  # BDF2 right after a restart: linear extrapolation, no estimate
-        return q_pred, None
-    s = [1.0 / (t_new - p[0]) for p in reversed(use)]
-    return q_pred, sum(s) / sum(s[:-1]) - 1.0
+        for b in range(m):
+            if b != a:
+                w *= (t_new - times[b]) / (times[a] - times[b])
+        qa = qs[a]
+        for i in range(nd):
+            q_pred[i] += w * qa[i]
+    if m < order + 1:  # BDF2 right after a restart: linear extrapolation, no estimate
+        return q_hat, v_hat, h_eff, q_pred, -1.0
+    s_all = 0.0
+    s_but_oldest = 0.0
+    for j in range(m):  # newest first
+        s = 1.0 / (t_new - times[m - 1 - j])
+        s_all += s
+        if j < m - 1:
+            s_but_oldest += s
+    return q_hat, v_hat, h_eff, q_pred, s_all / s_but_oldest - 1.0
 
 
 def error_norm(q_new: np.ndarray, base: StepBase, weights: np.ndarray, tol: float) -> float:
@@ -173,7 +201,20 @@ def error_norm(q_new: np.ndarray, base: StepBase, weights: np.ndarray, tol: floa
     k = base.error_ratio
     if k is None:
         return 0.0
-    return float(np.max(np.abs(q_new - base.q_pred) * weights)) * (k / (1.0 + k)) / tol
+    return weighted_max_abs_diff(q_new, base.q_pred, weights) * (k / (1.0 + k)) / tol
+
+
+@njit(cache=True)
+def weighted_max_abs_diff(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> float:
+    """max_i |a_i - b_i| w_i over (n,) vectors, NaN if any term is NaN (``np.max(np.abs(a - b) * w)``)."""
+    m = -np.inf
+    for i in range(a.shape[0]):
+        v = abs(a[i] - b[i]) * w[i]
+        if v != v:
+            return v
+        if v > m:
+            m = v
+    return m
 
 
 def next_step(h: float, err: float, order: int, keep: bool = True) -> float:
@@ -196,6 +237,23 @@ def next_step(h: float, err: float, order: int, keep: bool = True) -> float:
 NONLINEAR_ERROR_FRACTION = 0.1
 
 
+#: steps after which an unmeasured contraction rate counts as 1 (``ContractionRate.MAX_AGE``)
+RATE_MAX_AGE = 10
+
+
+@njit(cache=True)
+def contraction_update(size: float, rho: float, prev: float, age: int) -> tuple[bool, float, float, int]:
+    """``ContractionRate.converged`` for compiled loops: after a correction of weighted size ``size`` (in units
+    of step_tol), from the rate state (rho, the previous correction's size in this step or -1 for none, age in
+    steps): (converged, rho, prev, age)."""
+    if prev > 0.0:
+        rho = max(0.3 * rho, size / prev)
+        age = 0
+    prev = size
+    rho_now = rho if age < RATE_MAX_AGE else 1.0
+    return size * min(1.0, rho_now) <= NONLINEAR_ERROR_FRACTION, rho, prev, age
+
+
 class ContractionRate:
     """The convergence test of the Newton / chord iteration of an error-controlled step (CVODE's): the rate
     rho = max(0.3 rho_old, |dz_m| / |dz_{m-1}|), measured whenever a step takes two corrections or more, is
@@ -205,7 +263,7 @@ class ContractionRate:
     step takes two corrections and measures it again). One instance per iteration scheme (the chord iteration
     and Newton-Krylov contract at very different rates)."""
 
-    MAX_AGE = 10
+    MAX_AGE = RATE_MAX_AGE
 
     def __init__(self) -> None:
         self.rho = 1.0

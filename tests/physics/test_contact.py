@@ -185,3 +185,50 @@ def test_rod_pulled_onto_itself_keeps_its_gap():
     g_rr, g_h = _run_min_gaps(sim, 4.0)
     assert sim.contact_count >= 1
     assert 0.0 < g_rr < EPS and g_h > 0.0
+
+
+def _within_reach_reference(x, pairs, reach):
+    """``within_reach`` as first written (closest points of every pair, no box bound): the reference."""
+    from physics.contact import _closest_params
+
+    keep = np.zeros(pairs.shape[0], dtype=bool)
+    for p, (i, j) in enumerate(pairs):
+        a, b, c, d = x[i], x[i + 1], x[j], x[j + 1]
+        s, t = _closest_params(a, b, c, d)
+        w = (1.0 - s) * a + s * b - (1.0 - t) * c - t * d
+        keep[p] = w @ w < reach * reach
+    return pairs[keep]
+
+
+def test_within_reach_with_its_box_bound_keeps_exactly_the_pairs_of_the_closest_point_test():
+    """Random segments around the reach (some at reach x (1 +- 1e-9), where only the exact test decides; some
+    axis-aligned at reach x (1 +- 1e-7, 1e-12), where the box bound is as tight as it gets), far from the origin too:
+    the box lower bound never drops a pair the closest-point test keeps."""
+    from physics.contact import within_reach
+
+    rng = np.random.default_rng(11)
+    reach = 2.75e-3
+    for trial in range(60):
+        n = 30
+        origin = rng.normal(size=3) * (10.0 if trial % 2 else 0.1)
+        x = origin + np.cumsum(rng.normal(size=(n, 3)) * 1.2e-3, axis=0)
+        pairs = np.array([(i, j) for i in range(n - 1) for j in range(i + 2, n - 1)], dtype=np.int64)
+        if trial % 4 == 0:  # segment j placed at exactly about reach from segment i along a normal
+            i, j = 3, 20
+            e = x[i + 1] - x[i]
+            nrm = np.cross(e, rng.normal(size=3))
+            nrm /= np.linalg.norm(nrm)
+            mid = 0.5 * (x[i] + x[i + 1])
+            x[j] = mid + reach * (1.0 + rng.choice([-1e-9, 0.0, 1e-9])) * nrm - 1e-4 * e
+            x[j + 1] = x[j] + 2e-4 * e
+        elif trial % 4 == 1:  # axis-aligned parallel segments: their boxes are as far apart as they are
+            i, j = 5, 17
+            k, m = rng.choice(3, size=2, replace=False)
+            x[i + 1] = x[i].copy()
+            x[i + 1, k] += 1.2e-3
+            x[j] = x[i].copy()
+            x[j, m] += reach * (1.0 + rng.choice([-1e-7, -1e-12, 0.0, 1e-12, 1e-7]))
+            x[j + 1] = x[j].copy()
+            x[j + 1, k] += 1.2e-3
+        got = within_reach(x, pairs, reach)
+        assert np.array_equal(got, _within_reach_reference(x, pairs, reach))

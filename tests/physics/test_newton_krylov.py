@@ -39,12 +39,7 @@ def _torque_free(n_nodes: int = 24) -> Simulator:
 def _open_step(sim: Simulator, h: float = 0.01):
     """Set up the mobility system of a step of h from the current state, as the simulator does."""
     base = sim._base_for(h)
-    sim._base = base
-    q = base.q_pred.copy()
-    q[sim.prescribed] = sim.q[sim.prescribed] + base.h * sim.omega
-    if sim.contact is not None:
-        sim._contact_broad_phase(q)
-        sim._contact_q = q.copy()
+    q = sim._step_start(base)
     solver = sim._solver
     solver._refresh_hydro(q, lazy=True)
     solver.Qh = np.eye(3)

@@ -277,3 +277,86 @@ def test_adaptive_error_of_higher_orders_falls_with_the_tolerance(burst_referenc
     e1 = float(np.abs(_burst_end(scheme, 0.1, 8e-3) - burst_reference).max())
     e2 = float(np.abs(_burst_end(scheme, 0.1, 1e-3) - burst_reference).max())
     assert e1 / e2 > 3.0, (e1, e2)
+
+
+def _bdf_coefficients_python(t_new, times):
+    """``bdf_coefficients`` as it was written in Python before it was compiled: the reference."""
+    tau = [t_new] + list(reversed(times))
+    k = len(tau) - 1
+    alpha = np.empty(k + 1)
+    alpha[0] = sum(1.0 / (tau[0] - tau[m]) for m in range(1, k + 1))
+    for j in range(1, k + 1):
+        num = 1.0
+        for m in range(1, k + 1):
+            if m != j:
+                num *= tau[0] - tau[m]
+        den = 1.0
+        for m in range(k + 1):
+            if m != j:
+                den *= tau[j] - tau[m]
+        alpha[j] = num / den
+    return alpha
+
+
+def _step_base_python(history, h, scheme):
+    """``step_base`` as it was written in Python before it was compiled (``base_kernel``): the reference."""
+    from physics.time_integrator import StepBase, scheme_order
+
+    pts = history.points
+    order = scheme_order(scheme, len(pts))
+    t0, q0, v0 = pts[-1]
+    if order == 1:
+        q_hat, v_hat, h_eff = q0, v0, h
+    else:
+        use = pts[-order:]
+        alpha = _bdf_coefficients_python(t0 + h, [p[0] for p in use])
+        q_hat = np.zeros_like(q0)
+        v_hat = np.zeros_like(v0)
+        for j in range(1, order + 1):
+            _, qj, vj = use[-j]
+            q_hat -= (alpha[j] / alpha[0]) * qj
+            v_hat -= (alpha[j] / alpha[0]) * vj
+        h_eff = 1.0 / alpha[0]
+    if len(pts) < 2:
+        return StepBase(h, h_eff, q_hat, v_hat, q0 + h * v0, order, None)
+    use = pts[-(order + 1):]
+    t_new = t0 + h
+    q_pred = np.zeros_like(q0)
+    for i, (ti, qi, _) in enumerate(use):
+        w = 1.0
+        for m, (tm, _, _) in enumerate(use):
+            if m != i:
+                w *= (t_new - tm) / (ti - tm)
+        q_pred += w * qi
+    if len(pts) < order + 1:
+        return StepBase(h, h_eff, q_hat, v_hat, q_pred, order, None)
+    s = [1.0 / (t_new - p[0]) for p in reversed(use)]
+    return StepBase(h, h_eff, q_hat, v_hat, q_pred, order, sum(s) / sum(s[:-1]) - 1.0)
+
+
+@pytest.mark.parametrize("scheme", ["euler", "bdf2", "bdf3", "bdf4"])
+def test_compiled_step_base_is_the_python_one_bit_for_bit(scheme):
+    """Random variable-step histories of every length: base values, effective step, predictor and error ratio
+    exactly as the Python form computed them."""
+    rng = np.random.default_rng(7)
+    for trial in range(40):
+        hist = History()
+        t = float(rng.uniform(0.0, 10.0))
+        hist.restart(t, rng.normal(size=487), rng.normal(size=487))
+        for npts in range(1, 7):
+            h = float(rng.uniform(1e-3, 0.2))
+            got, ref = step_base(hist, h, scheme), _step_base_python(hist, h, scheme)
+            assert (got.h, got.h_eff, got.order, got.error_ratio) == (ref.h, ref.h_eff, ref.order, ref.error_ratio)
+            for a, b in ((got.q_hat, ref.q_hat), (got.v_hat, ref.v_hat), (got.q_pred, ref.q_pred)):
+                assert np.array_equal(a, b)
+            t += h
+            hist.push(t, rng.normal(size=487), rng.normal(size=487))
+
+
+def test_error_norm_is_numpys_weighted_max():
+    rng = np.random.default_rng(8)
+    from physics.time_integrator import weighted_max_abs_diff
+    a, b, w = rng.normal(size=487), rng.normal(size=487), rng.uniform(0.5, 1e3, size=487)
+    assert weighted_max_abs_diff(a, b, w) == float(np.max(np.abs(a - b) * w))
+    a[100] = np.nan
+    assert math.isnan(weighted_max_abs_diff(a, b, w))
