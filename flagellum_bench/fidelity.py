@@ -116,7 +116,7 @@ def quick_tasks(configs: tuple[FidelityConfig, ...]) -> list[tuple[FidelityConfi
 
 def quick_rows(done: dict[tuple[str, str], dict], configs: tuple[FidelityConfig, ...]) -> list[dict[str, Any]]:
     """The rows of ``bench --quick``: config, preset, real_time_factor (steady 10 rpm), burst_real_time_factor
-    (the 150 rpm burst), episode_wall_s, their CPU-time versions, values, and errors against paper."""
+    (the 150 rpm burst), episode_wall_s, their CPU-time versions, values, and errors against ``QUICK_REFERENCE``."""
     values: dict[str, dict[str, Any]] = {}
     rows = []
     for c in configs:

@@ -6,7 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
-from flagellum_bench.fidelity import BURST_RPM, BURST_TC
+from flagellum_bench.fidelity import BURST_RPM, BURST_TC, QUICK_REFERENCE
 from flagellum.commands.common import SCHEDULER_HELP, UsageError, ensure_dir, parse_workers
 
 NAME = "bench"
@@ -14,7 +14,7 @@ HELP = "measure speed and accuracy of the fidelity configurations against the pa
 DESCRIPTION = ("Runs every configuration of the fidelity ladder on the same tasks (swim speed at 10 rpm, "
                "L'/L after 100 s at 90 rpm; with --full also turning angles and the buckling threshold), "
                "in parallel (local processes, or a Dask cluster with --scheduler) and resumably, and reports "
-               "real-time factors and relative errors against 'paper'. "
+               "real-time factors and relative errors against 'paper' (with --quick: against 'reference'). "
                "The ladder fixes every configuration, so bench takes neither --set nor --preset.")
 ACCEPTS_SET = False
 PRESET = None
@@ -22,9 +22,11 @@ PRESET = None
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true",
-                        help="one row per preset (minutes): steady 10 rpm real-time factor and swim speed, a "
-                             f"{BURST_TC:g} s burst at {BURST_RPM:g} rpm (real-time factor, turn angles, L'/L at its "
-                             "end), the rule planner's wall time on one held-out path, errors against paper")
+                        help="one row per preset (minutes): steady 10 rpm real-time factor (after the helix has settled) "
+                             f"and swim speed, a {BURST_TC:g} s burst at {BURST_RPM:g} rpm (real-time factor, turn "
+                             "angles, L'/L at its end), the relaxation after it, the rule planner's CPU and wall time "
+                             "on one held-out path, env steps/s under its actions and a random policy, errors "
+                             f"against {QUICK_REFERENCE!r}")
     parser.add_argument("--full", action="store_true", help="the ladder with all metrics (turning angles, omega_b): "
                                                             "hours")
     parser.add_argument("--json", default=None,
