@@ -7,7 +7,8 @@ buckling-time shift and direction offset, and plans the next turn from the corre
 keeping bursts away from the map's peak while the estimate is uncertain. Everything else
 (hover to the phase, burst, relax, re-plan from the measured heading) is the rule planner's.
 With a swimmer equal to the map's the readings stay near zero and it flies like the rule
-planner, except that the first turns are capped (the prior's caution).
+planner, except that the first turns are capped (the prior's caution) until turns confirm the
+corrected map (``OnlineMapConfig.lift_after_turns``).
 
 The correction is per episode by default (``carry_over=False``): each episode may be a
 different swimmer (domain randomisation draws one per episode). ``carry_over=True`` keeps
@@ -26,6 +27,7 @@ from agents.turn_map import TurnMap
 from agents.turn_planner import PlannerConfig, RulePlanner, _Episode, graded_line_miss
 from flagellum_env.turn_geometry import angle_between, azimuth, wrap_angle
 from flagellum_env.turn_measurement import CruiseObservables, cruise_observables, summarise_cruise
+from physics.validation import require_finite
 
 
 @dataclass
@@ -60,15 +62,18 @@ _CRUISE_REFERENCE: dict = {}
 
 class AdaptivePlanner(RulePlanner):
     """Rule planner with online map correction (module docstring); same constructor as
-    ``RulePlanner`` plus ``online`` (``OnlineMapConfig``), ``carry_over``, and for the cruise reading
+    ``RulePlanner`` plus ``online`` (``OnlineMapConfig``), ``carry_over``, for the cruise reading
     before the first turn ``end_slice`` (where L'/L is in the flat observation) and
-    ``reference`` (the map swimmer's ``CruiseObservables``; None: no cruise reading)."""
+    ``reference`` (the map swimmer's ``CruiseObservables``; None: no cruise reading), and
+    ``swim_on_m`` (m): swim on, then turn -- a turn that is not predicted to reach the target is put
+    off while the same choice made up to this far on (and this near the target) is (0: never)."""
 
     def __init__(self, turn_map: TurnMap, layout, control_dt: float, reach_radius_m: float, action_of,
                  config: PlannerConfig | None = None, online: OnlineMapConfig | None = None,
                  carry_over: bool = False, end_slice: slice | None = None,
-                 reference: CruiseObservables | None = None) -> None:
+                 reference: CruiseObservables | None = None, swim_on_m: float = 0.0) -> None:
         super().__init__(turn_map, layout, control_dt, reach_radius_m, action_of, config)
+        self.swim_on_m = require_finite("swim_on_m", swim_on_m, 0.0)
         self.end_slice, self.reference = end_slice, reference
         self.online_config = online or OnlineMapConfig()
         self.carry_over = bool(carry_over)
@@ -76,14 +81,15 @@ class AdaptivePlanner(RulePlanner):
 
     @classmethod
     def for_env(cls, env, turn_map: TurnMap, config: PlannerConfig | None = None,  # type: ignore[override]
-                online: OnlineMapConfig | None = None, carry_over: bool = False) -> AdaptivePlanner:
+                online: OnlineMapConfig | None = None, carry_over: bool = False,
+                swim_on_m: float = 0.0) -> AdaptivePlanner:
         """An adaptive planner for this env (the rule planner's checks apply)."""
         base = RulePlanner.for_env(env, turn_map, config)
         e = env.unwrapped
         reference = cruise_reference(e.params, e.numerics, e.low_speed_rpm, turn_map.phase_node,
                                      (base.period_steps + 1) * base.control_dt, base.control_dt, e.settle_time_s)
         return cls(turn_map, base.layout, base.control_dt, base.reach_radius_m, base.action_of, config, online,
-                   carry_over, e.obs_model.slices()["end_to_end_ratio"], reference)
+                   carry_over, e.obs_model.slices()["end_to_end_ratio"], reference, swim_on_m)
 
     @property
     def online_map(self) -> OnlineTurnMap | None:
@@ -144,10 +150,28 @@ class AdaptivePlanner(RulePlanner):
             ep.online.observe_cruise(seen, self.reference)
             ep.cruise_used = True
         plan = super()._plan_turn(head, d, target, node, ep)
+        if plan is not None and self._swim_on_first(head, d, target, node, ep, plan):
+            return None
         if plan is not None:
             plan.update(shift_s=ep.online.shift_s, shift_std_s=ep.online.shift_std_s, bias_s=ep.online.bias_s,
                         psi_offset_deg=math.degrees(ep.online.psi_offset_rad), **ep.online.burst_plan(plan["t_c"]))
         return plan
+
+    def _swim_on_first(self, head, d, target, node, ep, plan: dict) -> bool:
+        """Swim on, then turn: True if ``plan`` is not predicted to reach the target but the same choice
+        made after cruising on (up to ``swim_on_m``, staying within ``swim_on_m`` of the target) is."""
+        hit = self.config.hit_fraction * self.reach_radius_m
+        if self.swim_on_m <= 0.0 or plan["predicted_miss_m"] <= hit:
+            return False
+        for c in np.arange(0.005, self.swim_on_m + 1e-9, 0.005):
+            ahead = head + c * d
+            if np.linalg.norm(target - ahead) > self.swim_on_m:
+                break
+            later = super()._plan_turn(ahead, d, target, node, ep)
+            if later is not None and later["predicted_miss_m"] <= hit:
+                plan.update(swim_on_m=float(c))
+                return True
+        return False
 
     def _turn_settled(self, ep: _AdaptiveEpisode) -> None:
         if ep.observed >= len(ep.turns):
@@ -159,6 +183,7 @@ class AdaptivePlanner(RulePlanner):
         theta_obs = math.degrees(angle_between(d0, d1))
         predicted = turn["predicted_azimuth"] + math.radians(turn.get("phase_error_deg", 0.0))
         az_err = wrap_angle(azimuth(d1, d0) - predicted)
-        rec = ep.online.observe(turn.get("burst_s", turn["t_c"]), theta_obs, az_err, turn.get("ratio_end"))
+        rec = ep.online.observe(turn.get("burst_s", turn["t_c"]), theta_obs, az_err, turn.get("ratio_end"),
+                                turn["theta_deg"])
         turn.update(observed_theta_deg=theta_obs, azimuth_error_deg=math.degrees(az_err),
                     shift_after_s=rec["shift_s"], shift_std_after_s=rec["shift_std_s"])

@@ -81,6 +81,10 @@ class OnlineMapConfig:
     theta_noise_fraction: float = 0.1
     caution: float = 2.0
     max_turn_deg: float = 80.0
+    lift_after_turns: int = 0
+    confirm_theta_deg: float = 10.0
+    confirm_theta_fraction: float = 0.15
+    confirm_azimuth_deg: float = 15.0
     min_theta_deg: float = 6.0
     psi_min_theta_deg: float = 20.0
     max_shift_s: float = 3.0
@@ -97,7 +101,8 @@ class OnlineMapConfig:
         for name in ("prior_shift_std_s", "theta_noise_deg", "max_shift_s", "cruise_residual_std_s", "max_turn_deg",
                      "ratio_shift_std_s", "prior_bias_std_s", "burst_max_sigmas"):
             require_finite(f"OnlineMapConfig.{name}", getattr(self, name), 0.0, lo_open=True)
-        for name in ("theta_noise_fraction", "caution", "min_theta_deg", "psi_min_theta_deg", "min_cruise_samples"):
+        for name in ("theta_noise_fraction", "caution", "min_theta_deg", "psi_min_theta_deg", "min_cruise_samples",
+                     "lift_after_turns", "confirm_theta_deg", "confirm_theta_fraction", "confirm_azimuth_deg"):
             require_finite(f"OnlineMapConfig.{name}", getattr(self, name), 0.0)
         for name in ("strain_shift_s", "rate_shift_s"):
             require_finite(f"OnlineMapConfig.{name}", getattr(self, name))
@@ -176,7 +181,21 @@ class OnlineTurnMap:
         self.bias_var = self.config.prior_bias_std_s ** 2
         self._psi_sum = 0j
         self._psi_weight = 0.0
+        self.confirmed = 0  # turns in a row that confirmed the corrected map (``OnlineMapConfig``)
         self.readings: list[dict] = []
+
+    @property
+    def cap_lifted(self) -> bool:
+        """True once enough turns in a row confirmed the corrected map: ``max_turn_deg`` no longer applies."""
+        return 0 < self.config.lift_after_turns <= self.confirmed
+
+    def _confirm(self, planned_deg: float, theta_obs_deg: float, azimuth_error_rad: float | None) -> None:
+        cfg = self.config
+        if planned_deg < cfg.psi_min_theta_deg:
+            return  # a small turn says nothing about large ones
+        ok = (abs(theta_obs_deg - planned_deg) <= cfg.confirm_theta_deg + cfg.confirm_theta_fraction * planned_deg
+              and azimuth_error_rad is not None and abs(math.degrees(azimuth_error_rad)) <= cfg.confirm_azimuth_deg)
+        self.confirmed = self.confirmed + 1 if ok else 0
 
     @property
     def shift_std_s(self) -> float:
@@ -250,11 +269,12 @@ class OnlineTurnMap:
         return rec
 
     def observe(self, t_c: float, theta_obs_deg: float, azimuth_error_rad: float | None = None,
-                ratio_end: float | None = None) -> dict:
+                ratio_end: float | None = None, planned_theta_deg: float | None = None) -> dict:
         """Update from one settled turn: burst ``t_c`` (s) flown, angle ``theta_obs_deg`` turned;
         ``azimuth_error_rad``: observed minus predicted azimuth of the new heading about the old
         one (the prediction used ``psi_offset_rad`` as it was), or None; ``ratio_end``: L'/L seen
-        at the burst's end, or None. Returns the reading.
+        at the burst's end, or None; ``planned_theta_deg``: the angle the planner expected (confirms or
+        restores the cap, ``OnlineMapConfig.lift_after_turns``), or None. Returns the reading.
 
         With a buckled ratio at the end (below ``ratio_valid``), the ratio reads the shift (map time
         of that ratio minus the time flown) and the angle reads the bias (map time of the angle
@@ -262,6 +282,8 @@ class OnlineTurnMap:
         cfg = self.config
         rec: dict = {"t_c": float(t_c), "theta_obs_deg": float(theta_obs_deg), "shift_before_s": self.shift_s,
                      "ratio_end": ratio_end}
+        if planned_theta_deg is not None:
+            self._confirm(float(planned_theta_deg), float(theta_obs_deg), azimuth_error_rad)
         map_end = self.map_time_for_ratio(ratio_end) if ratio_end is not None else None
         if map_end is not None:
             s = float(np.clip(map_end - t_c, -cfg.max_shift_s, cfg.max_shift_s))
@@ -288,7 +310,7 @@ class OnlineTurnMap:
             self._psi_weight += wt
             rec["psi_reading_deg"] = math.degrees(total)
         rec.update(shift_s=self.shift_s, shift_std_s=self.shift_std_s, bias_s=self.bias_s, bias_std_s=self.bias_std_s,
-                   psi_offset_deg=math.degrees(self.psi_offset_rad))
+                   psi_offset_deg=math.degrees(self.psi_offset_rad), confirmed=self.confirmed)
         self.readings.append(rec)
         return rec
 
@@ -302,7 +324,9 @@ class OnlineTurnMap:
         grid, psi_deg, off = self._table(control_dt)
         # flying by L'/L, what can carry a burst over the peak is the ratio-turn bias, not the timing
         std = self.bias_std_s if (self.config.fly_by_ratio and self._ratio is not None) else self.shift_std_s
-        cap = min(self.t_peak_s - self.config.caution * std, self._t_for_theta(self.config.max_turn_deg))
+        cap = self.t_peak_s - self.config.caution * std
+        if not self.cap_lifted:
+            cap = min(cap, self._t_for_theta(self.config.max_turn_deg))
         t_lo = max(control_dt, control_dt + self.shift_s)
         t_map = np.arange(t_lo, max(cap, t_lo) + 1e-9, control_dt)
         theta = np.radians(np.interp(t_map, t_branch, theta_branch))

@@ -8,8 +8,10 @@ import numpy as np
 import pytest
 
 from agents.assets import default_turn_map
+from agents.adaptive_planner import AdaptivePlanner
 from agents.online_turn_map import OnlineMapConfig, OnlineTurnMap, shift_reading
 from agents.turn_map import TurnMap
+from agents.turn_planner import RulePlanner
 from flagellum_env.turn_measurement import CruiseObservables, summarise_cruise
 
 # a rising branch: 0 deg at 0 s, 10 deg at 4 s, then 30 deg/s up to 130 deg at 8 s
@@ -166,6 +168,31 @@ def test_candidates_never_plan_more_than_max_turn(faithful_map):
     assert math.degrees(theta.max()) <= 60.0 + 1e-9 and math.degrees(theta.max()) > 50.0
 
 
+def test_confirming_turns_lift_the_cap_and_a_surprise_restores_it(faithful_map):
+    om = OnlineTurnMap(faithful_map, OnlineMapConfig(max_turn_deg=60.0, lift_after_turns=2, fly_by_ratio=False))
+    om.shift_var = 1e-8  # certain: only the angle cap binds while it applies
+
+    def largest() -> float:
+        return math.degrees(om.candidates(0.1)[1].max())
+
+    assert largest() <= 60.0 + 1e-9
+    om.observe(7.0, 57.0, math.radians(5.0), planned_theta_deg=59.0)  # confirms (1 of 2)
+    om.observe(4.0, 30.0, math.radians(40.0), planned_theta_deg=10.0)  # too small to say anything
+    assert largest() <= 60.0 + 1e-9 and om.confirmed == 1
+    om.observe(7.0, 66.0, math.radians(-8.0), planned_theta_deg=59.0)  # within 10 deg + 15 %
+    assert om.cap_lifted and largest() > 120.0
+    om.observe(7.0, 59.0, math.radians(30.0), planned_theta_deg=59.0)  # heading 30 deg off the prediction
+    assert not om.cap_lifted and largest() <= 60.0 + 1e-9
+    om.observe(7.0, 59.0, math.radians(2.0), planned_theta_deg=59.0)
+    om.observe(7.0, 85.0, math.radians(2.0), planned_theta_deg=59.0)  # turned 26 deg more than planned
+    assert om.confirmed == 0 and not om.cap_lifted
+    never = OnlineTurnMap(faithful_map, OnlineMapConfig(max_turn_deg=60.0, lift_after_turns=0, fly_by_ratio=False))
+    never.shift_var = 1e-8
+    for _ in range(4):
+        never.observe(7.0, 59.0, 0.0, planned_theta_deg=59.0)
+    assert math.degrees(never.candidates(0.1)[1].max()) <= 60.0 + 1e-9
+
+
 def test_ratio_branch_inverts_and_a_burst_plan_targets_it(faithful_map):
     om = OnlineTurnMap(faithful_map)
     t, r = om._ratio
@@ -238,3 +265,45 @@ def test_graded_miss_rewards_turning_towards_a_target_behind():
     # continuous abeam
     abeam = graded_line_miss(np.zeros((2, 3)), np.array([[0.0, 1.0, 0.0], [1e-9, 1.0, 0.0]]), target)
     assert abeam[0] == pytest.approx(abeam[1], abs=1e-9)
+
+
+def _coarse_adaptive(**kw):
+    from flagellum_env.paths import path_from_waypoints
+    from flagellum_env.steer_env import FlagellumSteerEnv
+
+    path = path_from_waypoints([[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]], name="one_turn", reach_radius_m=0.015)
+    env = FlagellumSteerEnv(path=path, preset="coarse", control_dt=0.2)
+    tmap = TurnMap.load(default_turn_map("coarse"))
+    base = RulePlanner.for_env(env, tmap)
+    return AdaptivePlanner(tmap, base.layout, base.control_dt, base.reach_radius_m, base.action_of, **kw)
+
+
+def test_swim_on_then_turn_for_a_target_just_behind_once_large_turns_are_allowed(faithful_map):
+    base = _coarse_adaptive()
+    d, node = np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.006, 0.0])
+    target = np.array([-0.06, 0.02, 0.03])
+
+    def planner(swim_on_m: float, lifted: bool):
+        p = AdaptivePlanner(faithful_map, base.layout, 0.1, 0.015, base.action_of, swim_on_m=swim_on_m,
+                            online=OnlineMapConfig(lift_after_turns=2))
+        ep = p._new_episode()
+        ep.cruise_used = True
+        if lifted:  # two confirming turns seen, the ratio-turn bias known to 0.05 s
+            ep.online.confirmed, ep.online.bias_var = 2, 0.05 ** 2
+        return p, ep
+
+    p, ep = planner(0.08, lifted=True)
+    hit = p.config.hit_fraction * p.reach_radius_m
+    now = RulePlanner._plan_turn(p, np.zeros(3), d, target, node, ep)
+    assert now is not None and now["predicted_miss_m"] > hit and now["theta_deg"] > 100.0
+    plan = dict(now)
+    assert p._swim_on_first(np.zeros(3), d, target, node, ep, plan)
+    later = RulePlanner._plan_turn(p, plan["swim_on_m"] * d, d, target, node, ep)
+    assert 0.0 < plan["swim_on_m"] <= 0.08 and later["predicted_miss_m"] <= hit
+    assert p._plan_turn(np.zeros(3), d, target, node, ep) is None  # so it cruises on this step
+    off, ep_off = planner(0.0, lifted=True)
+    assert not off._swim_on_first(np.zeros(3), d, target, node, ep_off, dict(now))
+    capped, ep_capped = planner(0.08, lifted=False)  # turns of at most 80 deg never hit a target behind
+    plan = RulePlanner._plan_turn(capped, np.zeros(3), d, target, node, ep_capped)
+    assert plan["theta_deg"] <= 80.0 + 1e-9 and not capped._swim_on_first(np.zeros(3), d, target, node, ep_capped,
+                                                                            dict(plan))
