@@ -47,19 +47,33 @@ from numba import njit
 
 
 @njit(cache=True)
+def node_tangent(x: np.ndarray, j: int) -> tuple[float, float, float, float]:
+    """(t0, t1, t2, ell) of node j of x (M,3), m: the unit tangent, normalised (t^{j-1} + t^j) (eqn 8 text; an
+    end node uses its edge), and half the sum of the adjacent edge lengths, m. Scalars only (no allocation)."""
+    m = x.shape[0]
+    a0 = a1 = a2 = 0.0
+    ell = 0.0
+    if j > 0:
+        e0, e1, e2 = x[j, 0] - x[j - 1, 0], x[j, 1] - x[j - 1, 1], x[j, 2] - x[j - 1, 2]
+        le = math.sqrt(e0 ** 2 + e1 ** 2 + e2 ** 2)
+        a0, a1, a2 = a0 + e0 / le, a1 + e1 / le, a2 + e2 / le
+        ell += 0.5 * le
+    if j < m - 1:
+        e0, e1, e2 = x[j + 1, 0] - x[j, 0], x[j + 1, 1] - x[j, 1], x[j + 1, 2] - x[j, 2]
+        le = math.sqrt(e0 ** 2 + e1 ** 2 + e2 ** 2)
+        a0, a1, a2 = a0 + e0 / le, a1 + e1 / le, a2 + e2 / le
+        ell += 0.5 * le
+    na = math.sqrt(a0 ** 2 + a1 ** 2 + a2 ** 2)
+    return a0 / na, a1 / na, a2 / na, ell
+
+
+@njit(cache=True)
 def node_tangents(x: np.ndarray) -> np.ndarray:
     """Unit node tangents, t_j = normalised (t^{j-1} + t^j) (eqn 8 text), end nodes use their edge. (M,3)."""
     m = x.shape[0]
-    t = np.zeros((m, 3))
+    t = np.empty((m, 3))
     for j in range(m):
-        acc = np.zeros(3)
-        if j > 0:
-            e = x[j] - x[j - 1]
-            acc += e / math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2)
-        if j < m - 1:
-            e = x[j + 1] - x[j]
-            acc += e / math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2)
-        t[j] = acc / math.sqrt(acc[0] ** 2 + acc[1] ** 2 + acc[2] ** 2)
+        t[j, 0], t[j, 1], t[j, 2], _ = node_tangent(x, j)
     return t
 
 
@@ -105,6 +119,24 @@ def rpy_coefficients(d: float, a: float, mu: float) -> tuple[float, float]:
     return c * (1.0 - 9.0 * d / (32.0 * a)), c * 3.0 * d / (32.0 * a)
 
 
+#: node blocks per tile of ``_copy_upper_blocks`` (a tile of the lower triangle and its source stay in L1)
+_TILE = 16
+
+
+@njit(cache=True)
+def _copy_upper_blocks(a: np.ndarray, m: int) -> None:
+    """Lower 3x3 node blocks of a (3m, 3m) from the upper ones, a[3i+p, 3j+k] = a[3j+p, 3i+k] for i > j: the
+    block itself, not its transpose (a near-field block c_iso I + c_rr r r is symmetric only up to rounding, and
+    the pair loop of ``lsbt_mobility`` writes the same values into both blocks). Tiled for the cache."""
+    for i0 in range(0, m, _TILE):
+        for j0 in range(0, i0 + 1, _TILE):
+            for i in range(i0, min(i0 + _TILE, m)):
+                for j in range(j0, min(j0 + _TILE, i)):
+                    for p in range(3):
+                        for k in range(3):
+                            a[3 * i + p, 3 * j + k] = a[3 * j + p, 3 * i + k]
+
+
 @njit(cache=True)
 def lsbt_mobility(x: np.ndarray, t: np.ndarray, mu: float, delta: float, smoothing: float,
                   near_radius: float = 0.0) -> np.ndarray:
@@ -116,7 +148,7 @@ def lsbt_mobility(x: np.ndarray, t: np.ndarray, mu: float, delta: float, smoothi
     the module docstring).
     """
     m = x.shape[0]
-    a = np.zeros((3 * m, 3 * m))
+    a = np.empty((3 * m, 3 * m))  # every entry is written: diagonal blocks, upper ones, then the lower copies
     arc = np.zeros(m)  # arc length along the current centre line, m
     for j in range(1, m):
         arc[j] = arc[j - 1] + _dist(x, j - 1, j)
@@ -152,18 +184,15 @@ def lsbt_mobility(x: np.ndarray, t: np.ndarray, mu: float, delta: float, smoothi
             if w == 0.0:
                 for p in range(3):
                     for k in range(3):
-                        v = s * ((1.0 if p == k else 0.0) + rh[p] * rh[k])
-                        a[3 * j + p, 3 * i + k] = v
-                        a[3 * i + p, 3 * j + k] = v
+                        a[3 * j + p, 3 * i + k] = s * ((1.0 if p == k else 0.0) + rh[p] * rh[k])
             else:  # near field: blend the Stokeslet into the RPY tensor
                 k_iso, k_rr = rpy_coefficients(d, near_radius, mu)
                 c_iso = (1.0 - w) * s + w * k_iso
                 c_rr = (1.0 - w) * s + w * k_rr
                 for p in range(3):
                     for k in range(3):
-                        v = c_iso * (1.0 if p == k else 0.0) + c_rr * rh[p] * rh[k]
-                        a[3 * j + p, 3 * i + k] = v
-                        a[3 * i + p, 3 * j + k] = v
+                        a[3 * j + p, 3 * i + k] = c_iso * (1.0 if p == k else 0.0) + c_rr * rh[p] * rh[k]
+    _copy_upper_blocks(a, m)
     if smoothing > 0.0 and m >= 3:
         w = smoothing / (8.0 * math.pi * mu * 2.0 * delta) / 16.0
         # D2^T D2, D2 the second derivative along arc length times (2 delta)^2, so that on the
