@@ -119,24 +119,6 @@ def rpy_coefficients(d: float, a: float, mu: float) -> tuple[float, float]:
     return c * (1.0 - 9.0 * d / (32.0 * a)), c * 3.0 * d / (32.0 * a)
 
 
-#: node blocks per tile of ``_copy_upper_blocks`` (a tile of the lower triangle and its source stay in L1)
-_TILE = 16
-
-
-@njit(cache=True)
-def _copy_upper_blocks(a: np.ndarray, m: int) -> None:
-    """Lower 3x3 node blocks of a (3m, 3m) from the upper ones, a[3i+p, 3j+k] = a[3j+p, 3i+k] for i > j: the
-    block itself, not its transpose (a near-field block c_iso I + c_rr r r is symmetric only up to rounding, and
-    the pair loop of ``lsbt_mobility`` writes the same values into both blocks). Tiled for the cache."""
-    for i0 in range(0, m, _TILE):
-        for j0 in range(0, i0 + 1, _TILE):
-            for i in range(i0, min(i0 + _TILE, m)):
-                for j in range(j0, min(j0 + _TILE, i)):
-                    for p in range(3):
-                        for k in range(3):
-                            a[3 * i + p, 3 * j + k] = a[3 * j + p, 3 * i + k]
-
-
 @njit(cache=True)
 def lsbt_mobility(x: np.ndarray, t: np.ndarray, mu: float, delta: float, smoothing: float,
                   near_radius: float = 0.0) -> np.ndarray:
@@ -148,7 +130,7 @@ def lsbt_mobility(x: np.ndarray, t: np.ndarray, mu: float, delta: float, smoothi
     the module docstring).
     """
     m = x.shape[0]
-    a = np.empty((3 * m, 3 * m))  # every entry is written: diagonal blocks, upper ones, then the lower copies
+    a = np.empty((3 * m, 3 * m))  # every entry is written: the diagonal blocks, then each pair's two blocks
     arc = np.zeros(m)  # arc length along the current centre line, m
     for j in range(1, m):
         arc[j] = arc[j - 1] + _dist(x, j - 1, j)
@@ -184,15 +166,18 @@ def lsbt_mobility(x: np.ndarray, t: np.ndarray, mu: float, delta: float, smoothi
             if w == 0.0:
                 for p in range(3):
                     for k in range(3):
-                        a[3 * j + p, 3 * i + k] = s * ((1.0 if p == k else 0.0) + rh[p] * rh[k])
+                        v = s * ((1.0 if p == k else 0.0) + rh[p] * rh[k])
+                        a[3 * j + p, 3 * i + k] = v
+                        a[3 * i + p, 3 * j + k] = v
             else:  # near field: blend the Stokeslet into the RPY tensor
                 k_iso, k_rr = rpy_coefficients(d, near_radius, mu)
                 c_iso = (1.0 - w) * s + w * k_iso
                 c_rr = (1.0 - w) * s + w * k_rr
                 for p in range(3):
                     for k in range(3):
-                        a[3 * j + p, 3 * i + k] = c_iso * (1.0 if p == k else 0.0) + c_rr * rh[p] * rh[k]
-    _copy_upper_blocks(a, m)
+                        v = c_iso * (1.0 if p == k else 0.0) + c_rr * rh[p] * rh[k]
+                        a[3 * j + p, 3 * i + k] = v
+                        a[3 * i + p, 3 * j + k] = v
     if smoothing > 0.0 and m >= 3:
         w = smoothing / (8.0 * math.pi * mu * 2.0 * delta) / 16.0
         # D2^T D2, D2 the second derivative along arc length times (2 delta)^2, so that on the

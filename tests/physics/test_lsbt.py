@@ -81,9 +81,10 @@ def test_straight_rod_drag_matches_slender_body_formulas_broadside_and_lengthwis
 
 
 def test_lower_blocks_are_the_upper_blocks_and_tangents_are_normalised_edge_sums():
-    """``lsbt_mobility`` writes the upper node blocks and copies them: block (i, j) is block (j, i) itself, not
-    its transpose (bit for bit, also in the near field, where c_iso I + c_rr r r is symmetric only up to
-    rounding); ``node_tangents`` is the normalised sum of the adjacent unit edges."""
+    """``lsbt_mobility`` writes each pair's values into both of its node blocks: block (i, j) is block (j, i)
+    itself, not its transpose (bit for bit, also in the near field, where c_iso I + c_rr r r is symmetric only
+    up to rounding; every entry is written, the matrix starts uninitialised); ``node_tangents`` is the normalised
+    sum of the adjacent unit edges."""
     from physics.lsbt import lsbt_mobility, node_tangents
 
     r0 = P.rod_radius
