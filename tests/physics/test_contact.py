@@ -232,3 +232,25 @@ def test_within_reach_with_its_box_bound_keeps_exactly_the_pairs_of_the_closest_
             x[j + 1, k] += 1.2e-3
         got = within_reach(x, pairs, reach)
         assert np.array_equal(got, _within_reach_reference(x, pairs, reach))
+
+
+def test_buffered_pair_and_head_distances_are_the_array_expressions_bit_for_bit():
+    """``_pair_sq_distance`` / ``_head_sq_distance`` (the rejection tests of ``contact_kernel`` in buffers) give
+    exactly what the array expressions they replaced give: (s, t, |w|^2) and (t, |w|^2)."""
+    from physics.contact import _closest_params, _head_sq_distance, _pair_sq_distance
+
+    rng = np.random.default_rng(12)
+    x = np.ascontiguousarray(np.cumsum(rng.normal(size=(25, 3)) * 1.2e-3, axis=0) + 0.3)
+    x[7] = x[6] + 1e-3 * (x[12] - x[11]) / np.linalg.norm(x[12] - x[11])  # a parallel pair, 6-7 and 11-12
+    bufs = [np.empty(3) for _ in range(4)]
+    for i in range(x.shape[0] - 1):
+        for j in range(i + 2, x.shape[0] - 1):
+            a, b, c, d = x[i], x[i + 1], x[j], x[j + 1]
+            s, t = _closest_params(a, b, c, d)
+            w = (1.0 - s) * a + s * b - (1.0 - t) * c - t * d
+            assert _pair_sq_distance(x, i, j, *bufs) == (s, t, w @ w)
+        c, d = x[i], x[i + 1]
+        e = d - c
+        t = min(max((x[0] - c) @ e / (e @ e), 0.0), 1.0)
+        w = x[0] - (1.0 - t) * c - t * d
+        assert _head_sq_distance(x, i, *bufs[:3]) == (t, w @ w)
