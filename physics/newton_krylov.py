@@ -412,7 +412,7 @@ CONVERGED, NONFINITE_RESIDUAL, KRYLOV_FAILED, NEWTON_FAILED = 0, 1, 2, 3
 @njit(cache=True)
 def newton_krylov_loop(q: np.ndarray, y: np.ndarray, h: float, q_start: np.ndarray, frames_old: tuple, rest: tuple,
                        base: tuple, system: tuple, hydro: tuple, contact_on: bool, model: tuple, cstate: tuple,
-                       first_step: bool, precond: tuple, ab0: np.ndarray, tols: tuple, rate: tuple):
+                       first_step: bool, precond: tuple, ab0: np.ndarray, tols: tuple, rate: tuple, work: tuple):
     """The Newton-Krylov iteration of one step, entirely compiled: from (q, y) (the predictor and the last
     forces), each iteration the residual, the convergence tests, a GMRES direction with the Jacobian at the
     iterate (the elastic Hessian ab0 at the predictor is reused for the first), the update.
@@ -420,7 +420,8 @@ def newton_krylov_loop(q: np.ndarray, y: np.ndarray, h: float, q_start: np.ndarr
     system = (mass, vdofs, prescribed, spin, omega, pos, twist, free_twist, weights); precond = (lu, piv, alu,
     apiv, abw); tols = (newton_tol, newton_max_iter, step_tol, f_floor, r0, GMRES relative tolerance,
     GMRES iteration limit); rate = (rho, age) of the
-    ``ContractionRate`` (used when step_tol > 0). Returns (code, q, y, r, grad, f, frames, cstate, (contact
+    ``ContractionRate`` (used when step_tol > 0); work = GMRES's arrays (``krylov_workspace`` for at least the
+    iteration limit; the caller keeps them from step to step). Returns (code, q, y, r, grad, f, frames, cstate, (contact
     energy, count), (residuals evaluated in the loop, GMRES iterations), (rho, age), value): value = the GMRES
     relative residual reached (KRYLOV_FAILED) or the max force residual (NEWTON_FAILED)."""
     mass, vdofs, prescribed, head_spins, omega, pos, twist, free_twist, weights = system
@@ -443,7 +444,6 @@ def newton_krylov_loop(q: np.ndarray, y: np.ndarray, h: float, q_start: np.ndarr
     grad, fr, cstate, e_c, nodes_c, blocks_c = internal_forces_at(q, frames_old, rest, contact_on, model, cstate,
                                                                   q_start, pos, first_step)
     r, r_y, f, inertia = mobility_residual(q, y, h, grad, base, system, hydro)
-    work = krylov_workspace(nd, A.shape[0], vdofs.shape[0], gmres_max_iter)
     for it in range(max_iter):
         evaluated += 1
         if not (np.all(np.isfinite(r)) and np.all(np.isfinite(r_y))):
@@ -494,6 +494,7 @@ class MobilityStep:
         self.first = 1 if p.has_head else 0
         self.sigma = 8.0 * math.pi * p.viscosity * 2.0 * p.cutoff_length
         self.hyd = None
+        self._work: tuple | None = None  # GMRES's arrays (``krylov_workspace``), kept from step to step
         self.contraction = ContractionRate()  # the Newton iteration's convergence test (adaptive steps)
 
     def begin(self, hyd: Any, q_pred: np.ndarray, h: float) -> None:
@@ -551,12 +552,17 @@ class MobilityStep:
                 hyd.a, self.H, self.g, self.Kh, self.drag_t, self.drag_r, hyd.has_head, hyd.spin)
 
     def _workspace(self, max_iter: int) -> tuple:
-        return krylov_workspace(self.sim.q.size, self.hyd.m3, self.sim.vdofs.size, max_iter)
+        """The kept ``krylov_workspace`` (made anew when the sizes change or more iterations are asked)."""
+        sizes = (self.sim.q.size, self.hyd.m3, self.sim.vdofs.size)
+        w = self._work
+        if w is None or (w[7].size, w[11].size, w[8].size) != sizes or w[1].shape[0] < max_iter:
+            w = self._work = krylov_workspace(*sizes, max_iter)
+        return w
 
     def jacobian_vector(self, q: np.ndarray, h: float, z: np.ndarray) -> np.ndarray:
         """J z at q (the elastic and contact Hessians at q) for z = (dq (ndof,), dy (3M,))."""
         out = np.empty_like(z)
-        jacobian_vector(z, out, self._workspace(0), *self._jacobian_arrays(q, h))
+        jacobian_vector(z, out, self._workspace(GMRES_MAX_ITER), *self._jacobian_arrays(q, h))
         return out
 
     def direction(self, q: np.ndarray, h: float, rhs: np.ndarray, rtol: float = GMRES_RTOL,
@@ -579,7 +585,7 @@ class MobilityStep:
                                sim.step_count == 0, (self.lu, self.piv, self.alu, self.apiv, self.abw), self.ab,
                                (nm.newton_tol, nm.newton_max_iter, nm.step_tol, sim._f_floor, p.rod_radius,
                                 GMRES_RTOL, GMRES_MAX_ITER),
-                               (rate.rho, rate._age)))
+                               (rate.rho, rate._age), self._workspace(GMRES_MAX_ITER)))
         sim.stats.newton_iterations += evaluated
         sim.stats.krylov_iterations += its
         sim.keep_contact_state(cstate, e_c, count)
