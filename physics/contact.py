@@ -232,18 +232,24 @@ def within_reach(x: np.ndarray, pairs: np.ndarray, reach: float) -> np.ndarray:
     reach2 = reach * reach
     for p in range(pairs.shape[0]):
         i, j = pairs[p, 0], pairs[p, 1]
-        # the distance between the two segments' boxes is a lower bound of theirs: a pair whose boxes are beyond
-        # reach by a relative 1e-6 of reach^2 (far above the rounding of either computation) is out of reach, and
-        # the closest-point test below would say so too
-        g2 = 0.0
-        for k in range(3):
-            g = max(min(x[i, k], x[i + 1, k]) - max(x[j, k], x[j + 1, k]),
-                    min(x[j, k], x[j + 1, k]) - max(x[i, k], x[i + 1, k]), 0.0)
-            g2 += g * g
-        if g2 > reach2 * (1.0 + 1e-6):
+        if _boxes_beyond(x, i, j, reach2):
             continue
         keep[p] = _pair_sq_distance(x, i, j, d1, d2, r, w)[2] < reach2
     return pairs[keep]
+
+
+@njit(cache=True)
+def _boxes_beyond(x: np.ndarray, i: int, j: int, reach2: float) -> bool:
+    """Whether the bounding boxes of edges i and j of x (n, 3) are farther apart than sqrt(reach2) (m) by a
+    relative 1e-6 of reach2. The distance between the boxes is a lower bound of the edges' distance, and the margin
+    is far above the rounding of either computation: such a pair is out of reach, and the closest-point test
+    (``_pair_sq_distance``) would say so too."""
+    g2 = 0.0
+    for k in range(3):
+        g = max(min(x[i, k], x[i + 1, k]) - max(x[j, k], x[j + 1, k]),
+                min(x[j, k], x[j + 1, k]) - max(x[i, k], x[i + 1, k]), 0.0)
+        g2 += g * g
+    return g2 > reach2 * (1.0 + 1e-6)
 
 
 @njit(cache=True)
@@ -322,6 +328,8 @@ def contact_kernel(x: np.ndarray, pairs: np.ndarray, head_radius: float, head_ed
     for p in range(npairs):
         i = pairs[p, 0]
         j = pairs[p, 1]
+        if _boxes_beyond(x, i, j, (dmin_rr + eps) ** 2):  # out of reach: skipped as the test below would
+            continue
         s, t, ww = _pair_sq_distance(x, i, j, b1, b2, b3, b4)
         if ww >= (dmin_rr + eps) ** 2:
             continue
