@@ -45,8 +45,16 @@ def banded_cholesky(c: np.ndarray, kd: int) -> int:
 @njit(cache=True)
 def banded_cholesky_solve(c: np.ndarray, kd: int, b: np.ndarray) -> np.ndarray:
     """x = S^{-1} b from the factor of ``banded_cholesky`` (L y = b, then L^T x = y)."""
-    n = c.shape[0]
     x = b.copy()
+    banded_cholesky_solve_in_place(c, kd, x)
+    return x
+
+
+@njit(cache=True)
+def banded_cholesky_solve_in_place(c: np.ndarray, kd: int, x: np.ndarray) -> None:
+    """x <- S^{-1} x from the factor of ``banded_cholesky``: the solve of ``banded_cholesky_solve`` without the
+    copy (the same operations in the same order)."""
+    n = c.shape[0]
     for j in range(n):
         xj = x[j] / c[j, 0]
         x[j] = xj
@@ -57,7 +65,6 @@ def banded_cholesky_solve(c: np.ndarray, kd: int, b: np.ndarray) -> np.ndarray:
         for i in range(1, min(kd, n - 1 - j) + 1):
             s -= c[j, i] * x[j + i]
         x[j] = s / c[j, 0]
-    return x
 
 
 @njit(cache=True)

@@ -228,30 +228,58 @@ def candidate_pairs(x: np.ndarray, arc: np.ndarray, first_edge: int, min_arc_gap
 def within_reach(x: np.ndarray, pairs: np.ndarray, reach: float) -> np.ndarray:
     """The pairs of ``pairs`` whose centre lines are closer than ``reach`` (m). (P',2) int64."""
     keep = np.zeros(pairs.shape[0], dtype=np.bool_)
-    # the arithmetic of ``_closest_params`` and w = (1-s) a + s b - (1-t) c - t d, in buffers (no temporaries)
-    d1, d2, r, w = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    d1, d2, r, w = np.empty(3), np.empty(3), np.empty(3), np.empty(3)  # ``_pair_sq_distance``'s buffers
     reach2 = reach * reach
     for p in range(pairs.shape[0]):
         i, j = pairs[p, 0], pairs[p, 1]
-        # the distance between the two segments' boxes is a lower bound of theirs: a pair whose boxes are beyond
-        # reach by a relative 1e-6 of reach^2 (far above the rounding of either computation) is out of reach, and
-        # the closest-point test below would say so too
-        g2 = 0.0
-        for k in range(3):
-            g = max(min(x[i, k], x[i + 1, k]) - max(x[j, k], x[j + 1, k]),
-                    min(x[j, k], x[j + 1, k]) - max(x[i, k], x[i + 1, k]), 0.0)
-            g2 += g * g
-        if g2 > reach2 * (1.0 + 1e-6):
+        if _boxes_beyond(x, i, j, reach2):
             continue
-        for k in range(3):
-            d1[k] = x[i + 1, k] - x[i, k]
-            d2[k] = x[j + 1, k] - x[j, k]
-            r[k] = x[i, k] - x[j, k]
-        s, t = _closest_from_dots(d1 @ d1, d2 @ d2, d2 @ r, d1 @ r, d1 @ d2)
-        for k in range(3):
-            w[k] = (1.0 - s) * x[i, k] + s * x[i + 1, k] - (1.0 - t) * x[j, k] - t * x[j + 1, k]
-        keep[p] = w @ w < reach2
+        keep[p] = _pair_sq_distance(x, i, j, d1, d2, r, w)[2] < reach2
     return pairs[keep]
+
+
+@njit(cache=True)
+def _boxes_beyond(x: np.ndarray, i: int, j: int, reach2: float) -> bool:
+    """Whether the bounding boxes of edges i and j of x (n, 3) are farther apart than sqrt(reach2) (m) by a
+    relative 1e-6 of reach2. The distance between the boxes is a lower bound of the edges' distance, and the margin
+    is far above the rounding of either computation: such a pair is out of reach, and the closest-point test
+    (``_pair_sq_distance``) would say so too."""
+    g2 = 0.0
+    for k in range(3):
+        g = max(min(x[i, k], x[i + 1, k]) - max(x[j, k], x[j + 1, k]),
+                min(x[j, k], x[j + 1, k]) - max(x[i, k], x[i + 1, k]), 0.0)
+        g2 += g * g
+    return g2 > reach2 * (1.0 + 1e-6)
+
+
+@njit(cache=True)
+def _pair_sq_distance(x: np.ndarray, i: int, j: int, d1: np.ndarray, d2: np.ndarray, r: np.ndarray,
+                      w: np.ndarray) -> tuple[float, float, float]:
+    """(s, t, |w|^2 m^2) of edges i and j of x (n, 3): ``_closest_params`` of x_i-x_{i+1} and x_j-x_{j+1} and the
+    squared distance of their closest points, w = (1-s) x_i + s x_{i+1} - (1-t) x_j - t x_{j+1}, with the same
+    arithmetic in the buffers d1, d2, r, w (3,) (no temporaries)."""
+    for k in range(3):
+        d1[k] = x[i + 1, k] - x[i, k]
+        d2[k] = x[j + 1, k] - x[j, k]
+        r[k] = x[i, k] - x[j, k]
+    s, t = _closest_from_dots(d1 @ d1, d2 @ d2, d2 @ r, d1 @ r, d1 @ d2)
+    for k in range(3):
+        w[k] = (1.0 - s) * x[i, k] + s * x[i + 1, k] - (1.0 - t) * x[j, k] - t * x[j + 1, k]
+    return s, t, w @ w
+
+
+@njit(cache=True)
+def _head_sq_distance(x: np.ndarray, i: int, e: np.ndarray, hc: np.ndarray, w: np.ndarray) -> tuple[float, float]:
+    """(t, |w|^2 m^2) of edge i of x (n, 3) and the head centre x[0]: the clamped projection parameter
+    t = (x_0 - x_i).e / e.e, e = x_{i+1} - x_i, and w = x_0 - (1-t) x_i - t x_{i+1}, with the arithmetic of the
+    array expressions of ``contact_kernel`` in the buffers e, hc, w (3,) (no temporaries)."""
+    for k in range(3):
+        e[k] = x[i + 1, k] - x[i, k]
+        hc[k] = x[0, k] - x[i, k]
+    t = min(max(hc @ e / (e @ e), 0.0), 1.0)
+    for k in range(3):
+        w[k] = x[0, k] - (1.0 - t) * x[i, k] - t * x[i + 1, k]
+    return t, w @ w
 
 
 @njit(cache=True)
@@ -293,17 +321,19 @@ def contact_kernel(x: np.ndarray, pairs: np.ndarray, head_radius: float, head_ed
     blocks = np.empty((nmax, 12, 12))
     g12 = np.empty(12)
     h12 = np.empty((12, 12))
+    b1, b2, b3, b4 = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
     E = 0.0
     cnt = 0
     dmin_rr = 2.0 * r0
     for p in range(npairs):
         i = pairs[p, 0]
         j = pairs[p, 1]
-        a, b, c, d = x[i], x[i + 1], x[j], x[j + 1]
-        s, t = _closest_params(a, b, c, d)
-        w = (1.0 - s) * a + s * b - (1.0 - t) * c - t * d
-        if w @ w >= (dmin_rr + eps) ** 2:
+        if _boxes_beyond(x, i, j, (dmin_rr + eps) ** 2):  # out of reach: skipped as the test below would
             continue
+        s, t, ww = _pair_sq_distance(x, i, j, b1, b2, b3, b4)
+        if ww >= (dmin_rr + eps) ** 2:
+            continue
+        a, b, c, d = x[i], x[i + 1], x[j], x[j + 1]
         E += _pair_energy(a, b, c, d, s, t, 0.0 < s < 1.0, 0.0 < t < 1.0, dmin_rr, eps, k, g12, h12)
         idx = (i, i + 1, j, j + 1)
         for q in range(4):
@@ -316,12 +346,10 @@ def contact_kernel(x: np.ndarray, pairs: np.ndarray, head_radius: float, head_ed
         dmin_h = head_radius + r0
         h0 = x[0]
         for i in head_edges:
-            c, d = x[i], x[i + 1]
-            e = d - c
-            t = min(max((h0 - c) @ e / (e @ e), 0.0), 1.0)
-            w = h0 - (1.0 - t) * c - t * d
-            if w @ w >= (dmin_h + eps) ** 2:
+            t, ww = _head_sq_distance(x, i, b1, b2, b3)
+            if ww >= (dmin_h + eps) ** 2:
                 continue
+            c, d = x[i], x[i + 1]
             E += _pair_energy(h0, h0, c, d, 0.0, t, False, 0.0 < t < 1.0, dmin_h, eps, k, g12, h12)
             # fold the two copies of the head point (slots a and b) into slot a
             for m in range(3):

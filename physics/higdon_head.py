@@ -33,6 +33,17 @@ from numba import njit
 
 
 @njit(cache=True)
+def _surface_offset(x: np.ndarray, x_head: np.ndarray, b: float, j: int) -> tuple[tuple[float, float, float], float]:
+    """(r_s, d): node j's offset r_j = x_j - x_0 (m), moved out onto the sphere of radius b if it was inside (not
+    for j = 0: x1 is attached to the surface and never moved), and its length d, m. Scalars only."""
+    r0, r1, r2 = x[j, 0] - x_head[0], x[j, 1] - x_head[1], x[j, 2] - x_head[2]
+    rn = math.sqrt(r0 ** 2 + r1 ** 2 + r2 ** 2)
+    d = rn if j == 0 else max(rn, b)
+    f = d / rn
+    return (r0 * f, r1 * f, r2 * f), d
+
+
+@njit(cache=True)
 def head_flow_operators(x: np.ndarray, x_head: np.ndarray, axis: np.ndarray,
                         b: float) -> tuple[np.ndarray, np.ndarray]:
     """Head-induced flow operators at the flagellum nodes (reciprocal forms).
@@ -48,13 +59,10 @@ def head_flow_operators(x: np.ndarray, x_head: np.ndarray, axis: np.ndarray,
     g = np.zeros(3 * m)
     b3 = b * b * b
     for j in range(m):
-        r = x[j] - x_head
-        rn = math.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
-        d = rn if j == 0 else max(rn, b)  # x1 (j = 0) is attached to the surface: never moved
+        rs, d = _surface_offset(x, x_head, b, j)
         d3 = d * d * d
         iso = 0.75 * b / d + 0.25 * b3 / d3
         rad = 0.75 * b / d - 0.75 * b3 / d3
-        rs = r * (d / rn)  # r moved out onto the surface if it was inside
         for p in range(3):
             for k in range(3):
                 H[3 * j + p, k] = (iso if p == k else 0.0) + rad * rs[p] * rs[k] / (d * d)
@@ -82,10 +90,7 @@ def head_operators_as_printed(x: np.ndarray, x_head: np.ndarray, b: float) -> tu
     K = np.zeros((3, 3 * m))
     b3 = b * b * b
     for j in range(m):
-        r = x[j] - x_head
-        rn = math.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
-        d = rn if j == 0 else max(rn, b)  # x1 (j = 0) is attached to the surface: never moved
-        rs = r * (d / rn)
+        rs, d = _surface_offset(x, x_head, b, j)
         d3 = d * d * d
         h_iso = 0.75 * b / d + 0.25 * b3 / d3
         h_rad = 0.75 * b / d - 0.25 * b3 / d3

@@ -47,19 +47,33 @@ from numba import njit
 
 
 @njit(cache=True)
+def node_tangent(x: np.ndarray, j: int) -> tuple[float, float, float, float]:
+    """(t0, t1, t2, ell) of node j of x (M,3), m: the unit tangent, normalised (t^{j-1} + t^j) (eqn 8 text; an
+    end node uses its edge), and half the sum of the adjacent edge lengths, m. Scalars only (no allocation)."""
+    m = x.shape[0]
+    a0 = a1 = a2 = 0.0
+    ell = 0.0
+    if j > 0:
+        e0, e1, e2 = x[j, 0] - x[j - 1, 0], x[j, 1] - x[j - 1, 1], x[j, 2] - x[j - 1, 2]
+        le = math.sqrt(e0 ** 2 + e1 ** 2 + e2 ** 2)
+        a0, a1, a2 = a0 + e0 / le, a1 + e1 / le, a2 + e2 / le
+        ell += 0.5 * le
+    if j < m - 1:
+        e0, e1, e2 = x[j + 1, 0] - x[j, 0], x[j + 1, 1] - x[j, 1], x[j + 1, 2] - x[j, 2]
+        le = math.sqrt(e0 ** 2 + e1 ** 2 + e2 ** 2)
+        a0, a1, a2 = a0 + e0 / le, a1 + e1 / le, a2 + e2 / le
+        ell += 0.5 * le
+    na = math.sqrt(a0 ** 2 + a1 ** 2 + a2 ** 2)
+    return a0 / na, a1 / na, a2 / na, ell
+
+
+@njit(cache=True)
 def node_tangents(x: np.ndarray) -> np.ndarray:
     """Unit node tangents, t_j = normalised (t^{j-1} + t^j) (eqn 8 text), end nodes use their edge. (M,3)."""
     m = x.shape[0]
-    t = np.zeros((m, 3))
+    t = np.empty((m, 3))
     for j in range(m):
-        acc = np.zeros(3)
-        if j > 0:
-            e = x[j] - x[j - 1]
-            acc += e / math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2)
-        if j < m - 1:
-            e = x[j + 1] - x[j]
-            acc += e / math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2)
-        t[j] = acc / math.sqrt(acc[0] ** 2 + acc[1] ** 2 + acc[2] ** 2)
+        t[j, 0], t[j, 1], t[j, 2], _ = node_tangent(x, j)
     return t
 
 
@@ -116,7 +130,7 @@ def lsbt_mobility(x: np.ndarray, t: np.ndarray, mu: float, delta: float, smoothi
     the module docstring).
     """
     m = x.shape[0]
-    a = np.zeros((3 * m, 3 * m))
+    a = np.empty((3 * m, 3 * m))  # every entry is written: the diagonal blocks, then each pair's two blocks
     arc = np.zeros(m)  # arc length along the current centre line, m
     for j in range(1, m):
         arc[j] = arc[j - 1] + _dist(x, j - 1, j)

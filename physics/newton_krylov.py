@@ -45,7 +45,7 @@ import numpy as np
 from numba import njit
 
 from physics.banded_jacobian import add_banded_drag, add_blocks_to_banded, banded_dirichlet
-from physics.banded_cholesky import banded_cholesky, banded_cholesky_solve, lower_band
+from physics.banded_cholesky import banded_cholesky, banded_cholesky_solve_in_place, lower_band
 from physics.banded_lu import banded_lu, banded_solve
 from physics.errors import StepFailed
 from physics.geometry import nodes_array
@@ -72,15 +72,19 @@ class KrylovFailed(Exception):
 
 @njit(cache=True)
 def banded_matvec_add(ab: np.ndarray, v: np.ndarray, out: np.ndarray) -> None:
-    """out += A v for A in general-banded storage ab (2 bw + 1, n), ab[bw + i - j, j] = A[i, j]."""
+    """out += A v for A in general-banded storage ab (2 bw + 1, n), ab[bw + i - j, j] = A[i, j] (terms with
+    v[j] = 0 are skipped). One stored diagonal at a time (contiguous rows of ab), the lowest first, so that each
+    out[i] receives its terms in the order of increasing j, as a column-by-column product would add them."""
     bw = (ab.shape[0] - 1) // 2
     n = ab.shape[1]
-    for j in range(n):
-        vj = v[j]
-        if vj == 0.0:
-            continue
-        for i in range(max(0, j - bw), min(n, j + bw + 1)):
-            out[i] += ab[bw + i - j, j] * vj
+    for r in range(2 * bw, -1, -1):
+        off = r - bw  # the diagonal i = j + off
+        lo, hi = max(0, -off), min(n, n - off)
+        o, row, vs = out[lo + off:hi + off], ab[r, lo:hi], v[lo:hi]
+        for j in range(hi - lo):  # a select, not a branch: the loop vectorises (~5x faster)
+            vj = vs[j]
+            s = o[j] + row[j] * vj
+            o[j] = s if vj != 0.0 else o[j]
 
 
 @njit(cache=True)
@@ -144,9 +148,18 @@ def factor_mobility_band(A: np.ndarray, bw: int) -> tuple[np.ndarray, np.ndarray
 @njit(cache=True)
 def factor_solve(f: np.ndarray, piv: np.ndarray, bw: int, b: np.ndarray) -> np.ndarray:
     """x = S^{-1} b for a factor of ``factor_symmetric_band`` / ``factor_mobility_band`` (half-bandwidth bw)."""
+    x = b.copy()
+    factor_solve_in_place(f, piv, bw, x)
+    return x
+
+
+@njit(cache=True)
+def factor_solve_in_place(f: np.ndarray, piv: np.ndarray, bw: int, x: np.ndarray) -> None:
+    """x <- S^{-1} x, as ``factor_solve`` (in place for the Cholesky factor; the LU's solve allocates)."""
     if piv.shape[0] == 0:
-        return banded_cholesky_solve(f, bw, b)
-    return banded_solve(f, bw, bw, piv, b)
+        banded_cholesky_solve_in_place(f, bw, x)
+    else:
+        x[:] = banded_solve(f, bw, bw, piv, x)
 
 
 @njit(cache=True)
@@ -185,15 +198,21 @@ def band_of(A: np.ndarray, bw: int) -> np.ndarray:
 @njit(cache=True)
 def head_flow_apply(V: np.ndarray, H: np.ndarray, g: np.ndarray, has_head: bool, spin: bool) -> np.ndarray:
     """B V = u - H U - g s (3M,), m/s: the flagellum's velocities minus the head's flow (eqn 10)."""
-    m3 = H.shape[0] if has_head else V.shape[0]
-    out = np.empty(m3)
+    out = np.empty(H.shape[0] if has_head else V.shape[0])
+    head_flow_apply_into(V, H, g, has_head, spin, out)
+    return out
+
+
+@njit(cache=True)
+def head_flow_apply_into(V: np.ndarray, H: np.ndarray, g: np.ndarray, has_head: bool, spin: bool,
+                         out: np.ndarray) -> None:
+    """out (3M,) <- B V, as ``head_flow_apply``."""
     if not has_head:
         out[:] = V
-        return out
+        return
     s = V[V.shape[0] - 1] if spin else 0.0
-    for i in range(m3):
+    for i in range(out.shape[0]):
         out[i] = V[3 + i] - (H[i, 0] * V[0] + H[i, 1] * V[1] + H[i, 2] * V[2]) - g[i] * s
-    return out
 
 
 @njit(cache=True)
@@ -202,11 +221,19 @@ def drag_and_coupling(V: np.ndarray, y: np.ndarray, Kh: np.ndarray, g: np.ndarra
     """D V + B_out^T y (nv,): minus the hydrodynamic generalised force for flagellum forces y (3M,) N: the
     head's own drag (eqn 12), the Stokeslets' force on the head Kh y (eqn 11; Kh = -H^T, or K as printed),
     the flagellum forces, the axial torque -g.y (eqn 13)."""
+    out = np.empty(V.shape[0])
+    drag_and_coupling_into(V, y, Kh, g, drag_t, drag_r, has_head, spin, out)
+    return out
+
+
+@njit(cache=True)
+def drag_and_coupling_into(V: np.ndarray, y: np.ndarray, Kh: np.ndarray, g: np.ndarray, drag_t: float,
+                           drag_r: float, has_head: bool, spin: bool, out: np.ndarray) -> None:
+    """out (nv,) <- D V + B_out^T y, as ``drag_and_coupling``."""
     nv = V.shape[0]
-    out = np.empty(nv)
     if not has_head:
         out[:] = y
-        return out
+        return
     m3 = y.shape[0]
     for k in range(3):
         acc = 0.0
@@ -219,105 +246,121 @@ def drag_and_coupling(V: np.ndarray, y: np.ndarray, Kh: np.ndarray, g: np.ndarra
         for i in range(m3):
             acc += g[i] * y[i]
         out[nv - 1] = drag_r * V[nv - 1] - acc
-    return out
 
 
 @njit(cache=True)
-def jacobian_vector(z: np.ndarray, nd: int, vdofs: np.ndarray, prescribed: np.ndarray, mass_h2: np.ndarray,
-                    ab: np.ndarray, cnodes: np.ndarray, cblocks: np.ndarray, h: float, sigma: float,
-                    A: np.ndarray, H: np.ndarray, g: np.ndarray, Kh: np.ndarray, drag_t: float, drag_r: float,
-                    has_head: bool, spin: bool) -> np.ndarray:
-    """J z for the stacked vector z = (dq (nd,), dy (3M,)) (see the module doc for J)."""
-    v = z[:nd].copy()
+def krylov_workspace(nd: int, m3: int, nv: int, max_iter: int) -> tuple:
+    """The arrays ``krylov_direction``, ``jacobian_vector`` and ``precondition`` work in, allocated once per step
+    for nd DOFs, 3M flagellum forces, nv generalised velocities and at most ``max_iter`` GMRES iterations:
+    (V (max_iter + 1, n), Z (max_iter, n), Hm (max_iter + 1, max_iter), cs, sn (max_iter,), gv (max_iter + 1,),
+    w (n,), then v (nd,), vel, c, zero (nv,), am, hf, t (3M,)), n = nd + 3M; zero stays 0."""
+    n = nd + m3
+    return (np.empty((max_iter + 1, n)), np.empty((max_iter, n)), np.empty((max_iter + 1, max_iter)),
+            np.empty(max_iter), np.empty(max_iter), np.empty(max_iter + 1), np.empty(n),
+            np.empty(nd), np.empty(nv), np.empty(nv), np.zeros(nv), np.empty(m3), np.empty(m3), np.empty(m3))
+
+
+@njit(cache=True)
+def jacobian_vector(z: np.ndarray, out: np.ndarray, work: tuple, nd: int, vdofs: np.ndarray,
+                    prescribed: np.ndarray, mass_h2: np.ndarray, ab: np.ndarray, cnodes: np.ndarray,
+                    cblocks: np.ndarray, h: float, sigma: float, A: np.ndarray, H: np.ndarray, g: np.ndarray,
+                    Kh: np.ndarray, drag_t: float, drag_r: float, has_head: bool, spin: bool) -> None:
+    """out <- J z for the stacked vector z = (dq (nd,), dy (3M,)) (see the module doc for J); work from
+    ``krylov_workspace``."""
+    v, V, c, am, hf = work[7], work[8], work[9], work[11], work[12]
     w = z[nd:]
+    v[:] = z[:nd]
     for k in prescribed:
         v[k] = 0.0
-    out = np.empty_like(z)
-    oq = mass_h2 * v
+    oq = out[:nd]
+    for i in range(nd):
+        oq[i] = mass_h2[i] * v[i]
     banded_matvec_add(ab, v, oq)
     if cnodes.shape[0]:
         contact_matvec_add(cnodes, cblocks, v, oq)
     nv = vdofs.shape[0]
-    V = np.empty(nv)
     for a in range(nv):
         V[a] = v[vdofs[a]] / h
-    c = drag_and_coupling(V, w, Kh, g, drag_t, drag_r, has_head, spin)
+    drag_and_coupling_into(V, w, Kh, g, drag_t, drag_r, has_head, spin, c)
     for a in range(nv):
         oq[vdofs[a]] += c[a]
     for k in prescribed:
         oq[k] = z[k]
-    out[:nd] = oq
-    out[nd:] = sigma * (A @ w - head_flow_apply(V, H, g, has_head, spin))
-    return out
+    np.dot(A, w, am)
+    head_flow_apply_into(V, H, g, has_head, spin, hf)
+    for i in range(am.shape[0]):
+        out[nd + i] = sigma * (am[i] - hf[i])
 
 
 @njit(cache=True)
-def precondition(z: np.ndarray, nd: int, vdofs: np.ndarray, prescribed: np.ndarray, lu: np.ndarray,
-                 piv: np.ndarray, alu: np.ndarray, apiv: np.ndarray, abw: int, h: float, sigma: float,
-                 H: np.ndarray, g: np.ndarray, Kh: np.ndarray, has_head: bool, spin: bool) -> np.ndarray:
-    """~J^{-1} z: the block factorisation of J with A replaced by its band (``alu``: LU of the entries within
-    ``abw`` of the diagonal) and the Schur complement by the banded S (``lu``)."""
+def precondition(z: np.ndarray, out: np.ndarray, work: tuple, nd: int, vdofs: np.ndarray, prescribed: np.ndarray,
+                 lu: np.ndarray, piv: np.ndarray, alu: np.ndarray, apiv: np.ndarray, abw: int, h: float,
+                 sigma: float, H: np.ndarray, g: np.ndarray, Kh: np.ndarray, has_head: bool, spin: bool) -> None:
+    """out <- ~J^{-1} z: the block factorisation of J with A replaced by its band (``alu``: factor of the entries
+    within ``abw`` of the diagonal) and the Schur complement by the banded S (``lu``); work from
+    ``krylov_workspace``."""
+    V, c, zero, hf, t = work[8], work[9], work[10], work[12], work[13]
     a = z[:nd]
-    b = z[nd:]
-    t = factor_solve(alu, apiv, abw, b) / sigma
+    t[:] = z[nd:]
+    factor_solve_in_place(alu, apiv, abw, t)
+    for i in range(t.shape[0]):
+        t[i] = t[i] / sigma
     nv = vdofs.shape[0]
-    c = drag_and_coupling(np.zeros(nv), t, Kh, g, 0.0, 0.0, has_head, spin)
-    rhs = a.copy()
+    drag_and_coupling_into(zero, t, Kh, g, 0.0, 0.0, has_head, spin, c)
+    x = out[:nd]
+    x[:] = a
     for i in range(nv):
-        rhs[vdofs[i]] -= c[i]
+        x[vdofs[i]] -= c[i]
     for k in prescribed:
-        rhs[k] = a[k]
-    x = factor_solve(lu, piv, BANDWIDTH, rhs)
-    V = np.empty(nv)
+        x[k] = a[k]
+    factor_solve_in_place(lu, piv, BANDWIDTH, x)
     for i in range(nv):
         V[i] = x[vdofs[i]] / h
     for k in prescribed:  # prescribed DOFs have no velocity in J's columns
         for i in range(nv):
             if vdofs[i] == k:
                 V[i] = 0.0
-    y = t + factor_solve(alu, apiv, abw, head_flow_apply(V, H, g, has_head, spin))
-    out = np.empty_like(z)
-    out[:nd] = x
-    out[nd:] = y
-    return out
+    head_flow_apply_into(V, H, g, has_head, spin, hf)
+    factor_solve_in_place(alu, apiv, abw, hf)
+    for i in range(t.shape[0]):
+        out[nd + i] = t[i] + hf[i]
 
 
 @njit(cache=True)
-def krylov_direction(b: np.ndarray, rtol: float, max_iter: int, nd: int, vdofs: np.ndarray,
+def krylov_direction(b: np.ndarray, rtol: float, max_iter: int, work: tuple, nd: int, vdofs: np.ndarray,
                      prescribed: np.ndarray, mass_h2: np.ndarray, ab: np.ndarray, cnodes: np.ndarray,
                      cblocks: np.ndarray, h: float, sigma: float, A: np.ndarray, H: np.ndarray, g: np.ndarray,
                      Kh: np.ndarray, drag_t: float, drag_r: float, has_head: bool, spin: bool, lu: np.ndarray,
                      piv: np.ndarray, alu: np.ndarray, apiv: np.ndarray, abw: int) -> tuple[np.ndarray, int, float]:
     """J^{-1} b by right-preconditioned GMRES (Saad & Schultz 1986; modified Gram-Schmidt, Givens rotations)
-    from 0, no restart, to ||b - J x|| <= rtol ||b||. Returns (x, iterations, reached relative residual):
-    iterations = -1 if ``max_iter`` did not reach rtol."""
+    from 0, no restart, to ||b - J x|| <= rtol ||b||, in the arrays of ``work`` (``krylov_workspace`` for at
+    least ``max_iter`` iterations). Returns (x, iterations, reached relative residual): iterations = -1 if
+    ``max_iter`` did not reach rtol."""
     n = b.shape[0]
     beta = math.sqrt(b @ b)
     if beta == 0.0:
         return np.zeros(n), 0, 0.0
-    V = np.empty((max_iter + 1, n))
-    Z = np.empty((max_iter, n))
-    Hm = np.zeros((max_iter + 1, max_iter))
-    cs = np.zeros(max_iter)
-    sn = np.zeros(max_iter)
-    gv = np.zeros(max_iter + 1)
+    V, Z, Hm, cs, sn, gv, w = work[:7]  # every entry read below is written first in this call
     gv[0] = beta
-    V[0] = b / beta
+    for j in range(n):
+        V[0, j] = b[j] / beta
     target = rtol * beta
     for k in range(max_iter):
-        Z[k] = precondition(V[k], nd, vdofs, prescribed, lu, piv, alu, apiv, abw, h, sigma, H, g, Kh, has_head,
-                            spin)
-        w = jacobian_vector(Z[k], nd, vdofs, prescribed, mass_h2, ab, cnodes, cblocks, h, sigma, A, H, g, Kh,
-                            drag_t, drag_r, has_head, spin)
+        precondition(V[k], Z[k], work, nd, vdofs, prescribed, lu, piv, alu, apiv, abw, h, sigma, H, g, Kh,
+                     has_head, spin)
+        jacobian_vector(Z[k], w, work, nd, vdofs, prescribed, mass_h2, ab, cnodes, cblocks, h, sigma, A, H, g, Kh,
+                        drag_t, drag_r, has_head, spin)
         for i in range(k + 1):
             hik = w @ V[i]
             Hm[i, k] = hik
-            w -= hik * V[i]
+            for j in range(n):
+                w[j] -= hik * V[i, j]
         hn = math.sqrt(w @ w)
         Hm[k + 1, k] = hn
         breakdown = hn <= 1e-14 * beta  # the Krylov space holds the solution
         if not breakdown:
-            V[k + 1] = w / hn
+            for j in range(n):
+                V[k + 1, j] = w[j] / hn
         for i in range(k):
             t = cs[i] * Hm[i, k] + sn[i] * Hm[i + 1, k]
             Hm[i + 1, k] = -sn[i] * Hm[i, k] + cs[i] * Hm[i + 1, k]
@@ -339,10 +382,10 @@ def krylov_direction(b: np.ndarray, rtol: float, max_iter: int, nd: int, vdofs: 
                 yk[i] = acc / Hm[i, i]
             x = np.zeros(n)
             for i in range(m):
-                x += yk[i] * Z[i]
+                for j in range(n):
+                    x[j] += yk[i] * Z[i, j]
             return x, m, abs(gv[k + 1]) / beta
     return np.zeros(n), -1, abs(gv[max_iter]) / beta
-
 
 
 @njit(cache=True)
@@ -369,7 +412,7 @@ CONVERGED, NONFINITE_RESIDUAL, KRYLOV_FAILED, NEWTON_FAILED = 0, 1, 2, 3
 @njit(cache=True)
 def newton_krylov_loop(q: np.ndarray, y: np.ndarray, h: float, q_start: np.ndarray, frames_old: tuple, rest: tuple,
                        base: tuple, system: tuple, hydro: tuple, contact_on: bool, model: tuple, cstate: tuple,
-                       first_step: bool, precond: tuple, ab0: np.ndarray, tols: tuple, rate: tuple):
+                       first_step: bool, precond: tuple, ab0: np.ndarray, tols: tuple, rate: tuple, work: tuple):
     """The Newton-Krylov iteration of one step, entirely compiled: from (q, y) (the predictor and the last
     forces), each iteration the residual, the convergence tests, a GMRES direction with the Jacobian at the
     iterate (the elastic Hessian ab0 at the predictor is reused for the first), the update.
@@ -377,7 +420,8 @@ def newton_krylov_loop(q: np.ndarray, y: np.ndarray, h: float, q_start: np.ndarr
     system = (mass, vdofs, prescribed, spin, omega, pos, twist, free_twist, weights); precond = (lu, piv, alu,
     apiv, abw); tols = (newton_tol, newton_max_iter, step_tol, f_floor, r0, GMRES relative tolerance,
     GMRES iteration limit); rate = (rho, age) of the
-    ``ContractionRate`` (used when step_tol > 0). Returns (code, q, y, r, grad, f, frames, cstate, (contact
+    ``ContractionRate`` (used when step_tol > 0); work = GMRES's arrays (``krylov_workspace`` for at least the
+    iteration limit; the caller keeps them from step to step). Returns (code, q, y, r, grad, f, frames, cstate, (contact
     energy, count), (residuals evaluated in the loop, GMRES iterations), (rho, age), value): value = the GMRES
     relative residual reached (KRYLOV_FAILED) or the max force residual (NEWTON_FAILED)."""
     mass, vdofs, prescribed, head_spins, omega, pos, twist, free_twist, weights = system
@@ -414,8 +458,8 @@ def newton_krylov_loop(q: np.ndarray, y: np.ndarray, h: float, q_start: np.ndarr
         ab = ab0 if it == 0 else elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, l_bar, l_vor, kappa_bar,
                                                                twist_bar, EA, EI, GJ)
         rhs = np.concatenate((r, r_y))
-        z, its, reached = krylov_direction(rhs, gmres_rtol, gmres_max_iter, nd, vdofs, prescribed, mass_h2, ab,
-                                           nodes_c, blocks_c, h, sigma, A, H, g, Kh, drag_t, drag_r, has_head,
+        z, its, reached = krylov_direction(rhs, gmres_rtol, gmres_max_iter, work, nd, vdofs, prescribed, mass_h2,
+                                           ab, nodes_c, blocks_c, h, sigma, A, H, g, Kh, drag_t, drag_r, has_head,
                                            spin, lu, piv, alu, apiv, abw)
         if its < 0:
             return (KRYLOV_FAILED, q, y, r, grad, f, fr, cstate, (e_c, nodes_c.shape[0]), (evaluated, krylov_its),
@@ -450,6 +494,7 @@ class MobilityStep:
         self.first = 1 if p.has_head else 0
         self.sigma = 8.0 * math.pi * p.viscosity * 2.0 * p.cutoff_length
         self.hyd = None
+        self._work: tuple | None = None  # GMRES's arrays (``krylov_workspace``), kept from step to step
         self.contraction = ContractionRate()  # the Newton iteration's convergence test (adaptive steps)
 
     def begin(self, hyd: Any, q_pred: np.ndarray, h: float) -> None:
@@ -506,15 +551,25 @@ class MobilityStep:
         return (q.size, sim.vdofs, sim.prescribed, sim.mass / (h * h), ab, nodes_c, blocks_c, h, self.sigma,
                 hyd.a, self.H, self.g, self.Kh, self.drag_t, self.drag_r, hyd.has_head, hyd.spin)
 
+    def _workspace(self, max_iter: int) -> tuple:
+        """The kept ``krylov_workspace`` (made anew when the sizes change or more iterations are asked)."""
+        sizes = (self.sim.q.size, self.hyd.m3, self.sim.vdofs.size)
+        w = self._work
+        if w is None or (w[7].size, w[11].size, w[8].size) != sizes or w[1].shape[0] < max_iter:
+            w = self._work = krylov_workspace(*sizes, max_iter)
+        return w
+
     def jacobian_vector(self, q: np.ndarray, h: float, z: np.ndarray) -> np.ndarray:
         """J z at q (the elastic and contact Hessians at q) for z = (dq (ndof,), dy (3M,))."""
-        return jacobian_vector(z, *self._jacobian_arrays(q, h))
+        out = np.empty_like(z)
+        jacobian_vector(z, out, self._workspace(GMRES_MAX_ITER), *self._jacobian_arrays(q, h))
+        return out
 
     def direction(self, q: np.ndarray, h: float, rhs: np.ndarray, rtol: float = GMRES_RTOL,
                   max_iter: int = GMRES_MAX_ITER) -> tuple[np.ndarray, int, float]:
         """GMRES for J z = rhs at q: (z, iterations (-1: not converged), relative residual reached)."""
-        return krylov_direction(rhs, rtol, max_iter, *self._jacobian_arrays(q, h), self.lu, self.piv, self.alu,
-                                self.apiv, self.abw)
+        return krylov_direction(rhs, rtol, max_iter, self._workspace(max_iter), *self._jacobian_arrays(q, h),
+                                self.lu, self.piv, self.alu, self.apiv, self.abw)
 
     def solve(self, q: np.ndarray, y: np.ndarray, h: float):
         """Newton-Krylov from (q, y), one compiled call (``newton_krylov_loop``): (q, r, grad, f, frames) at
@@ -530,7 +585,7 @@ class MobilityStep:
                                sim.step_count == 0, (self.lu, self.piv, self.alu, self.apiv, self.abw), self.ab,
                                (nm.newton_tol, nm.newton_max_iter, nm.step_tol, sim._f_floor, p.rod_radius,
                                 GMRES_RTOL, GMRES_MAX_ITER),
-                               (rate.rho, rate._age)))
+                               (rate.rho, rate._age), self._workspace(GMRES_MAX_ITER)))
         sim.stats.newton_iterations += evaluated
         sim.stats.krylov_iterations += its
         sim.keep_contact_state(cstate, e_c, count)

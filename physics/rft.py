@@ -22,6 +22,7 @@ import math
 import numpy as np
 from numba import njit
 
+from physics.lsbt import node_tangent
 from physics.params import SwimmerParams
 
 
@@ -45,21 +46,10 @@ def rft_blocks(x: np.ndarray, zeta_perp: float, zeta_par: float) -> np.ndarray:
     ell_j is half the sum of the adjacent edge lengths; t_j the normalised mean edge tangent.
     """
     m = x.shape[0]
-    out = np.zeros((m, 3, 3))
+    out = np.empty((m, 3, 3))
     for j in range(m):
-        t = np.zeros(3)
-        ell = 0.0
-        if j > 0:
-            e = x[j] - x[j - 1]
-            le = math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2)
-            t += e / le
-            ell += 0.5 * le
-        if j < m - 1:
-            e = x[j + 1] - x[j]
-            le = math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2)
-            t += e / le
-            ell += 0.5 * le
-        t /= math.sqrt(t[0] ** 2 + t[1] ** 2 + t[2] ** 2)
+        t0, t1, t2, ell = node_tangent(x, j)
+        t = (t0, t1, t2)
         for p in range(3):
             for k in range(3):
                 tt = t[p] * t[k]

@@ -203,7 +203,8 @@ def _within_reach_reference(x, pairs, reach):
 def test_within_reach_with_its_box_bound_keeps_exactly_the_pairs_of_the_closest_point_test():
     """Random segments around the reach (some at reach x (1 +- 1e-9), where only the exact test decides; some
     axis-aligned at reach x (1 +- 1e-7, 1e-12), where the box bound is as tight as it gets), far from the origin too:
-    the box lower bound never drops a pair the closest-point test keeps."""
+    the box lower bound never drops a pair the closest-point test keeps, in ``within_reach`` or in
+    ``contact_kernel``."""
     from physics.contact import within_reach
 
     rng = np.random.default_rng(11)
@@ -232,3 +233,29 @@ def test_within_reach_with_its_box_bound_keeps_exactly_the_pairs_of_the_closest_
             x[j + 1, k] += 1.2e-3
         got = within_reach(x, pairs, reach)
         assert np.array_equal(got, _within_reach_reference(x, pairs, reach))
+        r0, eps = 1e-3, reach - 2e-3  # contact_kernel skips pairs by the same bound: its active pairs are these
+        active = _within_reach_reference(x, pairs, 2.0 * r0 + eps)
+        nodes = contact_kernel(x, pairs, 0.0, np.zeros(0, dtype=np.int64), r0, eps, 0.1)[2]
+        assert np.array_equal(nodes, np.column_stack([active[:, 0], active[:, 0] + 1, active[:, 1], active[:, 1] + 1]))
+
+
+def test_buffered_pair_and_head_distances_are_the_array_expressions_bit_for_bit():
+    """``_pair_sq_distance`` / ``_head_sq_distance`` (the rejection tests of ``contact_kernel`` in buffers) give
+    exactly what the array expressions they replaced give: (s, t, |w|^2) and (t, |w|^2)."""
+    from physics.contact import _closest_params, _head_sq_distance, _pair_sq_distance
+
+    rng = np.random.default_rng(12)
+    x = np.ascontiguousarray(np.cumsum(rng.normal(size=(25, 3)) * 1.2e-3, axis=0) + 0.3)
+    x[7] = x[6] + 1e-3 * (x[12] - x[11]) / np.linalg.norm(x[12] - x[11])  # a parallel pair, 6-7 and 11-12
+    bufs = [np.empty(3) for _ in range(4)]
+    for i in range(x.shape[0] - 1):
+        for j in range(i + 2, x.shape[0] - 1):
+            a, b, c, d = x[i], x[i + 1], x[j], x[j + 1]
+            s, t = _closest_params(a, b, c, d)
+            w = (1.0 - s) * a + s * b - (1.0 - t) * c - t * d
+            assert _pair_sq_distance(x, i, j, *bufs) == (s, t, w @ w)
+        c, d = x[i], x[i + 1]
+        e = d - c
+        t = min(max((x[0] - c) @ e / (e @ e), 0.0), 1.0)
+        w = x[0] - (1.0 - t) * c - t * d
+        assert _head_sq_distance(x, i, *bufs[:3]) == (t, w @ w)

@@ -78,3 +78,38 @@ def test_straight_rod_drag_matches_slender_body_formulas_broadside_and_lengthwis
     ratio = f_perp / f_par
     assert 1.5 < ratio < 2.0  # the textbook "close to 2" for a slender rod (exactly 2 as L/r0 -> inf)
     assert ratio == pytest.approx(f_perp_sbt / f_par_sbt, rel=0.05)
+
+
+def test_lower_blocks_are_the_upper_blocks_and_tangents_are_normalised_edge_sums():
+    """``lsbt_mobility`` writes each pair's values into both of its node blocks: block (i, j) is block (j, i)
+    itself, not its transpose (bit for bit, also in the near field, where c_iso I + c_rr r r is symmetric only
+    up to rounding; every entry is written, the matrix starts uninitialised); ``node_tangents`` is the normalised
+    sum of the adjacent unit edges."""
+    from physics.lsbt import lsbt_mobility, node_tangents
+
+    r0 = P.rod_radius
+    m = 40
+    s = np.arange(m) * 2 * DELTA
+    x = np.zeros((m, 3))  # a hairpin: two strands 2.5 r0 apart, joined by a half turn
+    half = m // 2
+    x[:half, 0] = s[:half]
+    bend = np.linspace(-np.pi / 2, np.pi / 2, 5)[1:-1]
+    x[half:, 0] = s[half - 1] - s[:m - half]
+    x[half:, 1] = 2.5 * r0
+    x[half - 1 + np.arange(1, 4), 0] = s[half - 1] + 1.25 * r0 * np.cos(bend)
+    x[half - 1 + np.arange(1, 4), 1] = 1.25 * r0 + 1.25 * r0 * np.sin(bend)
+    x = np.ascontiguousarray(x)
+    e = np.diff(x, axis=0)
+    u = e / np.linalg.norm(e, axis=1)[:, None]
+    ref = np.zeros((m, 3))
+    ref[1:] += u
+    ref[:-1] += u
+    ref /= np.linalg.norm(ref, axis=1)[:, None]
+    t = node_tangents(x)
+    np.testing.assert_allclose(t, ref, rtol=1e-14, atol=1e-14)
+    a = lsbt_mobility(x, t, MU, DELTA, 0.0, 1.5 * r0)
+    plain = lsbt_mobility(x, t, MU, DELTA, 0.0, 0.0)
+    assert not np.array_equal(a, plain)  # the near field is in use
+    for i in range(m):
+        for j in range(i):
+            assert np.array_equal(a[3 * i:3 * i + 3, 3 * j:3 * j + 3], a[3 * j:3 * j + 3, 3 * i:3 * i + 3])

@@ -228,6 +228,48 @@ def test_compiled_banded_cholesky_is_lapacks():
     np.testing.assert_allclose(banded_cholesky_solve(c, kd, b), cho_solve_banded((ref, True), b), rtol=1e-12)
 
 
+def test_in_place_banded_solves_are_the_allocating_ones_bit_for_bit():
+    from physics.banded_cholesky import banded_cholesky, banded_cholesky_solve, banded_cholesky_solve_in_place
+    from physics.newton_krylov import factor_solve, factor_solve_in_place, factor_symmetric_band
+
+    rng = np.random.default_rng(7)
+    n, kd = 120, 10
+    c = rng.normal(size=(n, kd + 1))
+    c[:, 0] = 2.0 * kd + rng.random(n)
+    assert banded_cholesky(c, kd) == 0
+    b = rng.normal(size=n)
+    x = b.copy()
+    banded_cholesky_solve_in_place(c, kd, x)
+    assert np.array_equal(x, banded_cholesky_solve(c, kd, b))
+    band = rng.normal(size=(2 * kd + 1, n))  # not symmetric, not definite: the LU path of factor_solve
+    f, piv, info = factor_symmetric_band(band)
+    assert info == 0 and piv.size == n
+    x = b.copy()
+    factor_solve_in_place(f, piv, kd, x)
+    assert np.array_equal(x, factor_solve(f, piv, kd, b))
+
+
+def test_banded_matvec_adds_in_the_order_of_a_column_by_column_product():
+    """Diagonal by diagonal, each out[i] still receives its terms in the order of increasing j (bit for bit),
+    and columns with v[j] = 0 add nothing (not even a signed zero)."""
+    rng = np.random.default_rng(8)
+    bw, n = 10, 97
+    ab = rng.normal(size=(2 * bw + 1, n))
+    v = rng.normal(size=n)
+    v[[0, 5, n - 1]] = 0.0
+    ab[:, 5] = np.inf  # skipped: v[5] = 0
+    out0 = rng.normal(size=n)
+    out0[3] = -0.0
+    ref = out0.copy()
+    for j in range(n):
+        if v[j] != 0.0:
+            for i in range(max(0, j - bw), min(n, j + bw + 1)):
+                ref[i] += ab[bw + i - j, j] * v[j]
+    out = out0.copy()
+    banded_matvec_add(ab, v, out)
+    assert np.array_equal(out, ref) and np.array_equal(np.signbit(out), np.signbit(ref))
+
+
 def test_a_symmetric_band_that_is_not_positive_definite_is_factorised_by_lu():
     from physics.newton_krylov import factor_solve, factor_symmetric_band
 
