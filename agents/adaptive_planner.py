@@ -66,12 +66,13 @@ class AdaptivePlanner(RulePlanner):
     before the first turn ``end_slice`` (where L'/L is in the flat observation) and
     ``reference`` (the map swimmer's ``CruiseObservables``; None: no cruise reading), and
     ``swim_on_m`` (m): swim on, then turn -- a turn that is not predicted to reach the target is put
-    off while the same choice made up to this far on (and this near the target) is (0: never)."""
+    off while the same choice made up to this far on (and this near the target) is (0: never; default 8 cm,
+    see ``OnlineMapConfig.lift_after_turns`` for what was measured)."""
 
     def __init__(self, turn_map: TurnMap, layout, control_dt: float, reach_radius_m: float, action_of,
                  config: PlannerConfig | None = None, online: OnlineMapConfig | None = None,
                  carry_over: bool = False, end_slice: slice | None = None,
-                 reference: CruiseObservables | None = None, swim_on_m: float = 0.0) -> None:
+                 reference: CruiseObservables | None = None, swim_on_m: float = 0.08) -> None:
         super().__init__(turn_map, layout, control_dt, reach_radius_m, action_of, config)
         self.swim_on_m = require_finite("swim_on_m", swim_on_m, 0.0)
         self.end_slice, self.reference = end_slice, reference
@@ -82,7 +83,7 @@ class AdaptivePlanner(RulePlanner):
     @classmethod
     def for_env(cls, env, turn_map: TurnMap, config: PlannerConfig | None = None,  # type: ignore[override]
                 online: OnlineMapConfig | None = None, carry_over: bool = False,
-                swim_on_m: float = 0.0) -> AdaptivePlanner:
+                swim_on_m: float = 0.08) -> AdaptivePlanner:
         """An adaptive planner for this env (the rule planner's checks apply)."""
         base = RulePlanner.for_env(env, turn_map, config)
         e = env.unwrapped
