@@ -120,6 +120,27 @@ from physics.schedule import MAX_RPM  # noqa: E402
 class Simulator:
     """Head + flagellum swimmer (Huang & Jawed 2020). SI units throughout.
 
+    The equations of motion are eqn (6) with the hydrodynamic force implicit in the velocity (module doc). Its
+    terms are the scene's (``self.scene``, ``physics.force_terms``): elastic (eqns 5a-5c), contact (when
+    ``numerics.contact``), inertia, and LSBT + head (eqns 8-13) or local RFT drag; the solvers read the static
+    ``self.system`` (``physics.step_context.SystemDescription``) and each step's ``step_context(h)``.
+
+    Integrator (``physics.time_integrator``): ``numerics.integrator`` = implicit Euler (the paper's) or
+    variable-step BDF of order up to 2, 3 or 4 (``faithful``: BDF3). With ``step_tol`` > 0 every ``dt`` is
+    covered by error-controlled steps (Milne's estimate, node positions in r0 and twists in rad; the order
+    ramps up from implicit Euler at ``h_start`` after each start or motor-speed change; a step is retried at a
+    smaller h when the estimate or the solve fails); with ``step_tol`` = 0 by one step of dt, halved up to
+    ``max_substeps`` times. Each step solves the residual at the scheme's base values q^, v^ and effective step
+    h_e, by one of two solvers (``physics.step_solvers``):
+
+    * while the LSBT resistance is reused through a rigid rotation (steady swimming): the chord iteration on
+      the reused dense LU of M/h^2 + K + P^T R P / h, rotated with the swimmer, compiled end to end
+      (``chord_iteration``; ``_chord_python`` is its Python reference and the path of Anderson mixing and of
+      RFT, whose banded Jacobian is exact and refactorised at every iteration);
+    * when the resistance is rebuilt (the shape changed non-rigidly by more than ``hydro_refresh_tol`` r0:
+      buckling, relaxation) and ``newton_krylov`` is on: Newton-Krylov in the mobility form, the flagellum's
+      forces unknowns beside q, GMRES with a banded preconditioner, no dense factorisation (``newton_krylov``).
+
     >>> sim = Simulator(SwimmerParams(), NumericsConfig())
     >>> sim.set_motor_speed(10 * RPM_TO_RAD_S); sim.advance(1.0)
     """
