@@ -34,6 +34,7 @@ from physics.errors import StepFailed
 from physics.hydrodynamics import _INVERSE_AFTER_SOLVES, HydroError
 from physics.implicit_residual import (assemble_residual, block_max_abs, forces_converged, generalised_velocity,
                                        internal_forces_at, rotate_node_blocks)
+from physics.step_context import compiled_contact_args
 from physics.time_integrator import contraction_update
 
 #: outcome codes of ``chord_loop``
@@ -211,35 +212,38 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
     """The chord iteration of a step from the predictor q (ndof,) at the effective step h (s), compiled
     (``chord_loop``), Python entering only at a stall or when the resistance forms its inverse. Returns
     (q, r, grad, f, (t, d1, ref_twist)) as ``Simulator._chord_python`` does, bit for bit; raises ``StepFailed``
-    where it does. Updates the simulator's contact state, its contraction rate and its counters."""
-    nm, p = sim.numerics, sim.params
+    where it does. ``sim``: the stepped object; it gives its ``system`` (``step_context.SystemDescription``), the
+    step (``step_context(h)``), its dense chord solver, contraction rate and counters, and keeps the contact state
+    the loop returns."""
+    system = sim.system
+    nm, p = system.numerics, system.params
     solver = sim._solver
     hyd = solver.hyd
-    contact = sim.contact
+    ctx = sim.step_context(h)
     if hyd._inv is None and hyd._chol is None:  # what the first solve would do (a lazily built operator)
         try:
             hyd._factorize()
         except HydroError as exc:
             raise StepFailed("hydrodynamic mobility", str(exc)) from None
-    step_scale = max(block_max_abs(q - sim.q, sim._pos), 1e-6 * p.rod_radius)
+    step_scale = max(block_max_abs(q - ctx.q_start, system.pos), 1e-6 * p.rod_radius)
     rate = sim.contraction
     if nm.step_tol > 0.0:
         rate.start()
     rstate = (rate.rho, -1.0 if rate._prev is None else rate._prev, rate._age)
-    model, cstate = sim.contact_state(q)
-    b = sim._base
-    base = (b.q_hat, b.v_hat, b.h_eff)
-    system = (sim.mass, sim.vdofs, sim.prescribed, sim.head_spins, sim.omega, sim._pos, sim._twist,
-              sim._anderson_weights, sim._free_twist)
-    frames_old = (sim.d1, sim.tangent, sim.ref_twist)
-    tols = (nm.newton_tol, nm.newton_max_iter, nm.step_tol, sim._f_floor, p.rod_radius, step_scale)
+    contact_on, model, cstate = compiled_contact_args(q, ctx, system)
+    base = (ctx.q_hat, ctx.v_hat, ctx.h)
+    arrays = (system.mass, system.vdofs, system.prescribed, system.head_spins, ctx.omega, system.pos, system.twist,
+              system.weights, system.free_twist)
+    frames_old = ctx.frames
+    tols = (nm.newton_tol, nm.newton_max_iter, nm.step_tol, system.f_floor, p.rod_radius, step_scale)
     if hyd.has_head:  # K only for the printed head (a C-contiguous placeholder otherwise: one compiled variant)
         H, g, K, drag_t = hyd.H, hyd.g, (hyd.K if hyd.printed else _NO_K), hyd.drag_t
         drag_r = hyd.drag_r if hyd.spin else 0.0
     else:
         H, g, K, drag_t, drag_r = _NO_HEAD_H, _NO_HEAD_G, _NO_K, 0.0, 0.0
     # placeholders of the types the loop's residual returns (read only when resuming at an increment)
-    carried = (q, q, q, (sim.tangent, sim.d1, sim.d1, sim.ref_twist, sim.d1, sim.d1), 0.0, 0)
+    d1_old, t_old, rt_old = ctx.frames
+    carried = (q, q, q, (t_old, d1_old, d1_old, rt_old, d1_old, d1_old), 0.0, 0)
     it, phase, hist = 0, AT_RESIDUAL, (np.inf, np.inf)
     while True:
         use_inv = hyd._inv is not None
@@ -247,9 +251,9 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
                  drag_r, hyd.has_head, hyd.spin, hyd.printed, np.ascontiguousarray(solver.Qh))
         lin = (solver.lu[0], solver.piv1, np.ascontiguousarray(solver.Qj), solver.jac_fresh)
         (code, q, it, phase, hist, carried, cstate, rstate, applies, evaluated, value) = chord_loop(
-            q, h, it, phase, hist, carried, sim.q, frames_old, sim.rest_arrays, base, system, hydro,
-            (use_inv, hyd._applies, _INVERSE_AFTER_SOLVES), contact is not None, model, cstate,
-            sim.step_count == 0, lin, tols, rstate)
+            q, h, it, phase, hist, carried, ctx.q_start, frames_old, system.rest, base, arrays, hydro,
+            (use_inv, hyd._applies, _INVERSE_AFTER_SOLVES), contact_on, model, cstate,
+            ctx.first_step, lin, tols, rstate)
         hyd._applies = applies
         sim.stats.newton_iterations += evaluated
         r, grad, f, fr, e_c, count = carried

@@ -50,15 +50,10 @@ def generalised_velocity(q: np.ndarray, q_k: np.ndarray, h: float, vdofs: np.nda
 
 
 @njit(cache=True)
-def assemble_residual(q: np.ndarray, q_k: np.ndarray, v_k: np.ndarray, h: float, mass: np.ndarray,
-                      grad: np.ndarray, G_ref: np.ndarray, Q: np.ndarray, vdofs: np.ndarray, spin: bool,
-                      prescribed: np.ndarray):
-    """Residual r (4n-1,), hydrodynamic generalised force f (4n-1,) and inertia term (4n-1,).
-
-    G_ref: hydrodynamic generalised force in the reference frame (node blocks rotated back by Q).
-    Units: N on positions, N m on twists.
-    """
-    nd = q.shape[0]
+def generalised_force(G_ref: np.ndarray, Q: np.ndarray, vdofs: np.ndarray, spin: bool, nd: int) -> np.ndarray:
+    """P^T Q~ G_ref (nd,): generalised forces G_ref (nv,) given in the resistance's reference frame (node blocks,
+    then the head's axial torque when the head spins), node blocks rotated by Q (3, 3) to the lab frame and
+    scattered to their DOFs. N on positions, N m on the motor twist; zero elsewhere."""
     nv = vdofs.shape[0]
     G = G_ref.copy()
     n3 = nv - 1 if spin else nv
@@ -69,6 +64,31 @@ def assemble_residual(q: np.ndarray, q_k: np.ndarray, v_k: np.ndarray, h: float,
     f = np.zeros(nd)
     for a in range(nv):
         f[vdofs[a]] = G[a]
+    return f
+
+
+@njit(cache=True)
+def inertia_force(q: np.ndarray, q_k: np.ndarray, v_k: np.ndarray, h: float, mass: np.ndarray) -> np.ndarray:
+    """M (q - q_k - h v_k) / h^2 (ndof,), N / N m: the inertia term of eqn (6) divided by h^2, with the
+    arithmetic of ``assemble_residual``."""
+    nd = q.shape[0]
+    out = np.empty(nd)
+    for j in range(nd):
+        out[j] = mass[j] * (q[j] - q_k[j] - h * v_k[j]) / (h * h)
+    return out
+
+
+@njit(cache=True)
+def assemble_residual(q: np.ndarray, q_k: np.ndarray, v_k: np.ndarray, h: float, mass: np.ndarray,
+                      grad: np.ndarray, G_ref: np.ndarray, Q: np.ndarray, vdofs: np.ndarray, spin: bool,
+                      prescribed: np.ndarray):
+    """Residual r (4n-1,), hydrodynamic generalised force f (4n-1,) and inertia term (4n-1,).
+
+    G_ref: hydrodynamic generalised force in the reference frame (node blocks rotated back by Q).
+    Units: N on positions, N m on twists.
+    """
+    nd = q.shape[0]
+    f = generalised_force(G_ref, Q, vdofs, spin, nd)
     inertia = np.empty(nd)
     r = np.empty(nd)
     for j in range(nd):
@@ -138,6 +158,23 @@ def rotate_dense_blocks(R: np.ndarray, Q: np.ndarray, spin: bool) -> np.ndarray:
 
 
 @njit(cache=True)
+def contact_state_at(q: np.ndarray, model: tuple, cstate: tuple, q_start: np.ndarray, pos: np.ndarray,
+                     first_step: bool) -> tuple:
+    """The contact state valid at q (ndof,): ``cstate`` = (q of the broad phase, its pad m, pairs (P, 2), head edges
+    (H,), none active) itself while q stays within half the pad of the broad phase's q, else a new broad phase at
+    q padded by twice the step's motion so far (at least r0 / 2; model = ``ContactModel.model``)."""
+    cq, pad, pairs, head, none = cstate
+    if block_max_abs(q - cq, pos) > 0.5 * pad:  # the iterate left the padded boxes: redo the broad phase
+        x = nodes_array(q)
+        move = 0.0 if first_step else block_max_abs(q - q_start, pos)
+        pad = max(0.5 * model[5], 2.0 * move)
+        pairs, head = contact_broad_phase(x, model, pad)
+        none = pairs.shape[0] == 0 and head.shape[0] == 0
+        cq = q.copy()
+    return cq, pad, pairs, head, none
+
+
+@njit(cache=True)
 def internal_forces_at(q: np.ndarray, frames_old: tuple, rest: tuple, contact_on: bool, model: tuple,
                        cstate: tuple, q_start: np.ndarray, pos: np.ndarray, first_step: bool):
     """``Simulator.internal_forces`` from compiled code: the gradient of the elastic (eqns 5a-5c) and contact
@@ -150,25 +187,19 @@ def internal_forces_at(q: np.ndarray, frames_old: tuple, rest: tuple, contact_on
     l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ = rest
     t, d1, d2, rt, m1, m2 = rod_frames(q, d1_old, t_old, rt_old)
     grad = elastic_gradient_kernel(q, d1, d2, rt, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ)
-    cq, pad, pairs, head, none = cstate
     e_c = 0.0
     nodes_c = np.zeros((0, 4), dtype=np.int64)
     blocks_c = np.zeros((0, 12, 12))
     if contact_on:
-        if block_max_abs(q - cq, pos) > 0.5 * pad:  # the iterate left the padded boxes: redo the broad phase
-            x = nodes_array(q)
-            move = 0.0 if first_step else block_max_abs(q - q_start, pos)
-            pad = max(0.5 * model[5], 2.0 * move)
-            pairs, head = contact_broad_phase(x, model, pad)
-            none = pairs.shape[0] == 0 and head.shape[0] == 0
-            cq = q.copy()
+        cstate = contact_state_at(q, model, cstate, q_start, pos, first_step)
+        cq, pad, pairs, head, none = cstate
         if not none:
             e_c, g_c, nodes_c, blocks_c = contact_kernel(nodes_array(q), pairs, model[3], head, model[5],
                                                          model[6], model[7])
             if nodes_c.shape[0]:
                 for k in range(3):
                     grad[k::4] += g_c[k::3]
-    return grad, (t, d1, d2, rt, m1, m2), (cq, pad, pairs, head, none), e_c, nodes_c, blocks_c
+    return grad, (t, d1, d2, rt, m1, m2), cstate, e_c, nodes_c, blocks_c
 
 
 @njit(cache=True)

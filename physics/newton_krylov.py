@@ -53,6 +53,7 @@ from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel, rod_frames
 from physics.implicit_residual import (assemble_residual, block_max_abs, forces_converged, generalised_velocity,
                                        internal_forces_at)
 from physics.rft import rft_blocks
+from physics.step_context import SystemDescription, active_contacts, compiled_contact_args, frames_at
 from physics.time_integrator import ContractionRate, contraction_update
 
 #: relative residual reduction asked of GMRES for each Newton direction
@@ -485,11 +486,13 @@ def newton_krylov_loop(q: np.ndarray, y: np.ndarray, h: float, q_start: np.ndarr
 class MobilityStep:
     """The mobility-form system of one step: the resistance operator's pieces (A, H, g, head drag) at the
     predicted geometry, the local resistance and the banded preconditioner. Built by ``begin``;
-    ``solve`` runs the Newton-Krylov iteration from the predictor (each direction one compiled call)."""
+    ``solve`` runs the Newton-Krylov iteration from the predictor (one compiled call). ``system``: the
+    ``step_context.SystemDescription``; ``state``: the stepped object (``step_solvers.StepState``: the step's
+    ``StepContext``, the kept contact state, the counters)."""
 
-    def __init__(self, sim: Any, rloc_coefficients: tuple[float, float]) -> None:
-        self.sim = sim
-        p = sim.params
+    def __init__(self, system: SystemDescription, state: Any, rloc_coefficients: tuple[float, float]) -> None:
+        self.system, self.state = system, state
+        p = system.params
         self.zeta = rloc_coefficients
         self.first = 1 if p.has_head else 0
         self.sigma = 8.0 * math.pi * p.viscosity * 2.0 * p.cutoff_length
@@ -499,7 +502,7 @@ class MobilityStep:
 
     def begin(self, hyd: Any, q_pred: np.ndarray, h: float) -> None:
         """Take the resistance operator ``hyd`` (built at q_pred) and factorise the preconditioner at q_pred, h."""
-        sim = self.sim
+        system, ctx = self.system, self.state.step_context(h)
         self.hyd = hyd
         t0 = time.perf_counter()
         m3 = hyd.m3
@@ -510,50 +513,54 @@ class MobilityStep:
         else:
             self.H, self.g, self.Kh = np.zeros((m3, 3)), np.zeros(m3), np.zeros((3, m3))
             self.drag_t = self.drag_r = 0.0
-        nodes_c, blocks_c = sim.contact_hessian(q_pred)
+        nodes_c, blocks_c = active_contacts(q_pred, ctx, system)
         self.abw = 3 * MOBILITY_BAND_NODES + 2
         self.ab, (self.lu, self.piv, info), (self.alu, self.apiv, ainfo) = preconditioner_factors(
-            q_pred, (sim.d1, sim.tangent, sim.ref_twist), sim.rest_arrays, sim.mass, h, *self.zeta, self.first,
-            self.drag_t, self.drag_r, nodes_c, blocks_c, sim.prescribed, hyd.a, self.abw)
+            q_pred, ctx.frames, system.rest, system.mass, h, *self.zeta, self.first,
+            self.drag_t, self.drag_r, nodes_c, blocks_c, system.prescribed, hyd.a, self.abw)
         if info != 0:
             raise KrylovFailed(f"banded preconditioner is singular (pivot {info} is zero)")
         if ainfo != 0:
             raise KrylovFailed(f"banded mobility of the preconditioner is singular (pivot {ainfo} is zero)")
         self.h = h
-        sim.stats.preconditioner_factorisations += 1
-        sim.stats.time_jacobian_refresh += time.perf_counter() - t0
+        self.state.stats.preconditioner_factorisations += 1
+        self.state.stats.time_jacobian_refresh += time.perf_counter() - t0
 
     def residual(self, q: np.ndarray, y: np.ndarray, h: float):
-        """(r_q (ndof,) N / N m, r_y (3M,) N, grad (ndof,), f (ndof,), inertia (ndof,), frames) at (q, y)."""
-        sim = self.sim
-        grad, frames = sim.internal_forces(q)
-        r, r_y, f, inertia = mobility_residual(q, y, h, grad, self._base(), self._system(), self._hydro())
-        return r, r_y, grad, f, inertia, frames
+        """(r_q (ndof,) N / N m, r_y (3M,) N, grad (ndof,), f (ndof,), inertia (ndof,), frames (t, d1, ref_twist))
+        at (q, y); keeps the contact state (a Python reference of ``newton_krylov_loop``'s residual)."""
+        system, ctx = self.system, self.state.step_context(h)
+        contact_on, model, cstate = compiled_contact_args(q, ctx, system)
+        grad, fr, cstate, e_c, nodes_c, _ = internal_forces_at(q, ctx.frames, system.rest, contact_on, model, cstate,
+                                                               ctx.q_start, system.pos, ctx.first_step)
+        self.state.keep_contact_state(cstate, e_c, nodes_c.shape[0])
+        r, r_y, f, inertia = mobility_residual(q, y, h, grad, self._base(ctx), self._system(ctx), self._hydro())
+        t, d1, d2, rt, m1, m2 = fr
+        return r, r_y, grad, f, inertia, (t, d1, rt)
 
-    def _base(self) -> tuple:
-        b = self.sim._base
-        return b.q_hat, b.v_hat, b.h_eff
+    @staticmethod
+    def _base(ctx) -> tuple:
+        return ctx.q_hat, ctx.v_hat, ctx.h
 
-    def _system(self) -> tuple:
-        sim = self.sim
-        return (sim.mass, sim.vdofs, sim.prescribed, sim.head_spins, sim.omega, sim._pos, sim._twist,
-                sim._free_twist, sim._anderson_weights)
+    def _system(self, ctx) -> tuple:
+        s = self.system
+        return (s.mass, s.vdofs, s.prescribed, s.head_spins, ctx.omega, s.pos, s.twist, s.free_twist, s.weights)
 
     def _hydro(self) -> tuple:
         hyd = self.hyd
         return hyd.a, self.H, self.g, self.Kh, self.drag_t, self.drag_r, hyd.has_head, hyd.spin, self.sigma
 
     def _jacobian_arrays(self, q: np.ndarray, h: float) -> tuple:
-        sim, hyd = self.sim, self.hyd
-        t, d1, d2, rt, m1, m2 = sim.frames_at(q)
-        ab = elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *sim.rest_arrays)
-        nodes_c, blocks_c = sim.contact_hessian(q)
-        return (q.size, sim.vdofs, sim.prescribed, sim.mass / (h * h), ab, nodes_c, blocks_c, h, self.sigma,
+        system, hyd, ctx = self.system, self.hyd, self.state.step_context(h)
+        t, d1, d2, rt, m1, m2 = frames_at(q, ctx)
+        ab = elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *system.rest)
+        nodes_c, blocks_c = active_contacts(q, ctx, system)
+        return (q.size, system.vdofs, system.prescribed, system.mass / (h * h), ab, nodes_c, blocks_c, h, self.sigma,
                 hyd.a, self.H, self.g, self.Kh, self.drag_t, self.drag_r, hyd.has_head, hyd.spin)
 
     def _workspace(self, max_iter: int) -> tuple:
         """The kept ``krylov_workspace`` (made anew when the sizes change or more iterations are asked)."""
-        sizes = (self.sim.q.size, self.hyd.m3, self.sim.vdofs.size)
+        sizes = (self.system.ndof, self.hyd.m3, self.system.vdofs.size)
         w = self._work
         if w is None or (w[7].size, w[11].size, w[8].size) != sizes or w[1].shape[0] < max_iter:
             w = self._work = krylov_workspace(*sizes, max_iter)
@@ -573,22 +580,22 @@ class MobilityStep:
 
     def solve(self, q: np.ndarray, y: np.ndarray, h: float):
         """Newton-Krylov from (q, y), one compiled call (``newton_krylov_loop``): (q, r, grad, f, frames) at
-        convergence; ``StepFailed`` otherwise. Updates the simulator's contact state and counters."""
-        sim = self.sim
-        nm, p = sim.numerics, sim.params
-        contact = sim.contact
-        model, cstate = sim.contact_state(q)
+        convergence; ``StepFailed`` otherwise. Updates the stepped object's contact state and counters."""
+        system, state = self.system, self.state
+        nm, p = system.numerics, system.params
+        ctx = state.step_context(h)
+        contact_on, model, cstate = compiled_contact_args(q, ctx, system)
         rate = self.contraction
         code, q, y, r, grad, f, frames, cstate, (e_c, count), (evaluated, its), (rate.rho, rate._age), value = (
-            newton_krylov_loop(q, y, h, sim.q, (sim.d1, sim.tangent, sim.ref_twist), sim.rest_arrays,
-                               self._base(), self._system(), self._hydro(), contact is not None, model, cstate,
-                               sim.step_count == 0, (self.lu, self.piv, self.alu, self.apiv, self.abw), self.ab,
-                               (nm.newton_tol, nm.newton_max_iter, nm.step_tol, sim._f_floor, p.rod_radius,
+            newton_krylov_loop(q, y, h, ctx.q_start, ctx.frames, system.rest,
+                               self._base(ctx), self._system(ctx), self._hydro(), contact_on, model, cstate,
+                               ctx.first_step, (self.lu, self.piv, self.alu, self.apiv, self.abw), self.ab,
+                               (nm.newton_tol, nm.newton_max_iter, nm.step_tol, system.f_floor, p.rod_radius,
                                 GMRES_RTOL, GMRES_MAX_ITER),
                                (rate.rho, rate._age), self._workspace(GMRES_MAX_ITER)))
-        sim.stats.newton_iterations += evaluated
-        sim.stats.krylov_iterations += its
-        sim.keep_contact_state(cstate, e_c, count)
+        state.stats.newton_iterations += evaluated
+        state.stats.krylov_iterations += its
+        state.keep_contact_state(cstate, e_c, count)
         if code == NONFINITE_RESIDUAL:
             raise StepFailed("residual", "non-finite (NaN/inf) force residual")
         if code == KRYLOV_FAILED:

@@ -50,24 +50,21 @@ from dataclasses import dataclass
 import numpy as np
 
 from physics.elastic import rest_from_configuration, rod_frames
-from physics.errors import SimulationError
+from physics.errors import SimulationError, StepFailed
 from physics.geometry import edge_stretch_extremes, initial_nodes, layout_for, nodes_of, pack_q
 from physics.anderson import AndersonMixing
 from physics.body_frame import transported_body_frame
 from physics.chord_iteration import chord_solve, compiled_chord_applies
 from physics.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS, ContactModel
-from physics.implicit_residual import (assemble_residual, block_max_abs, forces_converged, generalised_velocity,
-                                       internal_forces_at)
+from physics.force_terms import scene_for
+from physics.hydrodynamics import HydroError
+from physics.implicit_residual import block_max_abs, forces_converged
 from physics.params import NumericsConfig, SwimmerParams
-from physics.step_solvers import BandedNewtonSolver, DenseChordSolver, StepFailed
+from physics.step_context import StepContext, SystemDescription
+from physics.step_solvers import BandedNewtonSolver, DenseChordSolver
 from physics.threads import one_blas_thread
 from physics.time_integrator import (SAFETY, SHRINK_MIN, ContractionRate, History, StepBase, error_norm, next_step,
                                      split_remaining, step_base, step_spans, velocity_of)
-
-
-_EYE3 = np.eye(3)
-_NO_CONTACT_NODES = np.zeros((0, 4), dtype=np.int64)
-_NO_CONTACT_BLOCKS = np.zeros((0, 12, 12))
 
 
 @dataclass
@@ -122,6 +119,27 @@ from physics.schedule import MAX_RPM  # noqa: E402
 
 class Simulator:
     """Head + flagellum swimmer (Huang & Jawed 2020). SI units throughout.
+
+    The equations of motion are eqn (6) with the hydrodynamic force implicit in the velocity (module doc). Its
+    terms are the scene's (``self.scene``, ``physics.force_terms``): elastic (eqns 5a-5c), contact (when
+    ``numerics.contact``), inertia, and LSBT + head (eqns 8-13) or local RFT drag; the solvers read the static
+    ``self.system`` (``physics.step_context.SystemDescription``) and each step's ``step_context(h)``.
+
+    Integrator (``physics.time_integrator``): ``numerics.integrator`` = implicit Euler (the paper's) or
+    variable-step BDF of order up to 2, 3 or 4 (``faithful``: BDF3). With ``step_tol`` > 0 every ``dt`` is
+    covered by error-controlled steps (Milne's estimate, node positions in r0 and twists in rad; the order
+    ramps up from implicit Euler at ``h_start`` after each start or motor-speed change; a step is retried at a
+    smaller h when the estimate or the solve fails); with ``step_tol`` = 0 by one step of dt, halved up to
+    ``max_substeps`` times. Each step solves the residual at the scheme's base values q^, v^ and effective step
+    h_e, by one of two solvers (``physics.step_solvers``):
+
+    * while the LSBT resistance is reused through a rigid rotation (steady swimming): the chord iteration on
+      the reused dense LU of M/h^2 + K + P^T R P / h, rotated with the swimmer, compiled end to end
+      (``chord_iteration``; ``_chord_python`` is its Python reference and the path of Anderson mixing and of
+      RFT, whose banded Jacobian is exact and refactorised at every iteration);
+    * when the resistance is rebuilt (the shape changed non-rigidly by more than ``hydro_refresh_tol`` r0:
+      buckling, relaxation) and ``newton_krylov`` is on: Newton-Krylov in the mobility form, the flagellum's
+      forces unknowns beside q, GMRES with a banded preconditioner, no dense factorisation (``newton_krylov``).
 
     >>> sim = Simulator(SwimmerParams(), NumericsConfig())
     >>> sim.set_motor_speed(10 * RPM_TO_RAD_S); sim.advance(1.0)
@@ -183,10 +201,18 @@ class Simulator:
         self.contact_energy = 0.0  # J, at the last step
         self.contact_count = 0  # active contact interactions at the last step
         self._last_contact = (0.0, 0)
-        # chord-iteration caches
-        self._solver = (DenseChordSolver(self) if self.numerics.hydro_model == "lsbt"
-                        else BandedNewtonSolver(self))
         self._f_floor = 1e-9 * p.bending_stiffness / p.axial_length**2
+        #: the static description of the system that the force terms and the solvers read
+        self.system = SystemDescription(
+            params=p, numerics=self.numerics, mass=self.mass, vdofs=self.vdofs, prescribed=self.prescribed,
+            head_spins=self.head_spins, pos=self._pos, twist=self._twist, free_twist=self._free_twist,
+            weights=self._anderson_weights, rest=self.rest_arrays, f_floor=self._f_floor,
+            contact_model=self.contact.model if self.contact is not None else None)
+        #: the force terms of eqn (6) this configuration needs (``physics.force_terms``)
+        self.scene = scene_for(self.system)
+        # chord-iteration caches
+        solver = DenseChordSolver if self.numerics.hydro_model == "lsbt" else BandedNewtonSolver
+        self._solver = solver(self.system, self, self.scene.term("hydrodynamics"))
         #: steady steps by the compiled chord iteration where it applies (False: always the Python reference)
         self.compiled_chord = True
         self._initial_nodes = nodes_of(q0)
@@ -308,14 +334,10 @@ class Simulator:
         """(t, d1, d2, ref_twist, m1, m2) of q, transported from the start-of-step frames."""
         return rod_frames(q, self.d1, self.tangent, self.ref_twist)
 
-    def contact_terms(self, q: np.ndarray):
-        """Contact at q: (energy J, gradient (3n,) N, active nodes (A,4), Hessian blocks (A,12,12) N/m),
-        over this step's broad-phase candidates."""
-        return self.contact.evaluate(nodes_of(q), self._contact_candidates)
-
     def _contact_broad_phase(self, q_pred: np.ndarray) -> None:
         """This step's contact candidates, padded by twice the predicted motion of any node (and at
-        least r0 / 2): the Newton iterates stay that close to the predictor (checked by ``internal_forces``)."""
+        least r0 / 2): the Newton iterates stay that close to the predictor (checked at every residual:
+        ``implicit_residual.contact_state_at``)."""
         x_pred = nodes_of(q_pred)
         move = block_max_abs(q_pred - self.q, self._pos) if self.step_count else 0.0
         self._contact_pad = max(0.5 * self.params.rod_radius, 2.0 * move)
@@ -328,18 +350,6 @@ class Simulator:
         model = self.contact or ContactModel(self.rest.l_bar, self.params.rod_radius, self.params.head_radius,
                                              self.numerics.contact_margin, self.numerics.contact_stiffness)
         return model.gaps(self.nodes)
-
-    def internal_forces(self, q: np.ndarray):
-        """(gradient of the elastic and contact energies at q (ndof,) N and N m, frames (t, d1, rt) at q); the
-        contact broad phase is redone when q has left this step's padded boxes (``internal_forces_at``)."""
-        t0 = time.perf_counter()
-        model, cstate = self.contact_state(q)
-        grad, (t, d1, d2, rt, m1, m2), cstate, e_c, nodes_c, _ = internal_forces_at(
-            q, (self.d1, self.tangent, self.ref_twist), self.rest_arrays, self.contact is not None, model, cstate,
-            self.q, self._pos, self.step_count == 0)
-        self.keep_contact_state(cstate, e_c, nodes_c.shape[0])
-        self.stats.time_elastic += time.perf_counter() - t0
-        return grad, (t, d1, rt)
 
     def contact_state(self, q: np.ndarray) -> tuple[tuple, tuple]:
         """(contact model, contact state) as the compiled kernels take them (``internal_forces_at``): the model
@@ -358,17 +368,6 @@ class Simulator:
             self._contact_candidates = (pairs, head)
             self._last_contact = (energy, count)
 
-    def contact_hessian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Active contact interactions at q: node quadruples (A, 4) and Hessian blocks (A, 12, 12), N/m."""
-        if self.contact is None or self._contact_none:
-            return _NO_CONTACT_NODES, _NO_CONTACT_BLOCKS
-        _, _, nodes_c, blocks_c = self.contact_terms(q)
-        return nodes_c, blocks_c
-
-    def generalised_velocity(self, q: np.ndarray, h: float) -> np.ndarray:
-        """V = P (q - q^) / h - omega e_s of this step (lab frame), (nv,): node velocities, then the spin rate."""
-        return generalised_velocity(q, self._base.q_hat, h, self.vdofs, self.head_spins, self.omega, _EYE3)
-
     nodes_at = staticmethod(nodes_of)
 
     def correction_size(self, z: np.ndarray) -> float:
@@ -376,15 +375,34 @@ class Simulator:
         estimate's units, ``time_integrator.error_norm``)."""
         return float(np.max(np.abs(z) * self._anderson_weights))
 
-    def _residual(self, q: np.ndarray, h: float):
-        grad, frames = self.internal_forces(q)
-        t1 = time.perf_counter()
-        G, Q = self._solver.hydro_force(q, h)
-        self.stats.time_hydro += time.perf_counter() - t1
+    def step_context(self, h: float) -> StepContext:
+        """The step being taken as the force terms see it (``physics.force_terms``), at the effective step h (s):
+        the scheme's base values, the frames and configuration of the step's start, the current contact state and
+        the solver's resistance for this step."""
         b = self._base
-        r, f, inertia = assemble_residual(q, b.q_hat, b.v_hat, b.h_eff, self.mass, grad, G, Q, self.vdofs,
-                                          self.head_spins, self.prescribed)
-        return r, grad, f, inertia, frames
+        return StepContext(b.q_hat, b.v_hat, h, self.omega, (self.d1, self.tangent, self.ref_twist), self.q,
+                           self.step_count == 0, self.contact_state(self.q)[1] if self.contact is not None else None,
+                           self._solver.resistance())
+
+    def _residual(self, q: np.ndarray, h: float):
+        """The residual of eqn (6) at q (ndof,) through the scene's force terms: (r, grad of the elastic and contact
+        energies, hydrodynamic generalised force f, inertia term (all (ndof,), N / N m), frames (t, d1, ref_twist)
+        at q). Keeps the contact state; h is the effective step h_e (s)."""
+        try:
+            r, forces, byproducts, seconds = self.scene.evaluate(q, self.step_context(h))
+        except HydroError as exc:
+            raise StepFailed("hydrodynamic mobility", str(exc)) from None
+        grad = forces["elastic"]
+        stats = self.stats
+        if self.contact is not None:
+            grad = grad + forces["contact"]  # the fused kernels' grad, bit for bit (zero on the twists)
+            cstate, e_c, nodes_c, _ = byproducts["contact"]
+            self.keep_contact_state(cstate, e_c, nodes_c.shape[0])
+            stats.time_elastic += seconds["contact"]
+        stats.time_elastic += seconds["elastic"]
+        stats.time_hydro += seconds["hydrodynamics"]
+        t, d1, d2, rt, m1, m2 = byproducts["elastic"]
+        return r, grad, -forces["hydrodynamics"], forces["inertia"], (t, d1, rt)
 
     def _converged(self, r, grad, f, inertia) -> bool:
         return forces_converged(r, grad, f, inertia, self._pos, self._free_twist, self.numerics.newton_tol,

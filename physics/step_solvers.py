@@ -8,60 +8,52 @@ A scene pays only for what it uses:
   M/h^2 + K + R/h only when the chord iteration stops contracting. In between both are reused
   through the best-fit rigid rotation of the configuration (exact for a rigid motion, see
   ``rigid_alignment``), which makes a steadily rotating flagellum cheap. The chord iteration on them runs
-  compiled (``chord_iteration.chord_solve``); ``hydro_force``, ``increment`` and ``on_stall`` are the pieces
-  of its Python reference (``Simulator._chord_python``), and ``on_stall`` is also where the compiled loop
-  hands a stall back.
+  compiled (``chord_iteration.chord_solve``); ``resistance`` (for the scene's hydrodynamic term), ``increment``
+  and ``on_stall`` are the pieces of its Python reference (``Simulator._chord_python``), and ``on_stall`` is
+  also where the compiled loop hands a stall back.
 * ``BandedNewtonSolver`` (hydro_model="rft"): local drag, so R is block-diagonal, the Jacobian
   stays banded (half-bandwidth 10) and each Newton iteration is an O(N) banded solve with the
   exact Jacobian. No dense matrix anywhere.
 
 Both evaluate the resistance at the predicted geometry q_k + h v_k (linearly implicit in the
-velocity, lagged in the geometry within a step).
+velocity, lagged in the geometry within a step), built by the scene's hydrodynamic term
+(``force_terms.Hydrodynamics.resistance_at``).
+
+The solvers read the system through a ``step_context.SystemDescription`` (masses, DOF sets, rest arrays, the
+parameters: nothing that changes) and the step through a ``step_context.StepContext`` that the stepped object gives
+them (``StepState``: the base values, the frames and configuration of the step's start, the contact state).
 """
 
 from __future__ import annotations
 
-import math
 import time
 from typing import Any, Protocol
 
 import numpy as np
-from numba import njit
 from scipy.linalg import lapack, lu_factor, solve_banded
 
 from physics.banded_jacobian import add_banded_drag, add_blocks_to_banded, banded_dirichlet
 from physics.contact import add_blocks_to_dense
 from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel
+from physics.force_terms import Hydrodynamics, LocalResistance
 from physics.geometry import nodes_of
 from physics.hydrodynamics import HydroError, ResistanceOperator
 from physics.errors import StepFailed
 from physics.newton_krylov import KrylovFailed, MobilityStep
-from physics.implicit_residual import (assemble_dense_jacobian, generalised_velocity, rotate_dense_blocks,
-                                       rotate_node_blocks)
-from physics.rft import apply_blocks, rft_blocks, rft_coefficients
+from physics.implicit_residual import assemble_dense_jacobian, rotate_dense_blocks, rotate_node_blocks
+from physics.rft import rft_coefficients
 from physics.rigid_alignment import best_fit_rotation
+from physics.step_context import StepContext, StepResistance, SystemDescription, active_contacts, frames_at
 
-class StepSystem(Protocol):
-    """What the solvers read of the system being stepped (``physics.simulator.Simulator`` is one): its
-    parameters, the DOF bookkeeping, the state the step starts from, and the force terms."""
 
-    params: Any
-    numerics: Any
-    stats: Any
-    mass: np.ndarray  # lumped masses (ndof,)
-    vdofs: np.ndarray  # DOFs of the generalised velocities
-    prescribed: np.ndarray  # Dirichlet DOFs
-    head_spins: bool
-    omega: float  # motor speed, rad/s
-    rest_arrays: tuple
-    contact: Any  # physics.contact.ContactModel or None
-    _base: Any  # physics.time_integrator.StepBase of the step being taken
+class StepState(Protocol):
+    """What the solvers take of the object being stepped (``physics.simulator.Simulator`` is one) besides its
+    ``SystemDescription``: the step being taken, a place to keep the contact state the compiled kernels return,
+    and the counters."""
 
-    def frames_at(self, q: np.ndarray) -> tuple: ...
+    stats: Any  # physics.simulator.StepStats
 
-    def contact_terms(self, q: np.ndarray) -> tuple: ...
-
-    def contact_state(self, q: np.ndarray) -> tuple: ...
+    def step_context(self, h: float) -> StepContext: ...
 
     def keep_contact_state(self, cstate: tuple, energy: float, count: int) -> None: ...
 
@@ -76,9 +68,9 @@ _H_REUSE = (0.8, 1.25)
 class DenseChordSolver:
     """LSBT + head resistance with reused factorisations (see module docstring)."""
 
-    def __init__(self, sim: StepSystem) -> None:
-        self.sim = sim
-        self.mobility = MobilityStep(sim, rft_coefficients(sim.params, "lighthill"))
+    def __init__(self, system: SystemDescription, state: StepState, hydro: Hydrodynamics) -> None:
+        self.system, self.state, self.hydro = system, state, hydro
+        self.mobility = MobilityStep(system, state, rft_coefficients(system.params, "lighthill"))
         self.reset()
 
     def reset(self) -> None:
@@ -95,26 +87,22 @@ class DenseChordSolver:
         self.contact_set: frozenset | None = None
 
     def _refresh_hydro(self, q: np.ndarray, lazy: bool = False) -> None:
-        sim = self.sim
-        p, nm = sim.params, sim.numerics
+        stats = self.state.stats
         t0 = time.perf_counter()
         x = nodes_of(q)
         try:
-            self.hyd = ResistanceOperator(x, p.viscosity, p.cutoff_length, p.head_radius, sim.head_spins,
-                                          nm.lsbt_smoothing, head_coupling=nm.head_model == "higdon",
-                                          near_radius=nm.near_field_radius * p.rod_radius,
-                                          printed_head=p.head_rotation == "paper", factorize_lazily=lazy)
+            self.hyd = self.hydro.resistance_at(x, lazy)
         except HydroError as exc:
             raise StepFailed("hydrodynamic mobility", str(exc)) from None
         self.x_hyd = x
         self.since_hydro = 0
-        sim.stats.resistance_refreshes += 1
-        sim.stats.time_resistance_refresh += time.perf_counter() - t0
+        stats.resistance_refreshes += 1
+        stats.time_resistance_refresh += time.perf_counter() - t0
 
     def _refresh_jacobian(self, q: np.ndarray, h: float, keep_resistance: bool, rotate: bool = True) -> None:
         """Factorise J = M/h^2 + K + P^T R P / h at q (with the resistance rebuilt at q unless kept; a kept
         one is rotated to q's orientation unless ``rotate`` is false, i.e. it was built at q)."""
-        sim = self.sim
+        stats = self.state.stats
         try:
             if keep_resistance and self.hyd is not None and not rotate:
                 Rq = self.hyd.dense()
@@ -135,29 +123,29 @@ class DenseChordSolver:
         self.lu = lu_factor(J, check_finite=False)
         self.piv1 = (self.lu[1] + 1).astype(np.int32)  # LAPACK's 1-based pivots (``chord_iteration``)
         self.lu_h = h
-        sim.stats.jacobian_factorisations += 1
-        sim.stats.time_jacobian_refresh += time.perf_counter() - t0
+        stats.jacobian_factorisations += 1
+        stats.time_jacobian_refresh += time.perf_counter() - t0
 
     def dense_jacobian(self, q: np.ndarray, h: float, R: np.ndarray) -> np.ndarray:
         """The Newton Jacobian dr/dq = M/h^2 + K(q) + P^T R P / h + contact Hessian at q, prescribed DOFs as
         identity rows and columns, for the lab-frame resistance R (nv, nv) and the (effective) step h, s."""
-        sim = self.sim
-        t, d1, d2, rt, m1, m2 = sim.frames_at(q)
-        J = assemble_dense_jacobian(elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *sim.rest_arrays),
-                                    sim.mass, h, R, sim.vdofs)
+        system, ctx = self.system, self.state.step_context(h)
+        t, d1, d2, rt, m1, m2 = frames_at(q, ctx)
+        J = assemble_dense_jacobian(elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *system.rest),
+                                    system.mass, h, R, system.vdofs)
         self.contact_set = None
-        if sim.contact is not None:
-            _, _, nodes_c, blocks_c = sim.contact_terms(q)
+        if ctx.contact is not None:
+            nodes_c, blocks_c = active_contacts(q, ctx, system)
             add_blocks_to_dense(J, nodes_c, blocks_c, 4)
             self.contact_set = _contact_signature(nodes_c)
-        for k in sim.prescribed:
+        for k in system.prescribed:
             J[k, :] = 0.0
             J[:, k] = 0.0
             J[k, k] = 1.0
         return J
 
     def begin_step(self, q_pred: np.ndarray, h: float) -> None:
-        nm, p = self.sim.numerics, self.sim.params
+        nm, p = self.system.numerics, self.system.params
         x_pred = nodes_of(q_pred)
         self.jac_fresh = False
         self.krylov = False
@@ -188,7 +176,7 @@ class DenseChordSolver:
                 # the shape has changed: the old Jacobian's elastic and hydrodynamic parts are both stale
                 self._refresh_jacobian(q_pred, h, keep_resistance=True, rotate=False)
                 self.jac_fresh = True
-            elif nm.single_iteration or self._contacts_changed(q_pred):
+            elif nm.single_iteration or self._contacts_changed(q_pred, h):
                 # one linearly implicit solve per step needs the current Jacobian, and so does a
                 # contact that has started since the last factorisation
                 self._refresh_jacobian(q_pred, h, keep_resistance=True)
@@ -197,23 +185,18 @@ class DenseChordSolver:
         self.Qh = _EYE if self.since_hydro == 0 else Qh
         self.Qj = _EYE if self.jac_fresh else best_fit_rotation(self.x_jac, x_pred)[0]
 
-    def _contacts_changed(self, q: np.ndarray) -> bool:
-        sim = self.sim
-        if sim.contact is None or sim._contact_none:  # no candidates: no contact at all (an empty signature)
+    def _contacts_changed(self, q: np.ndarray, h: float) -> bool:
+        ctx = self.state.step_context(h)
+        if ctx.contact is None or ctx.contact[4]:  # no candidates: no contact at all (an empty signature)
             return False
         # a contact the Jacobian lacks: its stiffness would be missing from the chord iteration. One
         # that has ended only leaves extra stiffness (slower, still contracting): no refresh for that
-        now = _contact_signature(sim.contact_terms(q)[2])
+        now = _contact_signature(active_contacts(q, ctx, self.system)[0])
         return not now <= self.contact_set if self.contact_set is not None else bool(now)
 
-    def hydro_force(self, q: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
-        """(-R V in the resistance's reference frame, the rotation Q back to the lab frame)."""
-        sim = self.sim
-        V = generalised_velocity(q, sim._base.q_hat, h, sim.vdofs, sim.head_spins, sim.omega, self.Qh)
-        try:
-            return -self.hyd.apply(V), self.Qh
-        except HydroError as exc:
-            raise StepFailed("hydrodynamic mobility", str(exc)) from None
+    def resistance(self) -> StepResistance:
+        """The resistance of this step: the kept LSBT operator, rotated by Qh to the step's orientation."""
+        return StepResistance(self.hyd, self.Qh)
 
     def increment(self, r: np.ndarray, q: np.ndarray, h: float) -> np.ndarray:
         Q = self.Qj
@@ -245,50 +228,37 @@ class BandedNewtonSolver:
 
     krylov = False  # every step is a banded direct solve
 
-    def __init__(self, sim: StepSystem) -> None:
-        self.sim = sim
-        p, nm = sim.params, sim.numerics
-        self.zeta = rft_coefficients(p, nm.rft_coefficients)
-        self.first = 1 if p.has_head else 0
-        self.drag_t = 6.0 * math.pi * p.viscosity * p.head_radius
-        self.drag_r = 8.0 * math.pi * p.viscosity * p.head_radius**3
+    def __init__(self, system: SystemDescription, state: StepState, hydro: Hydrodynamics) -> None:
+        self.system, self.state, self.hydro = system, state, hydro
         self.reset()
 
     def reset(self) -> None:
+        self.local: LocalResistance | None = None
         self.blocks: np.ndarray | None = None
 
     def begin_step(self, q_pred: np.ndarray, h: float) -> None:
+        stats = self.state.stats
         t0 = time.perf_counter()
-        x = np.ascontiguousarray(nodes_of(q_pred)[self.first:])
-        self.blocks = rft_blocks(x, *self.zeta)
-        self.sim.stats.resistance_refreshes += 1
-        self.sim.stats.time_resistance_refresh += time.perf_counter() - t0
+        self.local = self.hydro.resistance_at(nodes_of(q_pred))
+        self.blocks = self.local.blocks
+        stats.resistance_refreshes += 1
+        stats.time_resistance_refresh += time.perf_counter() - t0
 
-    def hydro_force(self, q: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
-        sim = self.sim
-        V = generalised_velocity(q, sim._base.q_hat, h, sim.vdofs, sim.head_spins, sim.omega, _EYE)
-        G = np.empty_like(V)
-        f = 3 * self.first
-        m3 = 3 * self.blocks.shape[0]
-        G[f:f + m3] = -apply_blocks(self.blocks, V[f:f + m3])
-        if self.first:
-            G[0:3] = -self.drag_t * V[0:3]
-        if sim.head_spins:
-            G[-1] = -self.drag_r * V[-1]
-        return G, _EYE
+    def resistance(self) -> StepResistance:
+        """The resistance of this step: RFT blocks and the head's drag at the predicted geometry."""
+        return StepResistance(self.local, _EYE)
 
     def increment(self, r: np.ndarray, q: np.ndarray, h: float) -> np.ndarray:
-        sim = self.sim
-        t, d1, d2, rt, m1, m2 = sim.frames_at(q)
-        ab = elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *sim.rest_arrays)
-        add_banded_drag(ab, sim.mass / h**2, self.blocks / h, self.first,
-                          self.drag_t / h, self.drag_r / h if sim.head_spins else 0.0)
-        if sim.contact is not None:  # the contact Hessian's node blocks that fit in the band
-            _, _, nodes_c, blocks_c = sim.contact_terms(q)
+        system, ctx, local = self.system, self.state.step_context(h), self.local
+        t, d1, d2, rt, m1, m2 = frames_at(q, ctx)
+        ab = elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *system.rest)
+        add_banded_drag(ab, system.mass / h**2, self.blocks / h, local.first, local.drag_t / h, local.drag_r / h)
+        if ctx.contact is not None:  # the contact Hessian's node blocks that fit in the band
+            nodes_c, blocks_c = active_contacts(q, ctx, system)
             add_blocks_to_banded(ab, nodes_c, blocks_c)
-        for k in sim.prescribed:
+        for k in system.prescribed:
             banded_dirichlet(ab, int(k))
-        sim.stats.jacobian_factorisations += 1
+        self.state.stats.jacobian_factorisations += 1
         try:
             return solve_banded((BANDWIDTH, BANDWIDTH), ab, r, check_finite=False)
         except (np.linalg.LinAlgError, ValueError) as exc:

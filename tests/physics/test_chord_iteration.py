@@ -157,12 +157,13 @@ def test_a_stall_is_refactorised_and_resumed_as_in_python(steady, max_iter, tol,
     q, h = _open_chord_step(sim, sim._h)
     sim._solver.jac_fresh = False  # as if factorised at an earlier step: a stall refactorises
     n0 = sim.stats.jacobian_factorisations
-    nm = sim.numerics
+    nm, system = sim.numerics, sim.system
     sim.numerics = dataclasses.replace(nm, newton_max_iter=max_iter, newton_tol=tol, step_tol=0.0)
+    sim.system = dataclasses.replace(system, numerics=sim.numerics)  # what the compiled iteration reads
     try:
         ref, got, a_ref, a_got = _both(sim, q, h)
     finally:
-        sim.numerics = nm
+        sim.numerics, sim.system = nm, system
     assert a_ref["stats"].jacobian_factorisations == n0 + 1  # it did stall
     assert isinstance(ref, StepFailed) == fails
     _assert_same(ref, got, a_ref, a_got)

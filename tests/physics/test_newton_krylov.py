@@ -122,7 +122,7 @@ def _python_iteration(ms, q, y, h):
     from physics.implicit_residual import block_max_abs
     from physics.newton_krylov import GMRES_RTOL
 
-    sim = ms.sim
+    sim = ms.state  # the simulator (MobilityStep.state)
     nm, p = sim.numerics, sim.params
     nd = q.size
     step_scale = max(block_max_abs(q - sim.q, sim._pos), 1e-6 * p.rod_radius)
