@@ -4,11 +4,14 @@
 (``agents.online_turn_map``): after every turn, once the heading is steady, it measures the
 angle turned and the direction of the new heading, updates its estimate of the swimmer's
 buckling-time shift and direction offset, and plans the next turn from the corrected map,
-keeping bursts away from the map's peak while the estimate is uncertain. Everything else
-(hover to the phase, burst, relax, re-plan from the measured heading) is the rule planner's.
-With a swimmer equal to the map's the readings stay near zero and it flies like the rule
-planner, except that the first turns are capped (the prior's caution) until turns confirm the
-corrected map (``OnlineMapConfig.lift_after_turns``).
+and chooses each turn by its expected miss over the outcomes the corrected map allows
+(``OnlineTurnMap.outcomes``: timing and direction errors, the direction's spread growing with the
+turn's size until turns confirm the map), with the 10 cm corridor around the current path segment
+as a soft limit. A turn that is not predicted to do well now may be put off: the swimmer swims on
+(at most ``AdaptiveConfig.swim_on_m``, staying near the segment) when the same choice made further
+on is predicted to miss by less. Bursts are flown by L'/L and may run past their planned length
+once the flagellum is seen to buckle late. Everything else (hover to the phase, burst, relax,
+re-plan from the measured heading) is the rule planner's.
 
 The correction is per episode by default (``carry_over=False``): each episode may be a
 different swimmer (domain randomisation draws one per episode). ``carry_over=True`` keeps
@@ -22,18 +25,62 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from agents.online_turn_map import OnlineMapConfig, OnlineTurnMap
+from agents.online_turn_map import GAUSS_HERMITE_3, OnlineMapConfig, OnlineTurnMap
 from agents.turn_map import TurnMap
 from agents.turn_planner import PlannerConfig, RulePlanner, _Episode, graded_line_miss
-from flagellum_env.turn_geometry import angle_between, azimuth, wrap_angle
+from flagellum_env.turn_geometry import angle_between, azimuth, perpendicular_basis, wrap_angle
 from flagellum_env.turn_measurement import CruiseObservables, cruise_observables, summarise_cruise
 from physics.validation import require_finite
+
+
+@dataclass(frozen=True)
+class AdaptiveConfig:
+    """How the adaptive planner weighs a turn's outcome (lengths in m).
+
+    corridor_m: the env's ``off_path_m`` (the episode ends farther than this from the current segment);
+    a predicted head position beyond ``corridor_soft`` x corridor_m costs its excess (m per m), beyond
+    ``corridor_hard`` x corridor_m 0.5 m (checked at the turn's end and after its forward travel).
+    swim_on_m: how far the swimmer may swim on before a turn (0: never); swim_near_m: it stays this
+    near the target, and within corridor_soft x corridor_m of the segment; swim_cost: cost per m swum
+    (m/m); swim_gain_m: swimming on must lower the expected miss by more than this.
+    risk: a turn is scored by its expected miss plus this x the miss's standard deviation over the
+    outcomes (``expected_misses``). late_onset_factor: a burst may run until the buckling seen (L'/L below ``OnlineMapConfig.ratio_valid``)
+    plus this x the map's time from buckling to the planned L'/L, plus 0.5 s.
+    Chosen on development paths (seeds 5200-5203, faithful, nominal and +-10 % swimmers).
+    """
+
+    corridor_m: float = 0.1
+    corridor_soft: float = 0.6
+    corridor_hard: float = 0.85
+    swim_on_m: float = 0.10
+    swim_near_m: float = 0.09
+    swim_cost: float = 0.1
+    swim_gain_m: float = 0.01
+    late_onset_factor: float = 1.5
+    risk: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("corridor_m", "corridor_soft", "corridor_hard", "swim_near_m", "late_onset_factor"):
+            require_finite(f"AdaptiveConfig.{name}", getattr(self, name), 0.0, lo_open=True)
+        for name in ("swim_on_m", "swim_cost", "swim_gain_m", "risk"):
+            require_finite(f"AdaptiveConfig.{name}", getattr(self, name), 0.0)
+
+
+def segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance (m) of points (..., 3) from the segment a-b, shape (...)."""
+    ab = b - a
+    ll = float(ab @ ab)
+    t = np.clip(((points - a) @ ab) / ll, 0.0, 1.0) if ll > 0.0 else np.zeros(points.shape[:-1])
+    return np.linalg.norm(points - (a + t[..., None] * ab), axis=-1)
 
 
 @dataclass
 class _AdaptiveEpisode(_Episode):
     online: OnlineTurnMap | None = None
     observed: int = 0                             # turns of ``turns`` already learnt from
+    segment: tuple[np.ndarray, np.ndarray] | None = None  # (start, target) of the current path segment
+    swim_until: np.ndarray | None = None          # swimming on (``AdaptiveConfig.swim_on_m``) until past this point
+    swim_heading: np.ndarray | None = None
     strains: list[float] = field(default_factory=list)   # L'/L - 1 while cruising before the first turn
     azimuths: list[float] = field(default_factory=list)  # of the phase node about the first X_b, rad
     axis: np.ndarray | None = None
@@ -65,16 +112,14 @@ class AdaptivePlanner(RulePlanner):
     ``RulePlanner`` plus ``online`` (``OnlineMapConfig``), ``carry_over``, for the cruise reading
     before the first turn ``end_slice`` (where L'/L is in the flat observation) and
     ``reference`` (the map swimmer's ``CruiseObservables``; None: no cruise reading), and
-    ``swim_on_m`` (m): swim on, then turn -- a turn that is not predicted to reach the target is put
-    off while the same choice made up to this far on (and this near the target) is (0: never; default 8 cm,
-    see ``OnlineMapConfig.lift_after_turns`` for what was measured)."""
+    ``adaptive`` (``AdaptiveConfig``: corridor, swim on, late bursts)."""
 
     def __init__(self, turn_map: TurnMap, layout, control_dt: float, reach_radius_m: float, action_of,
                  config: PlannerConfig | None = None, online: OnlineMapConfig | None = None,
                  carry_over: bool = False, end_slice: slice | None = None,
-                 reference: CruiseObservables | None = None, swim_on_m: float = 0.08) -> None:
+                 reference: CruiseObservables | None = None, adaptive: AdaptiveConfig | None = None) -> None:
         super().__init__(turn_map, layout, control_dt, reach_radius_m, action_of, config)
-        self.swim_on_m = require_finite("swim_on_m", swim_on_m, 0.0)
+        self.adaptive = adaptive or AdaptiveConfig()
         self.end_slice, self.reference = end_slice, reference
         self.online_config = online or OnlineMapConfig()
         self.carry_over = bool(carry_over)
@@ -83,14 +128,16 @@ class AdaptivePlanner(RulePlanner):
     @classmethod
     def for_env(cls, env, turn_map: TurnMap, config: PlannerConfig | None = None,  # type: ignore[override]
                 online: OnlineMapConfig | None = None, carry_over: bool = False,
-                swim_on_m: float = 0.08) -> AdaptivePlanner:
-        """An adaptive planner for this env (the rule planner's checks apply)."""
+                adaptive: AdaptiveConfig | None = None) -> AdaptivePlanner:
+        """An adaptive planner for this env (the rule planner's checks apply); the corridor is the env's
+        ``off_path_m`` unless ``adaptive`` is given."""
         base = RulePlanner.for_env(env, turn_map, config)
         e = env.unwrapped
         reference = cruise_reference(e.params, e.numerics, e.low_speed_rpm, turn_map.phase_node,
                                      (base.period_steps + 1) * base.control_dt, base.control_dt, e.settle_time_s)
+        adaptive = adaptive or AdaptiveConfig(corridor_m=e.config.off_path_m)
         return cls(turn_map, base.layout, base.control_dt, base.reach_radius_m, base.action_of, config, online,
-                   carry_over, e.obs_model.slices()["end_to_end_ratio"], reference, swim_on_m)
+                   carry_over, e.obs_model.slices()["end_to_end_ratio"], reference, adaptive)
 
     @property
     def online_map(self) -> OnlineTurnMap | None:
@@ -120,9 +167,6 @@ class AdaptivePlanner(RulePlanner):
         # capped turns: a target behind needs several bursts, each must count as progress
         return graded_line_miss(starts, directions, target)
 
-    def _candidate_turns(self, ep):
-        return ep.online.candidates(self.control_dt)
-
     def _continue_burst(self, ep: _AdaptiveEpisode, obs: np.ndarray) -> bool:
         turn = ep.turns[-1]
         target = turn.get("target_ratio")
@@ -133,6 +177,15 @@ class AdaptivePlanner(RulePlanner):
             return going
         elapsed = (ep.step - turn["burst_step"]) * self.control_dt  # s at omega_h so far
         ratio = float(obs[self.end_slice][0])
+        on = ep.online
+        if "onset_s" not in turn and ratio < on.config.ratio_valid:
+            # buckling seen: the burst may last until the map's time from buckling to the target ratio,
+            # stretched, after it (a late buckler would otherwise be cut at its planned length)
+            turn["onset_s"] = elapsed
+            t_on, t_target = on.map_time_for_ratio(on.config.ratio_valid - 1e-9), on.map_time_for_ratio(target)
+            if t_on is not None and t_target is not None:
+                late = elapsed + self.adaptive.late_onset_factor * max(t_target - t_on, 0.0) + 0.5
+                turn["max_burst_s"] = max(turn["max_burst_s"], late)
         prev = turn.get("ratio_seen", ratio)
         turn["ratio_seen"] = ratio
         drop = prev - ratio  # per control step
@@ -146,33 +199,71 @@ class AdaptivePlanner(RulePlanner):
         return not stop
 
     def _plan_turn(self, head, d, target, node, ep=None):
+        """The next turn, or None to swim on: the best expected miss over the outcomes (``expected_misses``),
+        if it beats swimming straight by ``PlannerConfig.improvement_m`` and swimming on first would not."""
         if not ep.cruise_used and self.reference is not None and not ep.turns and len(ep.strains) >= 3:
             seen = summarise_cruise(np.array(ep.strains), np.array(ep.azimuths), self.control_dt)
             ep.online.observe_cruise(seen, self.reference)
             ep.cruise_used = True
-        plan = super()._plan_turn(head, d, target, node, ep)
-        if plan is not None and self._swim_on_first(head, d, target, node, ep, plan):
+        if ep.segment is None:
+            ep.segment = (np.zeros(3), target.copy())  # the path starts at the head's start
+        elif float(np.linalg.norm(target - ep.segment[1])) > 1e-3:
+            ep.segment = (ep.segment[1].copy(), target.copy())  # the target switched: the old one starts the segment
+        if ep.swim_until is not None:
+            if float((ep.swim_until - head) @ ep.swim_heading) > 0.0:
+                return None  # swimming on, as decided
+            ep.swim_until = None
+        cfg = self.config
+        miss0 = self._line_miss(head[None, :], d[None, :], target)[0]
+        if miss0 < cfg.hit_fraction * self.reach_radius_m:
+            return None  # on course
+        if math.degrees(angle_between(d, target - head)) < cfg.min_turn_deg:
+            return None  # too small to turn for now; re-checked every step
+        plan = self._best_turn(head, d, target, ep, miss0)
+        if plan is None or self._swim_on_first(head, d, target, ep, plan):
             return None
-        if plan is not None:
-            plan.update(shift_s=ep.online.shift_s, shift_std_s=ep.online.shift_std_s, bias_s=ep.online.bias_s,
-                        psi_offset_deg=math.degrees(ep.online.psi_offset_rad), **ep.online.burst_plan(plan["t_c"]))
+        on = ep.online
+        plan.update(shift_s=on.shift_s, shift_std_s=on.shift_std_s, bias_s=on.bias_s,
+                    psi_offset_deg=math.degrees(on.psi_offset_rad), **on.burst_plan(plan["t_c"]))
         return plan
 
-    def _swim_on_first(self, head, d, target, node, ep, plan: dict) -> bool:
-        """Swim on, then turn: True if ``plan`` is not predicted to reach the target but the same choice
-        made after cruising on (up to ``swim_on_m``, staying within ``swim_on_m`` of the target) is."""
-        hit = self.config.hit_fraction * self.reach_radius_m
-        if self.swim_on_m <= 0.0 or plan["predicted_miss_m"] <= hit:
-            return False
-        for c in np.arange(0.005, self.swim_on_m + 1e-9, 0.005):
+    def _best_turn(self, head: np.ndarray, d: np.ndarray, target: np.ndarray, ep: _AdaptiveEpisode,
+                   miss0: float) -> dict | None:
+        """The candidate (burst x phase) of least expected miss, or None if it does not beat ``miss0`` (m)."""
+        out = ep.online.outcomes(self.control_dt)
+        beta = np.radians(np.arange(0.0, 360.0, self.config.phase_step_deg))
+        a = self.adaptive
+        score = expected_misses(head, d, target, out, beta, self._line_miss, ep.segment,
+                                a.corridor_soft * a.corridor_m, a.corridor_hard * a.corridor_m, a.risk)
+        i, j = np.unravel_index(int(np.argmin(score)), score.shape)
+        if score[i, j] > miss0 - self.config.improvement_m:
+            return None
+        theta = float(np.interp(out.map_t[i], *ep.online._curves()[:2]))
+        psi = float(np.interp(out.map_t[i], *ep.online._curves()[2:4])) + ep.online.psi_offset_rad
+        return {"t_c": float(max(out.t_fly[i], self.control_dt)), "theta_deg": math.degrees(theta),
+                "burst_phase": wrap_angle(beta[j]), "predicted_azimuth": wrap_angle(beta[j] + psi),
+                "predicted_miss_m": float(score[i, j]), "miss_straight_m": float(miss0),
+                "heading": d.tolist(), "head": head.tolist()}
+
+    def _swim_on_first(self, head, d, target, ep, plan: dict) -> bool:
+        """Swim on, then turn: True (and the point to swim to kept) if the best turn made up to
+        ``AdaptiveConfig.swim_on_m`` further on, staying near the target and the segment, is expected
+        to miss by less than ``plan``'s, counting ``swim_cost`` per m swum."""
+        a = self.adaptive
+        best, best_c = plan["predicted_miss_m"] - a.swim_gain_m, None
+        for c in np.arange(0.02, a.swim_on_m + 1e-9, 0.02):
             ahead = head + c * d
-            if np.linalg.norm(target - ahead) > self.swim_on_m:
+            if (float(np.linalg.norm(target - ahead)) > a.swim_near_m
+                    or float(segment_distance(ahead, *ep.segment)) > a.corridor_soft * a.corridor_m):
                 break
-            later = super()._plan_turn(ahead, d, target, node, ep)
-            if later is not None and later["predicted_miss_m"] <= hit:
-                plan.update(swim_on_m=float(c))
-                return True
-        return False
+            later = self._best_turn(ahead, d, target, ep, self._line_miss(ahead[None, :], d[None, :], target)[0])
+            if later is not None and later["predicted_miss_m"] + a.swim_cost * c < best:
+                best, best_c = later["predicted_miss_m"] + a.swim_cost * c, float(c)
+        if best_c is None:
+            return False
+        plan.update(swim_on_m=best_c)
+        ep.swim_until, ep.swim_heading = head + best_c * d, d.copy()
+        return True
 
     def _turn_settled(self, ep: _AdaptiveEpisode) -> None:
         if ep.observed >= len(ep.turns):
@@ -188,3 +279,46 @@ class AdaptivePlanner(RulePlanner):
                                 turn["theta_deg"])
         turn.update(observed_theta_deg=theta_obs, azimuth_error_deg=math.degrees(az_err),
                     shift_after_s=rec["shift_s"], shift_std_after_s=rec["shift_std_s"])
+
+
+def expected_misses(head: np.ndarray, d: np.ndarray, target: np.ndarray, out, beta: np.ndarray, line_miss,
+                    segment: tuple[np.ndarray, np.ndarray] | None, soft_m: float, hard_m: float,
+                    risk: float = 1.0, uniform_nodes: int = 8) -> np.ndarray:
+    """Expected miss plus ``risk`` x its standard deviation (m) of every candidate turn (T,) at every
+    flagellum phase ``beta`` (B,) rad: (T, B) -- a turn whose outcome the map predicts well is preferred.
+
+    Each candidate's outcomes (``OnlineTurnMap.outcomes``: K timing points, each with direction errors
+    -- three Gauss-Hermite points of its normal part and ``uniform_nodes`` evenly spread ones for the
+    chance that the direction is anything) are predicted as the rule planner predicts one turn -- the
+    head moves by the map's displacement, then swims along the new heading -- and scored by
+    ``line_miss`` against ``target``; a head position (after the turn, and after its forward travel)
+    farther than ``soft_m`` from the current ``segment`` adds its excess, farther than ``hard_m``
+    0.5 m (the corridor the episode must stay in)."""
+    nodes, w = GAUSS_HERMITE_3
+    uniform = 2.0 * np.pi * np.arange(uniform_nodes) / uniform_nodes
+    q = out.direction_anything[..., None]                                                   # (T, K, 1)
+    dpsi = np.concatenate([nodes * out.direction_std[..., None],
+                           np.broadcast_to(uniform, out.direction_std.shape + (uniform_nodes,))], axis=-1)
+    wj = np.concatenate([(1.0 - q) * w, np.broadcast_to(q / uniform_nodes, q.shape[:2] + (uniform_nodes,))],
+                        axis=-1)                                                            # (T, K, J)
+    e1, e2 = perpendicular_basis(d)
+    e_ref = np.cos(beta)[:, None] * e1 + np.sin(beta)[:, None] * e2                       # (B, 3)
+    e_perp = np.cross(d, e_ref)
+    az = beta + (out.psi[..., None] + dpsi)[..., None]                                      # (T, K, J, B)
+    across = np.cos(az)[..., None] * e1 + np.sin(az)[..., None] * e2
+    theta = out.theta[:, :, None, None, None]
+    heading = np.cos(theta) * d + np.sin(theta) * across                                    # (T, K, J, B, 3)
+    off = out.offset
+    after = (head + off[..., 0, None, None] * d + off[..., 1, None, None] * e_ref
+             + off[..., 2, None, None] * e_perp)                                           # (T, K, B, 3)
+    starts = np.broadcast_to(after[:, :, None], heading.shape)
+    miss = line_miss(starts.reshape(-1, 3), heading.reshape(-1, 3), target).reshape(heading.shape[:4])
+    if segment is not None:
+        travel = head + np.maximum(off[..., 0], 0.0)[..., None] * d                          # (T, K, 3)
+        worst = np.maximum(segment_distance(travel, *segment)[..., None],
+                           segment_distance(after, *segment))[:, :, None, :]               # (T, K, 1, B)
+        miss = miss + np.maximum(worst - soft_m, 0.0) + 0.5 * (worst > hard_m)
+    wt = out.weights[None, :, None, None] * wj[..., None]                                  # (T, K, J, 1)
+    mean = np.einsum("tkjb,tkjb->tb", miss, np.broadcast_to(wt, miss.shape))
+    var = np.einsum("tkjb,tkjb->tb", (miss - mean[:, None, None, :]) ** 2, np.broadcast_to(wt, miss.shape))
+    return mean + risk * np.sqrt(np.maximum(var, 0.0))

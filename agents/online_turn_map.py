@@ -17,11 +17,15 @@ by the branch's slope there (steep = precise). ``OnlineTurnMap`` combines the re
 Gaussian prior (s = 0) by precision weighting (a scalar Kalman filter for a constant), and
 the direction offset dpsi by a weighted circular mean of the readings of large turns.
 
-Planning with it: the candidate turns are the map's, flown ``s`` seconds shorter, and limited to
-map times ``t_map <= t_peak - caution * std(s)`` so that an uncertain swimmer is not sent
-over the branch's peak, where the buckled flagellum tumbles on and the direction flips, and
-to turns of at most ``max_turn_deg`` (the direction of larger turns is not predictable on a
-swimmer that differs from the map); a large turn is then made in several bursts, each observed.
+Planning with it (``OnlineTurnMap.outcomes``): the candidate turns are the map's rising branch
+up to its peak, flown ``s`` seconds shorter; each is predicted not as one turn but as sigma points
+of what the swimmer may do -- the map read at the planned map time plus an error of the spread of
+the correction (past the peak the map's own tumbling turns), each with a direction error whose
+spread grows with the turn's size until turns confirmed the corrected map. The planner scores a
+turn by its expected miss over these points, so a large turn whose direction is unpredictable
+loses to a smaller, predictable one unless any direction will do (a target straight behind), and
+a turn near the peak loses while the timing is uncertain: the cap of earlier versions is a
+consequence of the spread, not a constant.
 """
 
 from __future__ import annotations
@@ -44,25 +48,21 @@ class OnlineMapConfig:
     prior_shift_std_s: prior standard deviation of the buckling-time shift s (see below).
     theta_noise_deg +
     theta_noise_fraction * theta: standard deviation of a measured turn angle (phase scatter,
-    the unrelaxed flagellum of a turn right after another). caution: candidates stay ``caution``
-    standard deviations of s below the branch's peak. max_turn_deg: no single burst is planned
-    to turn more (map angle): across 31 randomised swimmers (``results/online_turn_map/``) the
-    direction of turns up to ~80 deg stayed within ~35 deg of the map's (one 72 deg), while
-    every turn of 94 deg or more came out 35-180 deg off: a large turn's direction is not
-    predictable on a swimmer that differs from the map. min_theta_deg: smaller observed turns
+    the unrelaxed flagellum of a turn right after another). min_theta_deg: smaller observed turns
     give no shift reading (the branch is flat there). psi_min_theta_deg: smaller turns give no
     direction reading (their azimuth is ill-defined). max_shift_s: readings are clipped to +-this.
 
-    Lifting the cap (``lift_after_turns`` > 0): a turn of at least ``psi_min_theta_deg`` planned
-    confirms the corrected map if it turned within ``confirm_theta_deg`` + ``confirm_theta_fraction``
-    x the planned angle and its new heading lies within ``confirm_azimuth_deg`` of the predicted
-    azimuth; after ``lift_after_turns`` confirmations in a row, ``max_turn_deg`` no longer applies and
-    only the spread of the correction caps the turns (``caution`` standard deviations below the
-    peak). A turn that does not confirm restores the cap (the count restarts). 0: the cap always applies.
-    The default 2 (with the adaptive planner's swim-on of 8 cm) finished one path more than the capped
-    planner at most levels of two development sets (faithful; paths 5200-5203 and 9800-9802 with
-    their swimmer seeds): nominal 6/8 -> 7/8 and 3/6 -> 4/6, +-5 % 6/8 -> 7/8 and 3/6 -> 4/6, +-10 %
-    4/8 -> 4/8 and 2/6 -> 3/6, with a lower mean cross-track at every level.
+    The direction of a turn (``OnlineTurnMap.outcomes``): its azimuth error is normal with the
+    standard deviation ``direction_std_deg`` for turns up to ``large_turn_deg``, and with a
+    probability rising linearly from 0 to 1 over the next ``large_turn_ramp_deg`` it is anything
+    (uniform): across 31 randomised swimmers (``results/online_turn_map/``) the direction of turns up
+    to ~80 deg stayed within ~35 deg of the map's (one 72 deg), while every turn of 94 deg or more came
+    out 35-180 deg off; on development swimmers turns of 114-136 deg came out 158-170 deg off. Once
+    ``lift_after_turns`` turns in a row confirmed the corrected map (a turn of at least
+    ``psi_min_theta_deg`` planned that turned within ``confirm_theta_deg`` + ``confirm_theta_fraction``
+    x the planned angle, its new heading within ``confirm_azimuth_deg`` of the predicted azimuth),
+    every turn's direction has the spread ``confirmed_direction_std_deg``; a turn that does not
+    confirm restores the wider spread (the count restarts). 0: never confirmed.
 
     Flying by L'/L (``fly_by_ratio``): a burst ends when the observed end-to-end ratio reaches the
     map's ratio at the planned map time (the map records L'/L at each burst's end; below
@@ -90,8 +90,10 @@ class OnlineMapConfig:
     min_cruise_samples: int = 20
     theta_noise_deg: float = 4.0
     theta_noise_fraction: float = 0.1
-    caution: float = 2.0
-    max_turn_deg: float = 80.0
+    direction_std_deg: float = 20.0
+    large_turn_deg: float = 80.0
+    large_turn_ramp_deg: float = 20.0
+    confirmed_direction_std_deg: float = 10.0
     lift_after_turns: int = 2
     confirm_theta_deg: float = 10.0
     confirm_theta_fraction: float = 0.15
@@ -109,10 +111,11 @@ class OnlineMapConfig:
         if not isinstance(self.fly_by_ratio, bool):
             raise ValueError(f"OnlineMapConfig.fly_by_ratio={self.fly_by_ratio!r} is not allowed; allowed: True or False")
         require_finite("OnlineMapConfig.ratio_valid", self.ratio_valid, 0.0, 1.0, lo_open=True)
-        for name in ("prior_shift_std_s", "theta_noise_deg", "max_shift_s", "cruise_residual_std_s", "max_turn_deg",
-                     "ratio_shift_std_s", "prior_bias_std_s", "burst_max_sigmas"):
+        for name in ("prior_shift_std_s", "theta_noise_deg", "max_shift_s", "cruise_residual_std_s",
+                     "ratio_shift_std_s", "prior_bias_std_s", "burst_max_sigmas", "direction_std_deg",
+                     "large_turn_ramp_deg", "confirmed_direction_std_deg"):
             require_finite(f"OnlineMapConfig.{name}", getattr(self, name), 0.0, lo_open=True)
-        for name in ("theta_noise_fraction", "caution", "min_theta_deg", "psi_min_theta_deg", "min_cruise_samples",
+        for name in ("theta_noise_fraction", "large_turn_deg", "min_theta_deg", "psi_min_theta_deg", "min_cruise_samples",
                      "lift_after_turns", "confirm_theta_deg", "confirm_theta_fraction", "confirm_azimuth_deg"):
             require_finite(f"OnlineMapConfig.{name}", getattr(self, name), 0.0)
         for name in ("strain_shift_s", "rate_shift_s"):
@@ -168,11 +171,38 @@ def ratio_branch(turn_map: TurnMap, t_branch: np.ndarray, ratio_valid: float) ->
     return t[keep], rr[keep]
 
 
+#: three-point Gauss-Hermite rule for N(0, 1): nodes and weights (exact for polynomials up to degree 5)
+GAUSS_HERMITE_3 = (np.array([-math.sqrt(3.0), 0.0, math.sqrt(3.0)]), np.array([1.0, 4.0, 1.0]) / 6.0)
+
+
+@dataclass(frozen=True)
+class TurnOutcomes:
+    """Candidate turns (T of them) with K = 3 sigma points each of what the swimmer may do.
+
+    t_fly (T,) s: burst to fly (before the L'/L stop, ``OnlineTurnMap.burst_plan``); map_t (T,) s: the
+    planned map time; theta (T, K) rad, psi (T, K) rad (the direction offset applied), offset (T, K, 3) m
+    (the map's head displacement: along the heading, the phase node's direction, their cross product)
+    at the sigma points of the timing; direction_std (T, K) rad: spread of each point's azimuth (its normal
+    part), direction_anything (T, K): the probability that the azimuth is anything instead;
+    weights (K,): of the timing's sigma points (the direction's normal part uses the same rule,
+    ``GAUSS_HERMITE_3``).
+    """
+
+    t_fly: np.ndarray
+    map_t: np.ndarray
+    theta: np.ndarray
+    psi: np.ndarray
+    offset: np.ndarray
+    direction_std: np.ndarray
+    direction_anything: np.ndarray
+    weights: np.ndarray
+
+
 @dataclass
 class OnlineTurnMap:
     """The turn map with the swimmer's shift and direction offset, learnt from observed turns.
 
-    ``observe`` after every settled turn; ``candidates`` for the planner. ``reset`` forgets the
+    ``observe`` after every settled turn; ``outcomes`` for the planner. ``reset`` forgets the
     swimmer (a new episode may be a different swimmer).
     """
 
@@ -182,7 +212,7 @@ class OnlineTurnMap:
     def __post_init__(self) -> None:
         self._branch = self.turn_map.rising_branch()
         self._ratio = ratio_branch(self.turn_map, self._branch[0], self.config.ratio_valid)
-        self._tables: dict[float, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._full: tuple[np.ndarray, ...] | None = None
         self.reset()
 
     def reset(self) -> None:
@@ -196,8 +226,9 @@ class OnlineTurnMap:
         self.readings: list[dict] = []
 
     @property
-    def cap_lifted(self) -> bool:
-        """True once enough turns in a row confirmed the corrected map: ``max_turn_deg`` no longer applies."""
+    def map_confirmed(self) -> bool:
+        """True once enough turns in a row confirmed the corrected map (``OnlineMapConfig.lift_after_turns``):
+        every turn's direction then has the narrow spread ``confirmed_direction_std_deg``."""
         return 0 < self.config.lift_after_turns <= self.confirmed
 
     def _confirm(self, planned_deg: float, theta_obs_deg: float, azimuth_error_rad: float | None) -> None:
@@ -232,7 +263,7 @@ class OnlineTurnMap:
         return float(np.interp(ratio, r[::-1], t[::-1]))
 
     def burst_plan(self, t_fly: float) -> dict:
-        """How to fly a candidate chosen with burst length ``t_fly`` (s, from ``candidates``):
+        """How to fly a candidate chosen with burst length ``t_fly`` (s, from ``outcomes``):
         its map time, the L'/L to stop at (None: fly the time), and the longest burst allowed (s)."""
         cfg = self.config
         map_t = t_fly + self.shift_s
@@ -284,8 +315,8 @@ class OnlineTurnMap:
         """Update from one settled turn: burst ``t_c`` (s) flown, angle ``theta_obs_deg`` turned;
         ``azimuth_error_rad``: observed minus predicted azimuth of the new heading about the old
         one (the prediction used ``psi_offset_rad`` as it was), or None; ``ratio_end``: L'/L seen
-        at the burst's end, or None; ``planned_theta_deg``: the angle the planner expected (confirms or
-        restores the cap, ``OnlineMapConfig.lift_after_turns``), or None. Returns the reading.
+        at the burst's end, or None; ``planned_theta_deg``: the angle the planner expected (confirms the
+        map or restores the wide direction spread, ``OnlineMapConfig.lift_after_turns``), or None. Returns the reading.
 
         With a buckled ratio at the end (below ``ratio_valid``), the ratio reads the shift (map time
         of that ratio minus the time flown) and the angle reads the bias (map time of the angle
@@ -325,46 +356,51 @@ class OnlineTurnMap:
         self.readings.append(rec)
         return rec
 
-    def candidates(self, control_dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Turns the planner may choose now: (t_c flown s, theta rad, psi rad, offset (T, 3) m).
+    @property
+    def timing_std_s(self) -> float:
+        """Spread (s) of the map time a planned burst comes out at: flying by L'/L it is the ratio-turn
+        bias's (the ratio already absorbs the shift), else the shift's."""
+        return self.bias_std_s if (self.config.fly_by_ratio and self._ratio is not None) else self.shift_std_s
 
-        Map times every ``control_dt`` up to the cautious cap (module docstring); flown for
-        ``t_map - shift`` (at least one control step).
-        """
-        t_branch, theta_branch = self._branch
-        grid, psi_deg, off = self._table(control_dt)
-        # flying by L'/L, what can carry a burst over the peak is the ratio-turn bias, not the timing
-        std = self.bias_std_s if (self.config.fly_by_ratio and self._ratio is not None) else self.shift_std_s
-        cap = self.t_peak_s - self.config.caution * std
-        if not self.cap_lifted:
-            cap = min(cap, self._t_for_theta(self.config.max_turn_deg))
+    def direction_spread(self, theta_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """How the azimuth of turns of ``theta_rad`` (rad, any shape) may err (``OnlineMapConfig``): (standard
+        deviation rad of its normal part, probability that it is anything instead), each of that shape."""
+        cfg = self.config
+        shape = np.shape(theta_rad)
+        if self.map_confirmed:
+            return np.full(shape, math.radians(cfg.confirmed_direction_std_deg)), np.zeros(shape)
+        anything = np.clip((np.degrees(theta_rad) - cfg.large_turn_deg) / cfg.large_turn_ramp_deg, 0.0, 1.0)
+        return np.full(shape, math.radians(cfg.direction_std_deg)), anything
+
+    def outcomes(self, control_dt: float) -> TurnOutcomes:
+        """The turns the planner may choose now and, for each, sigma points of their outcome
+        (``TurnOutcomes``): map times every ``control_dt`` from one step up to the rising branch's
+        peak, flown ``t_map - shift`` (at least one control step); each read at t_map + e for the
+        three-point Gauss-Hermite nodes e of N(0, ``timing_std_s``) over the whole map (past the
+        peak: the map's tumbling turns)."""
+        t_full, th_full, t_psi, psi_full, off_full = self._curves()
         t_lo = max(control_dt, control_dt + self.shift_s)
-        t_map = np.arange(t_lo, max(cap, t_lo) + 1e-9, control_dt)
-        theta = np.radians(np.interp(t_map, t_branch, theta_branch))
-        psi = np.radians(np.interp(t_map, grid, psi_deg)) + self.psi_offset_rad
-        offset = np.stack([np.interp(t_map, grid, off[:, k]) for k in range(3)], axis=1)
-        return t_map - self.shift_s, theta, psi, offset
+        t_map = np.arange(t_lo, max(self.t_peak_s, t_lo) + 1e-9, control_dt)
+        nodes, weights = GAUSS_HERMITE_3
+        at = t_map[:, None] + nodes[None, :] * self.timing_std_s                          # (T, K)
+        theta = np.interp(at, t_full, th_full)
+        psi = np.interp(at, t_psi, psi_full) + self.psi_offset_rad
+        offset = np.stack([np.interp(at, t_psi, off_full[:, k]) for k in range(3)], axis=-1)
+        std, anything = self.direction_spread(theta)
+        return TurnOutcomes(t_fly=t_map - self.shift_s, map_t=t_map, theta=theta, psi=psi, offset=offset,
+                            direction_std=std, direction_anything=anything, weights=weights)
 
-    def _t_for_theta(self, theta_deg: float) -> float:
-        """Map time of the first point of the rising branch that turns ``theta_deg`` (the peak's if none)."""
-        t_branch, theta_branch = self._branch
-        k = int(np.searchsorted(theta_branch, theta_deg, side="left"))
-        if k >= len(t_branch):
-            return float(t_branch[-1])
-        if k == 0:
-            return float(t_branch[0])
-        y0, y1 = theta_branch[k - 1], theta_branch[k]
-        return float(t_branch[k - 1] + (theta_deg - y0) / (y1 - y0) * (t_branch[k] - t_branch[k - 1]))
-
-    def _table(self, control_dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The map's psi (deg, unwrapped) and offset (m) on a grid of map times (cached per step)."""
-        key = round(float(control_dt), 12)
-        if key not in self._tables:
-            grid = np.arange(0.0, self.t_peak_s + control_dt + 1e-9, control_dt)
-            psi = np.degrees(np.unwrap(np.radians([self.turn_map.psi_for(t) for t in grid])))
-            off = np.array([self.turn_map.offset_for(t) for t in grid]).reshape(-1, 3)
-            self._tables[key] = (grid, psi, off)
-        return self._tables[key]
+    def _curves(self) -> tuple[np.ndarray, ...]:
+        """The whole map (not only its rising branch): (t_c from 0 s, theta rad, t_c, psi rad unwrapped,
+        offset (n, 3) m); cached."""
+        if self._full is None:
+            tm = self.turn_map
+            t, th, _ = tm.theta_curve()
+            tp, psi, _ = tm.psi_curve()
+            off = np.array([tm.offset_for(x) for x in tp]).reshape(-1, 3)
+            self._full = (np.concatenate([[0.0], t]), np.radians(np.concatenate([[0.0], th])), tp,
+                          np.unwrap(np.radians(psi)), off)
+        return self._full
 
     def predicted_theta_deg(self, t_c: float) -> float:
         """The corrected map's turn for a burst of ``t_c`` s flown."""

@@ -73,30 +73,48 @@ def test_direction_offset_is_a_circular_mean(faithful_map):
     assert small.psi_offset_rad == 0.0
 
 
-def test_candidates_are_shifted_and_capped_below_the_peak(faithful_map):
-    cfg = OnlineMapConfig(caution=2.0, prior_shift_std_s=0.6, max_turn_deg=180.0, fly_by_ratio=False)
+def test_outcomes_are_shifted_and_spread_by_the_timing_error(faithful_map):
+    cfg = OnlineMapConfig(prior_shift_std_s=0.6, fly_by_ratio=False)
     om = OnlineTurnMap(faithful_map, cfg)
     dt = 0.1
-    t0, th0, psi0, off0 = om.candidates(dt)
-    assert t0.max() <= om.t_peak_s - 2.0 * 0.6 + 1e-9 and t0.min() >= dt - 1e-12
-    assert np.all(np.diff(th0) >= 0.0) and off0.shape == (t0.size, 3)
-    # certain and early-buckling swimmer: flown shorter, allowed up to the peak
-    om.shift_s, om.shift_var = 0.5, 1e-6
-    t1, th1, psi1, _ = om.candidates(dt)
-    assert om.t_peak_s - dt - 2e-3 < t1[-1] + 0.5 <= om.t_peak_s  # within a step of the peak
-    assert math.degrees(th1[-1]) > 0.85 * faithful_map.max_theta_deg
-    assert t1.min() >= dt - 1e-12
-    # same map time -> same turn, flown 0.5 s shorter
-    k = int(np.argmin(np.abs(t1 + 0.5 - 6.0)))
-    assert math.degrees(th1[k]) == pytest.approx(float(np.interp(t1[k] + 0.5, *faithful_map.rising_branch())))
-    assert math.degrees(psi1[k]) % 360 == pytest.approx(faithful_map.psi_for(t1[k] + 0.5) % 360, abs=1e-6)
+    out = om.outcomes(dt)
+    t_all, th_all, _ = faithful_map.theta_curve()
+    nodes = np.array([-math.sqrt(3.0), 0.0, math.sqrt(3.0)])
+    assert out.t_fly.min() >= dt - 1e-12 and out.map_t.max() <= om.t_peak_s + 1e-9
+    assert out.theta.shape == out.psi.shape == out.direction_std.shape == out.direction_anything.shape == (
+        out.t_fly.size, 3)
+    assert out.offset.shape == (out.t_fly.size, 3, 3) and out.weights.sum() == pytest.approx(1.0)
+    # the middle point is the map's turn at the planned time; the others at +-sqrt(3) sigma, read over
+    # the whole map (past the peak: the tumbling turns)
+    k = int(np.argmin(np.abs(out.map_t - 7.0)))
+    for j in range(3):
+        want = np.interp(out.map_t[k] + nodes[j] * 0.6, np.r_[0.0, t_all], np.r_[0.0, th_all])
+        assert math.degrees(out.theta[k, j]) == pytest.approx(want)
+    last = out.theta[-1]
+    assert math.degrees(last[1]) > 0.85 * faithful_map.max_theta_deg and last[2] < last[1]  # past the peak: less
+    # certain and early-buckling swimmer: flown shorter for the same map time and turn
+    om.shift_s, om.shift_var = 0.5, 1e-8
+    out1 = om.outcomes(dt)
+    k = int(np.argmin(np.abs(out1.map_t - 6.0)))
+    assert out1.t_fly[k] == pytest.approx(out1.map_t[k] - 0.5)
+    assert np.ptp(out1.theta[k]) < 1e-3  # (almost) no timing spread left
+    assert math.degrees(out1.psi[k, 1]) % 360 == pytest.approx(faithful_map.psi_for(out1.map_t[k]) % 360, abs=1e-6)
+
+
+def test_flying_by_ratio_the_timing_spread_is_the_bias(faithful_map):
+    om = OnlineTurnMap(faithful_map)
+    om.shift_var, om.bias_var = 0.9 ** 2, 0.2 ** 2
+    assert om.timing_std_s == pytest.approx(0.2)
+    assert OnlineTurnMap(faithful_map, OnlineMapConfig(fly_by_ratio=False)).timing_std_s == pytest.approx(1.1)
 
 
 def test_config_is_validated():
     with pytest.raises(ValueError, match="prior_shift_std_s"):
         OnlineMapConfig(prior_shift_std_s=0.0)
-    with pytest.raises(ValueError, match="caution"):
-        OnlineMapConfig(caution=-1.0)
+    with pytest.raises(ValueError, match="large_turn_deg"):
+        OnlineMapConfig(large_turn_deg=-1.0)
+    with pytest.raises(ValueError, match="direction_std_deg"):
+        OnlineMapConfig(direction_std_deg=0.0)
 
 
 def test_summarise_cruise_recovers_rate_and_its_error():
@@ -161,36 +179,29 @@ def test_adaptive_planner_reads_the_nominal_swimmer_as_nominal_and_learns_from_i
     assert turns[0]["shift_std_s"] < OnlineMapConfig().prior_shift_std_s  # the cruise reading informed it
 
 
-def test_candidates_never_plan_more_than_max_turn(faithful_map):
-    om = OnlineTurnMap(faithful_map, OnlineMapConfig(max_turn_deg=60.0))
-    om.shift_var = 1e-8  # certain: only the angle cap binds
-    _, theta, _, _ = om.candidates(0.1)
-    assert math.degrees(theta.max()) <= 60.0 + 1e-9 and math.degrees(theta.max()) > 50.0
+def test_direction_spread_grows_with_the_turn_until_turns_confirm_the_map(faithful_map):
+    om = OnlineTurnMap(faithful_map, OnlineMapConfig(lift_after_turns=2, fly_by_ratio=False))
 
+    def spread(theta_deg: float) -> tuple[float, float]:
+        std, anything = om.direction_spread(np.radians(theta_deg))
+        return round(math.degrees(float(std)), 9), round(float(anything), 9)
 
-def test_confirming_turns_lift_the_cap_and_a_surprise_restores_it(faithful_map):
-    om = OnlineTurnMap(faithful_map, OnlineMapConfig(max_turn_deg=60.0, lift_after_turns=2, fly_by_ratio=False))
-    om.shift_var = 1e-8  # certain: only the angle cap binds while it applies
-
-    def largest() -> float:
-        return math.degrees(om.candidates(0.1)[1].max())
-
-    assert largest() <= 60.0 + 1e-9
+    assert spread(30.0) == spread(80.0) == (20.0, 0.0)
+    assert spread(90.0) == (20.0, 0.5) and spread(100.0) == spread(160.0) == (20.0, 1.0)
     om.observe(7.0, 57.0, math.radians(5.0), planned_theta_deg=59.0)  # confirms (1 of 2)
     om.observe(4.0, 30.0, math.radians(40.0), planned_theta_deg=10.0)  # too small to say anything
-    assert largest() <= 60.0 + 1e-9 and om.confirmed == 1
+    assert om.confirmed == 1 and spread(160.0) == (20.0, 1.0)
     om.observe(7.0, 66.0, math.radians(-8.0), planned_theta_deg=59.0)  # within 10 deg + 15 %
-    assert om.cap_lifted and largest() > 120.0
+    assert om.map_confirmed and spread(160.0) == spread(30.0) == (10.0, 0.0)
     om.observe(7.0, 59.0, math.radians(30.0), planned_theta_deg=59.0)  # heading 30 deg off the prediction
-    assert not om.cap_lifted and largest() <= 60.0 + 1e-9
+    assert not om.map_confirmed and spread(160.0) == (20.0, 1.0)
     om.observe(7.0, 59.0, math.radians(2.0), planned_theta_deg=59.0)
     om.observe(7.0, 85.0, math.radians(2.0), planned_theta_deg=59.0)  # turned 26 deg more than planned
-    assert om.confirmed == 0 and not om.cap_lifted
-    never = OnlineTurnMap(faithful_map, OnlineMapConfig(max_turn_deg=60.0, lift_after_turns=0, fly_by_ratio=False))
-    never.shift_var = 1e-8
+    assert om.confirmed == 0 and not om.map_confirmed
+    never = OnlineTurnMap(faithful_map, OnlineMapConfig(lift_after_turns=0, fly_by_ratio=False))
     for _ in range(4):
         never.observe(7.0, 59.0, 0.0, planned_theta_deg=59.0)
-    assert math.degrees(never.candidates(0.1)[1].max()) <= 60.0 + 1e-9
+    assert not never.map_confirmed
 
 
 def test_ratio_branch_inverts_and_a_burst_plan_targets_it(faithful_map):
@@ -267,43 +278,90 @@ def test_graded_miss_rewards_turning_towards_a_target_behind():
     assert abeam[0] == pytest.approx(abeam[1], abs=1e-9)
 
 
-def _coarse_adaptive(**kw):
-    from flagellum_env.paths import path_from_waypoints
-    from flagellum_env.steer_env import FlagellumSteerEnv
+def test_a_late_buckler_may_burst_past_the_planned_length(faithful_map):
+    planner = _burst_planner(faithful_map)
+    ep = planner._new_episode()
+    ep.turns.append({"t_c": 1.0, "burst_step": 0, "target_ratio": 0.72, "max_burst_s": 1.2})
+    ratios = [1.0] * 10 + [0.95, 0.9, 0.85, 0.8, 0.75, 0.7, 0.65]  # buckles at 1.1 s, reaches 0.72 at 1.6 s
+    obs = np.zeros(37)
+    for k, r in enumerate(ratios, start=1):
+        ep.step, obs[0] = k, r
+        if not planner._continue_burst(ep, obs):
+            break
+    turn = ep.turns[-1]
+    assert turn["onset_s"] == pytest.approx(1.1) and turn["max_burst_s"] > 1.6
+    assert (k, turn["stopped_by"]) == (16, "ratio")
 
-    path = path_from_waypoints([[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]], name="one_turn", reach_radius_m=0.015)
-    env = FlagellumSteerEnv(path=path, preset="coarse", control_dt=0.2)
-    tmap = TurnMap.load(default_turn_map("coarse"))
-    base = RulePlanner.for_env(env, tmap)
-    return AdaptivePlanner(tmap, base.layout, base.control_dt, base.reach_radius_m, base.action_of, **kw)
+
+def _planner(faithful_map, **adaptive):
+    from agents.adaptive_planner import AdaptiveConfig
+    from agents.turn_planner import ObservationLayout
+
+    layout = ObservationLayout(slice(1, 4), slice(4, 13), slice(13, 37), 0.13, 1)
+    p = AdaptivePlanner(faithful_map, layout, 0.1, 0.015, lambda rpm: rpm, adaptive=AdaptiveConfig(**adaptive))
+    ep = p._new_episode()
+    ep.cruise_used = True
+    return p, ep
 
 
-def test_swim_on_then_turn_for_a_target_just_behind_once_large_turns_are_allowed(faithful_map):
-    base = _coarse_adaptive()
-    d, node = np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.006, 0.0])
-    target = np.array([-0.06, 0.02, 0.03])
+D, NODE = np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.006, 0.0])
 
-    def planner(swim_on_m: float, lifted: bool):
-        p = AdaptivePlanner(faithful_map, base.layout, 0.1, 0.015, base.action_of, swim_on_m=swim_on_m,
-                            online=OnlineMapConfig(lift_after_turns=2))
-        ep = p._new_episode()
-        ep.cruise_used = True
-        if lifted:  # two confirming turns seen, the ratio-turn bias known to 0.05 s
-            ep.online.confirmed, ep.online.bias_var = 2, 0.05 ** 2
-        return p, ep
 
-    p, ep = planner(0.08, lifted=True)
-    hit = p.config.hit_fraction * p.reach_radius_m
-    now = RulePlanner._plan_turn(p, np.zeros(3), d, target, node, ep)
-    assert now is not None and now["predicted_miss_m"] > hit and now["theta_deg"] > 100.0
-    plan = dict(now)
-    assert p._swim_on_first(np.zeros(3), d, target, node, ep, plan)
-    later = RulePlanner._plan_turn(p, plan["swim_on_m"] * d, d, target, node, ep)
-    assert 0.0 < plan["swim_on_m"] <= 0.08 and later["predicted_miss_m"] <= hit
-    assert p._plan_turn(np.zeros(3), d, target, node, ep) is None  # so it cruises on this step
-    off, ep_off = planner(0.0, lifted=True)
-    assert not off._swim_on_first(np.zeros(3), d, target, node, ep_off, dict(now))
-    capped, ep_capped = planner(0.08, lifted=False)  # turns of at most 80 deg never hit a target behind
-    plan = RulePlanner._plan_turn(capped, np.zeros(3), d, target, node, ep_capped)
-    assert plan["theta_deg"] <= 80.0 + 1e-9 and not capped._swim_on_first(np.zeros(3), d, target, node, ep_capped,
-                                                                            dict(plan))
+def test_large_turns_only_where_any_direction_will_do(faithful_map):
+    p, ep = _planner(faithful_map)
+    behind = p._plan_turn(np.zeros(3), D, np.array([-0.15, 0.0, 0.0]), NODE, ep)
+    p, ep = _planner(faithful_map)
+    abeam = p._plan_turn(np.zeros(3), D, np.array([0.0, 0.15, 0.0]), NODE, ep)
+    # straight behind, a turn near the branch's peak points back whatever its direction; abeam, a turn
+    # beyond ~80 deg (whose direction is not predictable before turns confirm the map) loses
+    assert behind["theta_deg"] > 120.0 and 40.0 < abeam["theta_deg"] <= 85.0
+    # once turns confirmed the map (direction spread 10 deg) and the timing is known, abeam takes the full turn
+    p, ep = _planner(faithful_map)
+    ep.online.confirmed, ep.online.bias_var = 2, 0.02 ** 2
+    full = p._plan_turn(np.zeros(3), D, np.array([0.0, 0.15, 0.0]), NODE, ep)
+    assert full["theta_deg"] > abeam["theta_deg"] + 5.0 and full["predicted_miss_m"] < abeam["predicted_miss_m"]
+
+
+def test_expected_miss_without_spread_is_the_rule_planners_miss(faithful_map):
+    from agents.adaptive_planner import expected_misses
+    from agents.online_turn_map import TurnOutcomes
+    from agents.turn_planner import graded_line_miss
+
+    p, ep = _planner(faithful_map)
+    om = ep.online
+    om.bias_var = 1e-12
+    out = om.outcomes(0.1)
+    sharp = TurnOutcomes(out.t_fly, out.map_t, out.theta, out.psi, out.offset, np.zeros_like(out.direction_std),
+                         np.zeros_like(out.direction_anything), out.weights)
+    beta = np.radians(np.arange(0.0, 360.0, 5.0))
+    target = np.array([0.05, 0.1, 0.02])
+    score = expected_misses(np.zeros(3), D, target, sharp, beta, graded_line_miss, None, 0.06, 0.085)
+    k, j = 20, 7
+    theta, psi, off = out.theta[k, 1], out.psi[k, 1], out.offset[k, 1]
+    e1, e2 = np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.0, 1.0])
+    from flagellum_env.turn_geometry import perpendicular_basis
+    e1, e2 = perpendicular_basis(D)
+    e_ref = np.cos(beta[j]) * e1 + np.sin(beta[j]) * e2
+    heading = np.cos(theta) * D + np.sin(theta) * (np.cos(beta[j] + psi) * e1 + np.sin(beta[j] + psi) * e2)
+    after = off[0] * D + off[1] * e_ref + off[2] * np.cross(D, e_ref)
+    assert score[k, j] == pytest.approx(graded_line_miss(after[None], heading[None], target)[0], abs=1e-12)
+    # a segment far away: every head position is out of the corridor
+    far = expected_misses(np.zeros(3), D, target, sharp, beta, graded_line_miss,
+                          (np.array([0.0, 0.5, 0.0]), np.array([0.1, 0.5, 0.0])), 0.06, 0.085)
+    assert np.all(far >= score + 0.5)
+
+
+def test_swim_on_then_turn_for_a_target_just_behind(faithful_map):
+    target = np.array([-0.04, 0.02, 0.0])
+    p, ep = _planner(faithful_map)
+    assert p._plan_turn(np.zeros(3), D, target, NODE, ep) is None  # swims on first ...
+    assert ep.swim_until is not None and 0.0 < ep.swim_until[0] <= p.adaptive.swim_on_m + 1e-12
+    assert p._plan_turn(0.5 * ep.swim_until, D, target, NODE, ep) is None  # ... and keeps swimming
+    now = p._best_turn(np.zeros(3), D, target, ep, np.inf)
+    later = p._best_turn(ep.swim_until, D, target, ep, np.inf)
+    assert later["predicted_miss_m"] + p.adaptive.swim_cost * ep.swim_until[0] < now["predicted_miss_m"]
+    off, ep_off = _planner(faithful_map, swim_on_m=0.0)
+    assert off._plan_turn(np.zeros(3), D, target, NODE, ep_off) is not None  # never swims on: turns now
+    assert ep_off.swim_until is None
+
+
