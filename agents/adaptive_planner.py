@@ -283,7 +283,7 @@ class AdaptivePlanner(RulePlanner):
 
 def expected_misses(head: np.ndarray, d: np.ndarray, target: np.ndarray, out, beta: np.ndarray, line_miss,
                     segment: tuple[np.ndarray, np.ndarray] | None, soft_m: float, hard_m: float,
-                    risk: float = 1.0, uniform_nodes: int = 8) -> np.ndarray:
+                    risk: float = 0.0, uniform_nodes: int = 8) -> np.ndarray:
     """Expected miss plus ``risk`` x its standard deviation (m) of every candidate turn (T,) at every
     flagellum phase ``beta`` (B,) rad: (T, B) -- a turn whose outcome the map predicts well is preferred.
 

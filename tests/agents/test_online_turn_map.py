@@ -344,7 +344,7 @@ def test_expected_miss_without_spread_is_the_rule_planners_miss(faithful_map):
     e_ref = np.cos(beta[j]) * e1 + np.sin(beta[j]) * e2
     heading = np.cos(theta) * D + np.sin(theta) * (np.cos(beta[j] + psi) * e1 + np.sin(beta[j] + psi) * e2)
     after = off[0] * D + off[1] * e_ref + off[2] * np.cross(D, e_ref)
-    assert score[k, j] == pytest.approx(graded_line_miss(after[None], heading[None], target)[0], abs=1e-12)
+    assert score[k, j] == pytest.approx(graded_line_miss(after[None], heading[None], target)[0], abs=1e-9)
     # a segment far away: every head position is out of the corridor
     far = expected_misses(np.zeros(3), D, target, sharp, beta, graded_line_miss,
                           (np.array([0.0, 0.5, 0.0]), np.array([0.1, 0.5, 0.0])), 0.06, 0.085)
