@@ -213,12 +213,9 @@ class AdaptivePlanner(RulePlanner):
             if float((ep.swim_until - head) @ ep.swim_heading) > 0.0:
                 return None  # swimming on, as decided
             ep.swim_until = None
-        cfg = self.config
-        miss0 = self._line_miss(head[None, :], d[None, :], target)[0]
-        if miss0 < cfg.hit_fraction * self.reach_radius_m:
-            return None  # on course
-        if math.degrees(angle_between(d, target - head)) < cfg.min_turn_deg:
-            return None  # too small to turn for now; re-checked every step
+        miss0 = self._miss_if_off_course(head, d, target)
+        if miss0 is None:
+            return None
         plan = self._best_turn(head, d, target, ep, miss0)
         if plan is None or self._swim_on_first(head, d, target, ep, plan):
             return None

@@ -57,7 +57,7 @@ class OnlineMapConfig:
     probability rising linearly from 0 to 1 over the next ``large_turn_ramp_deg`` it is anything
     (uniform): across 31 randomised swimmers (``results/online_turn_map/``) the direction of turns up
     to ~80 deg stayed within ~35 deg of the map's (one 72 deg), while every turn of 94 deg or more came
-    out 35-180 deg off; on development swimmers turns of 114-136 deg came out 158-170 deg off. Once
+    out 35-180 deg off; on development swimmers turns of 114-136 deg came out 128-170 deg off. Once
     ``lift_after_turns`` turns in a row confirmed the corrected map (a turn of at least
     ``psi_min_theta_deg`` planned that turned within ``confirm_theta_deg`` + ``confirm_theta_fraction``
     x the planned angle, its new heading within ``confirm_azimuth_deg`` of the predicted azimuth),

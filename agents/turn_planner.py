@@ -291,11 +291,9 @@ class RulePlanner:
         is behind.
         """
         cfg = self.config
-        miss0 = self._line_miss(head[None, :], d[None, :], target)[0]
-        if miss0 < cfg.hit_fraction * self.reach_radius_m:
-            return None  # on course
-        if math.degrees(angle_between(d, target - head)) < cfg.min_turn_deg:
-            return None  # too small to turn for now; re-checked every step
+        miss0 = self._miss_if_off_course(head, d, target)
+        if miss0 is None:
+            return None
         t_c, theta, psi, off = self._candidate_turns(ep)
         beta = np.radians(np.arange(0.0, 360.0, cfg.phase_step_deg))
         e1, e2 = perpendicular_basis(d)
@@ -314,6 +312,18 @@ class RulePlanner:
                 "predicted_azimuth": wrap_angle(beta[j] + psi[i]),
                 "predicted_miss_m": float(miss[i, j]), "miss_straight_m": float(miss0),
                 "heading": d.tolist(), "head": head.tolist()}
+
+    def _miss_if_off_course(self, head: np.ndarray, d: np.ndarray, target: np.ndarray) -> float | None:
+        """How far swimming straight on misses the target (m), or None when no turn is wanted: on course
+        (below ``hit_fraction`` x the reach radius) or the target less than ``min_turn_deg`` off the heading
+        (re-checked every step)."""
+        cfg = self.config
+        miss0 = float(self._line_miss(head[None, :], d[None, :], target)[0])
+        if miss0 < cfg.hit_fraction * self.reach_radius_m:
+            return None
+        if math.degrees(angle_between(d, target - head)) < cfg.min_turn_deg:
+            return None
+        return miss0
 
     @staticmethod
     def _line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray) -> np.ndarray:

@@ -3,6 +3,9 @@
     python scripts/robust_steering_report.py
 
 Inputs (each made by a committed command; missing ones are reported as not measured):
+- results/eval_robust/<level>/results.json for level nominal, rand05, rand10, rand10_helix10 and
+  results/eval_robust/square/summary.json: the adaptive planner with spread-scored turns (issue #23, 2026-12-03)
+  against the rule planner on held-out paths and swimmers (``ROBUST_COMMANDS`` below)
 - results/eval_horizon/<level>/results.json for level nominal, rand05, rand10 and
   results/eval_horizon/square_horizon/summary.json: the receding-horizon planner (issue #23) against
   the rule and adaptive planners on held-out paths and swimmers (``HORIZON_COMMANDS`` below)
@@ -192,9 +195,10 @@ def targets_section(found: dict[str, dict[str, Any]], lines: list[str]) -> None:
     lines.append("")
 
 
-METHOD = """## The adaptive planner (controller `adaptive`)
+METHOD = """## The adaptive planner as first built (80° cap; the tables below are of that version)
 
-The rule planner (docs/planner.md) with three changes, each from a measurement above:
+The rule planner (docs/planner.md) with three changes, each from a measurement above (the third was
+replaced on 2026-12-03 by the spread-scored choice at the top of this page):
 
 1. **A per-swimmer shift of the turn map, learnt online** (`OnlineTurnMap`): a parameter error moves
    *when* the flagellum buckles, so the swimmer's turn after a burst of t seconds is taken as the
@@ -249,6 +253,71 @@ LIMITS = """## What still fails, and what was not done
 """
 
 
+ROBUST = Path("results/eval_robust")
+ROBUST_DESIGN = """`agents/adaptive_planner.py` with `agents/online_turn_map.py` (controller `adaptive`, the default since
+commit f55d6a2). The online correction (buckling-time shift, ratio-turn bias, direction offset; bursts flown
+by L'/L) is as below; what changed is how a turn is chosen:
+
+1. **Each turn is scored by its expected miss over what the swimmer may do**, not by the map's single
+   prediction under an 80° cap (`OnlineTurnMap.outcomes`, `expected_misses`). Every candidate (map time m on
+   the rising branch every control step x flagellum phase every 5°) is predicted at three Gauss-Hermite points
+   of its timing error (the correction's spread: the ratio-turn bias's when flown by L'/L, prior 0.3 s), read
+   over the *whole* map, so a point past the branch's peak predicts the tumbling turn there; each point's
+   direction error is normal (20°) for turns up to 80°, and for larger turns, with a chance rising linearly to 1
+   at 100°, anything (eight evenly spread directions): across 31 randomised swimmers turns of 94° and more came
+   out 35-180° off the map's direction, and on development swimmers turns of 114-136° came out 128-170° off.
+   Once two turns in a row confirmed the corrected map the direction spread is 10° for every turn. So a large
+   turn is taken where any direction will do (a target straight behind: one burst near the peak instead of two
+   or three capped ones, each carrying the head several cm forward), and a turn whose direction matters stays
+   below the size whose direction is unpredictable: the cap is a consequence of the spread.
+2. **The corridor is part of the score**: the planner tracks the current segment (the start, then each reached
+   waypoint, to the target) and a predicted head position (after the turn's forward travel, and at its end)
+   more than 6 cm from it costs its excess, more than 8.5 cm 0.5 m (the episode ends at 10 cm).
+3. **Swim on, then turn**, from the same score: if the best turn made 2-10 cm further on (staying within 9 cm of
+   the target and 6 cm of the segment) is expected to miss by more than 1 cm less (counting 0.1 m per m swum),
+   the swimmer cruises there first (without re-planning on the way).
+4. **A late buckler's burst is not cut at its planned length**: once L'/L falls below 0.98 the burst may run
+   until the map's time from buckling to the target ratio, x 1.5, + 0.5 s after it.
+
+A search costs ~40 ms of CPU (NumPy), ~0.1-0.2 s when swimming on is considered.
+
+Tried and dropped on the way (development swimmers only): ending each burst by a *prediction of the turn's
+outcome from the observed flagellum shape* (a ridge fit of the final heading, in the head's frame, on the eight
+observed shape nodes at the moment the motor would slow, over 13 training swimmers at +-5 to +-12 %:
+leave-one-swimmer-out heading error median 5.5° / 7.6° / 15° / 23° for turns of < 20° / 20-60° / 60-120° /
+> 120°; offline, stopping when the predicted heading came within 10° of a wanted one left 9° (median) of error
+for 20-60° turns but 53° for turns beyond 100°): on the development paths at +-10 % it made 3 of 8 where the
+capped planner made 4 (the failures were the planner's choice of turns, not the burst's end). The head's axis
+at the burst's end does not predict the new heading (median 51° off): most of the turn happens while the
+flagellum relaxes."""
+ROBUST_HELD_OUT = """Development used paths from `python scripts/make_eval_paths.py --count 4 --seed0 5200`, `--seed0 5300`
+and `--count 3 --seed0 9800` (not committed) with swimmers from env seeds 5200-5207, 5300-5307 and
+9800-9805 (faithful preset, E, μ, b +-5 % / +-10 %, helix +-2 % / +-4 %), plus 13 swimmers (the nominal one, seeds 9901-9907 and
+9910-9914) for the shape-prediction experiment. The numbers below are on paths drawn with seeds 6100-6102 (planar and 3-D,
+three waypoints, segments 12-20 cm, turns 30-150°, reach radius 1.5 cm) and swimmers from env seeds 6100-6105
+(the k-th path sorted by name gets seed 6100 + k), preset `faithful`, two workers; both controllers keep the
+nominal turn map. The controller evaluated is commit 983d46e; nothing was changed after the results were seen."""
+ROBUST_COMMANDS = """```
+python scripts/make_eval_paths.py --out results/eval_robust/paths --count 3 --seed0 6100
+flagellum evaluate --paths results/eval_robust/paths --controller rule --controller adaptive --seed0 6100 \
+    --workers 2 --out results/eval_robust/nominal
+flagellum evaluate ... --randomize 0.1 --seed0 6100 --out results/eval_robust/rand10    # swimmers 6100-6105
+flagellum evaluate ... --randomize 0.05 --seed0 6100 --out results/eval_robust/rand05
+flagellum evaluate --paths results/eval_robust/paths --controller adaptive --randomize 0.1 --randomize-geometry 0.1 \
+    --seed0 6100 --workers 2 --out results/eval_robust/rand10_helix10
+flagellum follow --path square --controller rule --controller adaptive --out results/eval_robust/square
+python scripts/robust_steering_report.py
+```"""
+ROBUST_FINDINGS = """(findings: written after the run)"""
+
+
+def robust_section(lines: list[str]) -> None:
+    """The adaptive planner scored by its outcomes' spread, on the held-out set of 2026-12-03."""
+    held_out_section(lines, "## The adaptive planner, turns scored by their spread (controller `adaptive`, issue #23; "
+                     "measured 2026-12-03)", ROBUST, ("rule", "adaptive"), "adaptive",
+                     (ROBUST_DESIGN, ROBUST_HELD_OUT, ROBUST_COMMANDS), "square", ROBUST_FINDINGS, "robust")
+
+
 HORIZON = Path("results/eval_horizon")
 HORIZON_CONTROLLERS = ("rule", "adaptive", "horizon")
 HORIZON_LEVELS = (*LEVELS, ("rand10_helix10", "E, μ, b within ±10 %, helix ±10 %"))
@@ -264,33 +333,33 @@ python scripts/report_evaluation.py results/eval_horizon/{nominal,rand05,rand10,
 ```"""
 
 
-def horizon_section(lines: list[str]) -> None:
-    """The receding-horizon planner on the held-out set of issue #23 (tables by ``agents.evaluation_report``)."""
+def held_out_section(lines: list[str], title: str, root: Path, controllers: tuple[str, ...], judged: str,
+                     texts: tuple[str, str, str], square: str, findings: str, figure_prefix: str) -> None:
+    """One held-out evaluation: design, what was held out and the commands (``texts``), the tables and figures
+    of each level under ``root`` (``agents.evaluation_report``), the paper's square (``root/square``'s
+    summary.json, controller ``judged``) and the targets of issue #23 for ``judged``."""
     from agents.evaluation_report import folder_report
 
-    lines += ["## The receding-horizon planner (controller `horizon`, issue #23; measured 2026-12-02)", "",
-              HORIZON_DESIGN, "", "### What was held out, and the commands", "", HORIZON_HELD_OUT, "",
-              HORIZON_COMMANDS, ""]
+    design, held_out, commands = texts
+    lines += [title, "", design, "", "### What was held out, and the commands", "", held_out, "", commands, ""]
     found = {}
     for level, _ in HORIZON_LEVELS:
-        folder = HORIZON / level
+        folder = root / level
         if not (folder / "results.json").is_file():
             lines += [f"### {level}", "", "Not measured.", ""]
             continue
         found[level] = json.loads((folder / "results.json").read_text())
-        present = [c for c in HORIZON_CONTROLLERS if c in found[level]["aggregate"]]
-        lines += folder_report(folder, DOCS / "figures", f"horizon_{level}", present, link_from=DOCS)
-    sq = HORIZON / "square_horizon" / "summary.json"
+        present = [c for c in controllers if c in found[level]["aggregate"]]
+        lines += folder_report(folder, DOCS / "figures", f"{figure_prefix}_{level}", present, link_from=DOCS)
+    sq = root / square / "summary.json"
     lines += ["### The paper's square (nominal swimmer)", ""]
     if sq.is_file():
-        m = json.loads(sq.read_text())["controllers"]["horizon"]
-        lines += [f"`horizon`: {'every corner made' if m['success'] else 'failed'}, mean cross-track "
-                  f"{100 * m['mean_cross_track_m']:.2f} cm (max {100 * m['max_cross_track_m']:.2f} cm), Δz/ΔL "
-                  f"{100 * m['max_out_of_plane_ratio']:.2f} % (R10: < 5 %), {m['time_s']:.0f} s simulated in "
-                  f"{m['wall_time_s']:.0f} s wall, {m['buckling_events']} bursts. The same day's runs of the other "
-                  "planners with the same solvers (10:55 UTC): rule 0.74 cm (max 2.35 cm, Δz/ΔL 4.8 %), adaptive "
-                  "0.56 cm (max 2.26 cm, 4.1 %); the README's later run (15:01 UTC, after the afternoon's solver "
-                  "changes): rule 0.76 cm, adaptive 0.57 cm.", ""]
+        for c, m in json.loads(sq.read_text())["controllers"].items():
+            lines.append(f"- `{c}`: {'every corner made' if m['success'] else 'failed'}, mean cross-track "
+                         f"{100 * m['mean_cross_track_m']:.2f} cm (max {100 * m['max_cross_track_m']:.2f} cm), Δz/ΔL "
+                         f"{100 * m['max_out_of_plane_ratio']:.2f} % (R10: < 5 %), {m['time_s']:.0f} s simulated in "
+                         f"{m['wall_time_s']:.0f} s wall, {m['buckling_events']} bursts.")
+        lines.append("")
     else:
         lines += ["Not measured.", ""]
     lines += ["### Against the targets of issue #23", ""]
@@ -300,24 +369,36 @@ def horizon_section(lines: list[str]) -> None:
             lines.append(f"- `{level}`: not measured.")
             continue
         agg = res["aggregate"]
-        rates = ", ".join(f"{c} {100 * (agg[c]['success_rate'] or 0.0):.0f} %" for c in HORIZON_CONTROLLERS if c in agg)
-        rate = (agg.get("horizon") or {}).get("success_rate") or 0.0
+        rates = ", ".join(f"{c} {100 * (agg[c]['success_rate'] or 0.0):.0f} %" for c in controllers if c in agg)
+        rate = (agg.get(judged) or {}).get("success_rate") or 0.0
         errors = sum(1 for r in res["per_path"] if r.get("error"))
         lines.append(f"- `{level}`: success {rates}; target ≥ {100 * need:.0f} % — "
-                     f"{'reached' if rate >= need else 'not reached'} by `horizon`; episodes ending in an error: "
+                     f"{'reached' if rate >= need else 'not reached'} by `{judged}`; episodes ending in an error: "
                      f"{errors}.")
     nominal = found.get("nominal")
-    if nominal is not None and {"rule", "horizon"} <= set(nominal["aggregate"]):
-        r, h = nominal["aggregate"]["rule"], nominal["aggregate"]["horizon"]
+    if nominal is not None and {"rule", judged} <= set(nominal["aggregate"]):
+        r, h = nominal["aggregate"]["rule"], nominal["aggregate"][judged]
         lines.append(f"- nominal swimmer: success {100 * r['success_rate']:.0f} % (rule), {100 * h['success_rate']:.0f} "
-                     f"% (horizon); mean cross-track {100 * r['mean_cross_track_m']:.2f} cm (rule), "
-                     f"{100 * h['mean_cross_track_m']:.2f} cm (horizon).")
+                     f"% ({judged}); mean cross-track {100 * r['mean_cross_track_m']:.2f} cm (rule), "
+                     f"{100 * h['mean_cross_track_m']:.2f} cm ({judged}).")
         planar = [x["max_out_of_plane_ratio"] for x in nominal["per_path"]
-                  if x["controller"] == "horizon" and x.get("max_out_of_plane_ratio") is not None]
+                  if x["controller"] == judged and x.get("max_out_of_plane_ratio") is not None]
         if planar:
-            lines.append(f"- max Δz/ΔL on the planar held-out paths, nominal swimmer, `horizon`: "
+            lines.append(f"- max Δz/ΔL on the planar held-out paths, nominal swimmer, `{judged}`: "
                          f"{100 * max(planar):.1f} %.")
-    lines += ["", HORIZON_FINDINGS, ""]
+    lines += ["", findings, ""]
+
+
+def horizon_section(lines: list[str]) -> None:
+    """The receding-horizon planner on the held-out set of issue #23, 2026-12-02."""
+    held_out_section(lines, "## The receding-horizon planner (controller `horizon`, issue #23; measured 2026-12-02)",
+                     HORIZON, HORIZON_CONTROLLERS, "horizon", (HORIZON_DESIGN, HORIZON_HELD_OUT, HORIZON_COMMANDS),
+                     "square_horizon", HORIZON_SQUARE_NOTE + "\n\n" + HORIZON_FINDINGS, "horizon")
+
+
+HORIZON_SQUARE_NOTE = """On the square, the same day's runs of the other planners with the same solvers (10:55 UTC): rule
+0.74 cm (max 2.35 cm, Δz/ΔL 4.8 %), adaptive 0.56 cm (max 2.26 cm, 4.1 %); the README's later run (15:01
+UTC, after the afternoon's solver changes): rule 0.76 cm, adaptive 0.57 cm."""
 
 
 HORIZON_DESIGN = """`agents/horizon_planner.py`. At each decision it searches sequences of two *moves*, each a
@@ -399,6 +480,7 @@ def main() -> None:
              "`agents/online_turn_map.py` (the correction), `agents/adaptive_planner.py` (the planner that uses it, "
              "controller `adaptive`), `agents/horizon_planner.py` (the receding-horizon planner over it, controller "
              "`horizon`).", ""]
+    robust_section(lines)
     horizon_section(lines)
     sensitivity_section(lines)
     lines += [METHOD]
