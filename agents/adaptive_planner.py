@@ -164,7 +164,7 @@ class AdaptivePlanner(RulePlanner):
 
     @staticmethod
     def _line_miss(starts, directions, target):
-        # capped turns: a target behind needs several bursts, each must count as progress
+        # a target behind may take several bursts: each must count as progress
         return graded_line_miss(starts, directions, target)
 
     def _continue_burst(self, ep: _AdaptiveEpisode, obs: np.ndarray) -> bool:
