@@ -296,7 +296,8 @@ and `--count 3 --seed0 9800` (not committed) with swimmers from env seeds 5200-5
 9910-9914) for the shape-prediction experiment. The numbers below are on paths drawn with seeds 6100-6102 (planar and 3-D,
 three waypoints, segments 12-20 cm, turns 30-150°, reach radius 1.5 cm) and swimmers from env seeds 6100-6105
 (the k-th path sorted by name gets seed 6100 + k), preset `faithful`, two workers; both controllers keep the
-nominal turn map. The controller evaluated is commit 983d46e; nothing was changed after the results were seen."""
+nominal turn map. The controller evaluated is commit 983d46e (4ea49a4, a refactor that decides the same, landed
+while it ran; episodes started after it used it); nothing was changed after the results were seen."""
 ROBUST_COMMANDS = """```
 python scripts/make_eval_paths.py --out results/eval_robust/paths --count 3 --seed0 6100
 flagellum evaluate --paths results/eval_robust/paths --controller rule --controller adaptive --seed0 6100 \
