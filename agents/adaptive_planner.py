@@ -43,8 +43,7 @@ class AdaptiveConfig:
     swim_on_m: how far the swimmer may swim on before a turn (0: never); swim_near_m: it stays this
     near the target, and within corridor_soft x corridor_m of the segment; swim_cost: cost per m swum
     (m/m); swim_gain_m: swimming on must lower the expected miss by more than this.
-    risk: a turn is scored by its expected miss plus this x the miss's standard deviation over the
-    outcomes (``expected_misses``). late_onset_factor: a burst may run until the buckling seen (L'/L below ``OnlineMapConfig.ratio_valid``)
+    late_onset_factor: a burst may run until the buckling seen (L'/L below ``OnlineMapConfig.ratio_valid``)
     plus this x the map's time from buckling to the planned L'/L, plus 0.5 s.
     Chosen on development paths (seeds 5200-5203, faithful, nominal and +-10 % swimmers).
     """
@@ -57,20 +56,18 @@ class AdaptiveConfig:
     swim_cost: float = 0.1
     swim_gain_m: float = 0.01
     late_onset_factor: float = 1.5
-    risk: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("corridor_m", "corridor_soft", "corridor_hard", "swim_near_m", "late_onset_factor"):
             require_finite(f"AdaptiveConfig.{name}", getattr(self, name), 0.0, lo_open=True)
-        for name in ("swim_on_m", "swim_cost", "swim_gain_m", "risk"):
+        for name in ("swim_on_m", "swim_cost", "swim_gain_m"):
             require_finite(f"AdaptiveConfig.{name}", getattr(self, name), 0.0)
 
 
 def segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Distance (m) of points (..., 3) from the segment a-b, shape (...)."""
     ab = b - a
-    ll = float(ab @ ab)
-    t = np.clip(((points - a) @ ab) / ll, 0.0, 1.0) if ll > 0.0 else np.zeros(points.shape[:-1])
+    t = np.clip(((points - a) @ ab) / max(float(ab @ ab), 1e-18), 0.0, 1.0)
     return np.linalg.norm(points - (a + t[..., None] * ab), axis=-1)
 
 
@@ -231,12 +228,11 @@ class AdaptivePlanner(RulePlanner):
         beta = np.radians(np.arange(0.0, 360.0, self.config.phase_step_deg))
         a = self.adaptive
         score = expected_misses(head, d, target, out, beta, self._line_miss, ep.segment,
-                                a.corridor_soft * a.corridor_m, a.corridor_hard * a.corridor_m, a.risk)
+                                a.corridor_soft * a.corridor_m, a.corridor_hard * a.corridor_m)
         i, j = np.unravel_index(int(np.argmin(score)), score.shape)
         if score[i, j] > miss0 - self.config.improvement_m:
             return None
-        theta = float(np.interp(out.map_t[i], *ep.online._curves()[:2]))
-        psi = float(np.interp(out.map_t[i], *ep.online._curves()[2:4])) + ep.online.psi_offset_rad
+        theta, psi = ep.online.turn_at(float(out.map_t[i]))
         return {"t_c": float(max(out.t_fly[i], self.control_dt)), "theta_deg": math.degrees(theta),
                 "burst_phase": wrap_angle(beta[j]), "predicted_azimuth": wrap_angle(beta[j] + psi),
                 "predicted_miss_m": float(score[i, j]), "miss_straight_m": float(miss0),
@@ -280,9 +276,8 @@ class AdaptivePlanner(RulePlanner):
 
 def expected_misses(head: np.ndarray, d: np.ndarray, target: np.ndarray, out, beta: np.ndarray, line_miss,
                     segment: tuple[np.ndarray, np.ndarray] | None, soft_m: float, hard_m: float,
-                    risk: float = 0.0, uniform_nodes: int = 8) -> np.ndarray:
-    """Expected miss plus ``risk`` x its standard deviation (m) of every candidate turn (T,) at every
-    flagellum phase ``beta`` (B,) rad: (T, B) -- a turn whose outcome the map predicts well is preferred.
+                    uniform_nodes: int = 8) -> np.ndarray:
+    """Expected miss (m) of every candidate turn (T,) at every flagellum phase ``beta`` (B,) rad: (T, B).
 
     Each candidate's outcomes (``OnlineTurnMap.outcomes``: K timing points, each with direction errors
     -- three Gauss-Hermite points of its normal part and ``uniform_nodes`` evenly spread ones for the
@@ -316,6 +311,4 @@ def expected_misses(head: np.ndarray, d: np.ndarray, target: np.ndarray, out, be
                            segment_distance(after, *segment))[:, :, None, :]               # (T, K, 1, B)
         miss = miss + np.maximum(worst - soft_m, 0.0) + 0.5 * (worst > hard_m)
     wt = out.weights[None, :, None, None] * wj[..., None]                                  # (T, K, J, 1)
-    mean = np.einsum("tkjb,tkjb->tb", miss, np.broadcast_to(wt, miss.shape))
-    var = np.einsum("tkjb,tkjb->tb", (miss - mean[:, None, None, :]) ** 2, np.broadcast_to(wt, miss.shape))
-    return mean + risk * np.sqrt(np.maximum(var, 0.0))
+    return np.einsum("tkjb,tkjb->tb", miss, np.broadcast_to(wt, miss.shape))

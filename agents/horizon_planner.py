@@ -54,7 +54,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from agents.adaptive_planner import AdaptivePlanner, _AdaptiveEpisode
+from agents.adaptive_planner import AdaptivePlanner, _AdaptiveEpisode, segment_distance
 from agents.online_turn_map import OnlineMapConfig, OnlineTurnMap
 from agents.turn_map import TurnMap
 from flagellum_env.turn_geometry import perpendicular_basis, wrap_angle
@@ -292,14 +292,6 @@ def _ray_miss(p, h, q, behind_penalty: float = 0.2):
     return miss, np.maximum(along, 0.0)
 
 
-def _point_seg(p, s, e):
-    """Distance of points p (..., 3) from the segment s -> e (3,), m."""
-    se = e - s
-    den = max(float(se @ se), 1e-18)
-    t = np.clip(((p - s) @ se) / den, 0.0, 1.0)
-    return np.linalg.norm(p - (s + t[..., None] * se), axis=-1)
-
-
 def sequence_cost(sit: Situation, points: list[np.ndarray], h_last: np.ndarray, n_bursts: np.ndarray | int,
                   cruise_total: np.ndarray | float, cfg: HorizonConfig) -> np.ndarray:
     """Score of predicted head paths (module docstring): ``points`` the polyline's vertices from
@@ -335,11 +327,11 @@ def sequence_cost(sit: Situation, points: list[np.ndarray], h_last: np.ndarray, 
         q = np.where((where == k)[..., None], a + frac[..., None] * (b - a), q)
     # corridor and planar drift at the vertices (segment S->A before the approach, A->B after) and q
     seg2_end = B if B is not None else A
-    xt_max = _point_seg(q, sit.segment_start, A)
+    xt_max = segment_distance(q, sit.segment_start, A)
     z_max = np.abs(q[..., 2])
     for k in range(1, len(points)):
         v = points[k]
-        xt = np.where(k <= where, _point_seg(v, sit.segment_start, A), _point_seg(v, A, seg2_end))
+        xt = np.where(k <= where, segment_distance(v, sit.segment_start, A), segment_distance(v, A, seg2_end))
         xt_max = np.maximum(xt_max, xt)
         z_max = np.maximum(z_max, np.abs(v[..., 2]))
     cost = cost + cfg.track_weight * xt_max + cfg.corridor_weight * np.maximum(xt_max - cfg.corridor_soft_m, 0.0)

@@ -390,6 +390,12 @@ class OnlineTurnMap:
         return TurnOutcomes(t_fly=t_map - self.shift_s, map_t=t_map, theta=theta, psi=psi, offset=offset,
                             direction_std=std, direction_anything=anything, weights=weights)
 
+    def turn_at(self, map_t: float) -> tuple[float, float]:
+        """The map's turn at map time ``map_t`` (s): (theta rad, psi rad with the direction offset)."""
+        t_full, th_full, t_psi, psi_full, _ = self._curves()
+        return (float(np.interp(map_t, t_full, th_full)),
+                float(np.interp(map_t, t_psi, psi_full)) + self.psi_offset_rad)
+
     def _curves(self) -> tuple[np.ndarray, ...]:
         """The whole map (not only its rising branch): (t_c from 0 s, theta rad, t_c, psi rad unwrapped,
         offset (n, 3) m); cached."""
