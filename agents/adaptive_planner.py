@@ -6,11 +6,13 @@ angle turned and the direction of the new heading, updates its estimate of the s
 buckling-time shift and direction offset, and plans the next turn from the corrected map,
 and chooses each turn by its expected miss over the outcomes the corrected map allows
 (``OnlineTurnMap.outcomes``: timing and direction errors, the direction's spread growing with the
-turn's size until turns confirm the map), with the 10 cm corridor around the current path segment
-as a soft limit. A turn that is not predicted to do well now may be put off: the swimmer swims on
-(at most ``AdaptiveConfig.swim_on_m``, staying near the segment) when the same choice made further
-on is predicted to miss by less. Bursts are flown by L'/L and may run past their planned length
-once the flagellum is seen to buckle late. Everything else (hover to the phase, burst, relax,
+turn's size until turns confirm the map; misses counted up to a scale, ``saturating_miss``), with
+the 10 cm corridor around the current path segment as a soft limit. A turn that is not predicted to
+do well now may be put off: the swimmer swims on (at most ``AdaptiveConfig.swim_on_m``, staying
+near the segment) when the same choice made further on is predicted to miss by less. Bursts are
+timed by the ratio clock (L'/L read as the map time the swimmer has reached, where it falls;
+``OnlineMapConfig``) and may run past their planned length once the flagellum is seen to buckle
+late. Everything else (hover to the phase, burst, relax,
 re-plan from the measured heading) is the rule planner's.
 
 The correction is per episode by default (``carry_over=False``): each episode may be a
@@ -40,12 +42,17 @@ class AdaptiveConfig:
     corridor_m: the env's ``off_path_m`` (the episode ends farther than this from the current segment);
     a predicted head position beyond ``corridor_soft`` x corridor_m costs its excess (m per m), beyond
     ``corridor_hard`` x corridor_m 0.5 m (checked at the turn's end and after its forward travel).
-    swim_on_m: how far the swimmer may swim on before a turn (0: never); swim_near_m: it stays this
-    near the target, and within corridor_soft x corridor_m of the segment; swim_cost: cost per m swum
+    swim_on_m: how far the swimmer may swim on before a turn (0: never; checked every cm); swim_near_m: it
+    stays this near the target, and within corridor_hard x corridor_m of the segment (past a waypoint the
+    soft limit is where a swimmer whose turns cannot reach it would otherwise circle it); swim_cost: cost per m swum
     (m/m); swim_gain_m: swimming on must lower the expected miss by more than this.
     late_onset_factor: a burst may run until the buckling seen (L'/L below ``OnlineMapConfig.ratio_valid``)
-    plus this x the map's time from buckling to the planned L'/L, plus 0.5 s.
-    Chosen on development paths (seeds 5200-5203, faithful, nominal and +-10 % swimmers).
+    plus this x the map's time from buckling to the planned map time, plus 0.5 s.
+    miss_scale_m, miss_scale_fraction: a predicted miss m counts as c (1 - exp(-m / c)) (``saturating_miss``),
+    c = max(miss_scale_m, miss_scale_fraction x the straight-line miss at the decision): misses much larger
+    than c all cost about c (the swimmer turns again after a bad turn), so a large turn with a spread-out
+    outcome is not ruled out by its unlikely worst cases; inf: the miss itself.
+    Chosen on development paths (seeds 5200-5203 and 5300-5303, faithful, nominal and +-5/10 % swimmers).
     """
 
     corridor_m: float = 0.1
@@ -56,12 +63,25 @@ class AdaptiveConfig:
     swim_cost: float = 0.1
     swim_gain_m: float = 0.01
     late_onset_factor: float = 1.5
+    miss_scale_m: float = 0.03
+    miss_scale_fraction: float = 0.5
 
     def __post_init__(self) -> None:
+        if not (isinstance(self.miss_scale_m, (int, float)) and self.miss_scale_m > 0.0):
+            raise ValueError(f"AdaptiveConfig.miss_scale_m must be > 0 (inf: no saturation), got {self.miss_scale_m!r}")
+        require_finite("AdaptiveConfig.miss_scale_fraction", self.miss_scale_fraction, 0.0)
         for name in ("corridor_m", "corridor_soft", "corridor_hard", "swim_near_m", "late_onset_factor"):
             require_finite(f"AdaptiveConfig.{name}", getattr(self, name), 0.0, lo_open=True)
         for name in ("swim_on_m", "swim_cost", "swim_gain_m"):
             require_finite(f"AdaptiveConfig.{name}", getattr(self, name), 0.0)
+
+
+def saturating_miss(miss, scale_m: float):
+    """c (1 - exp(-miss / c)) for c = ``scale_m`` (m), elementwise: ~miss for misses much below c, -> c above
+    it; ``scale_m`` = inf returns ``miss``."""
+    if not math.isfinite(scale_m):
+        return miss
+    return scale_m * -np.expm1(-np.asarray(miss) / scale_m)
 
 
 def segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -166,8 +186,8 @@ class AdaptivePlanner(RulePlanner):
 
     def _continue_burst(self, ep: _AdaptiveEpisode, obs: np.ndarray) -> bool:
         turn = ep.turns[-1]
-        target = turn.get("target_ratio")
-        if target is None or self.end_slice is None:
+        clock_t = turn.get("clock_map_t")
+        if clock_t is None or self.end_slice is None:
             going = super()._continue_burst(ep, obs)
             if not going:
                 turn.update(burst_s=(ep.step - turn["burst_step"]) * self.control_dt, stopped_by="time")
@@ -176,19 +196,23 @@ class AdaptivePlanner(RulePlanner):
         ratio = float(obs[self.end_slice][0])
         on = ep.online
         if "onset_s" not in turn and ratio < on.config.ratio_valid:
-            # buckling seen: the burst may last until the map's time from buckling to the target ratio,
+            # buckling seen: the burst may last until the map's time from buckling to the planned map time,
             # stretched, after it (a late buckler would otherwise be cut at its planned length)
             turn["onset_s"] = elapsed
-            t_on, t_target = on.map_time_for_ratio(on.config.ratio_valid - 1e-9), on.map_time_for_ratio(target)
-            if t_on is not None and t_target is not None:
-                late = elapsed + self.adaptive.late_onset_factor * max(t_target - t_on, 0.0) + 0.5
+            t_on = on.map_time_for_ratio(on.config.ratio_valid - 1e-9)
+            if t_on is not None:
+                late = elapsed + self.adaptive.late_onset_factor * max(clock_t - t_on, 0.0) + 0.5
                 turn["max_burst_s"] = max(turn["max_burst_s"], late)
-        prev = turn.get("ratio_seen", ratio)
-        turn["ratio_seen"] = ratio
-        drop = prev - ratio  # per control step
+        if ratio < turn.get("ratio_low", math.inf):
+            # the ratio clock, read where L'/L makes a new low (on a pause it would keep reading the pause's start)
+            turn["ratio_low"] = ratio
+            reading = on.clock_reading(ratio)
+            if reading is not None:
+                turn["clock_shift_s"] = reading - elapsed  # map time reached minus time flown
         stop, why = False, None
-        if elapsed >= 0.5 * turn["t_c"] - 1e-9 and (ratio <= target or (drop > 0.0 and 2.0 * (ratio - target) <= drop)):
-            stop, why = True, "ratio"  # at or nearest to the crossing (the next step would pass it by more)
+        if ("clock_shift_s" in turn and elapsed >= 0.5 * turn["t_c"] - 1e-9
+                and elapsed >= clock_t - turn["clock_shift_s"] - 0.5 * self.control_dt):
+            stop, why = True, "ratio"  # the step nearest to the planned map time on the ratio clock
         elif elapsed >= turn["max_burst_s"] - 1e-9:
             stop, why = True, "time"
         if stop:
@@ -213,24 +237,35 @@ class AdaptivePlanner(RulePlanner):
         miss0 = self._miss_if_off_course(head, d, target)
         if miss0 is None:
             return None
-        plan = self._best_turn(head, d, target, ep, miss0)
-        if plan is None or self._swim_on_first(head, d, target, ep, plan):
+        scale = self._miss_scale(miss0)
+        plan = self._best_turn(head, d, target, ep, miss0, scale)
+        if plan is None or self._swim_on_first(head, d, target, ep, plan, scale):
             return None
         on = ep.online
         plan.update(shift_s=on.shift_s, shift_std_s=on.shift_std_s, bias_s=on.bias_s,
                     psi_offset_deg=math.degrees(on.psi_offset_rad), **on.burst_plan(plan["t_c"]))
         return plan
 
+    def _miss_scale(self, miss0: float) -> float:
+        """The scale c (m) of ``saturating_miss`` for a decision whose straight-line miss is ``miss0`` (m)."""
+        a = self.adaptive
+        return max(a.miss_scale_m, a.miss_scale_fraction * miss0) if math.isfinite(miss0) else a.miss_scale_m
+
     def _best_turn(self, head: np.ndarray, d: np.ndarray, target: np.ndarray, ep: _AdaptiveEpisode,
-                   miss0: float) -> dict | None:
-        """The candidate (burst x phase) of least expected miss, or None if it does not beat ``miss0`` (m)."""
+                   miss0: float, scale_m: float) -> dict | None:
+        """The candidate (burst x phase) of least expected saturated miss (``saturating_miss`` at ``scale_m``),
+        or None if it does not beat the straight line's (``miss0``, m) by ``PlannerConfig.improvement_m``."""
         out = ep.online.outcomes(self.control_dt)
         beta = np.radians(np.arange(0.0, 360.0, self.config.phase_step_deg))
         a = self.adaptive
-        score = expected_misses(head, d, target, out, beta, self._line_miss, ep.segment,
+
+        def line_miss(starts, directions, tgt):
+            return saturating_miss(self._line_miss(starts, directions, tgt), scale_m)
+
+        score = expected_misses(head, d, target, out, beta, line_miss, ep.segment,
                                 a.corridor_soft * a.corridor_m, a.corridor_hard * a.corridor_m)
         i, j = np.unravel_index(int(np.argmin(score)), score.shape)
-        if score[i, j] > miss0 - self.config.improvement_m:
+        if score[i, j] > float(saturating_miss(miss0, scale_m)) - self.config.improvement_m:
             return None
         theta, psi = ep.online.turn_at(float(out.map_t[i]))
         return {"t_c": float(max(out.t_fly[i], self.control_dt)), "theta_deg": math.degrees(theta),
@@ -238,18 +273,19 @@ class AdaptivePlanner(RulePlanner):
                 "predicted_miss_m": float(score[i, j]), "miss_straight_m": float(miss0),
                 "heading": d.tolist(), "head": head.tolist()}
 
-    def _swim_on_first(self, head, d, target, ep, plan: dict) -> bool:
+    def _swim_on_first(self, head, d, target, ep, plan: dict, scale_m: float) -> bool:
         """Swim on, then turn: True (and the point to swim to kept) if the best turn made up to
         ``AdaptiveConfig.swim_on_m`` further on, staying near the target and the segment, is expected
         to miss by less than ``plan``'s, counting ``swim_cost`` per m swum."""
         a = self.adaptive
         best, best_c = plan["predicted_miss_m"] - a.swim_gain_m, None
-        for c in np.arange(0.02, a.swim_on_m + 1e-9, 0.02):
+        for c in np.arange(0.01, a.swim_on_m + 1e-9, 0.01):
             ahead = head + c * d
             if (float(np.linalg.norm(target - ahead)) > a.swim_near_m
-                    or float(segment_distance(ahead, *ep.segment)) > a.corridor_soft * a.corridor_m):
+                    or float(segment_distance(ahead, *ep.segment)) > a.corridor_hard * a.corridor_m):
                 break
-            later = self._best_turn(ahead, d, target, ep, self._line_miss(ahead[None, :], d[None, :], target)[0])
+            later = self._best_turn(ahead, d, target, ep, self._line_miss(ahead[None, :], d[None, :], target)[0],
+                                    scale_m)
             if later is not None and later["predicted_miss_m"] + a.swim_cost * c < best:
                 best, best_c = later["predicted_miss_m"] + a.swim_cost * c, float(c)
         if best_c is None:
@@ -269,7 +305,7 @@ class AdaptivePlanner(RulePlanner):
         predicted = turn["predicted_azimuth"] + math.radians(turn.get("phase_error_deg", 0.0))
         az_err = wrap_angle(azimuth(d1, d0) - predicted)
         rec = ep.online.observe(turn.get("burst_s", turn["t_c"]), theta_obs, az_err, turn.get("ratio_end"),
-                                turn["theta_deg"])
+                                turn["theta_deg"], turn.get("clock_shift_s"))
         turn.update(observed_theta_deg=theta_obs, azimuth_error_deg=math.degrees(az_err),
                     shift_after_s=rec["shift_s"], shift_std_after_s=rec["shift_std_s"])
 

@@ -64,13 +64,17 @@ class OnlineMapConfig:
     every turn's direction has the spread ``confirmed_direction_std_deg``; a turn that does not
     confirm restores the wider spread (the count restarts). 0: never confirmed.
 
-    Flying by L'/L (``fly_by_ratio``): a burst ends when the observed end-to-end ratio reaches the
-    map's ratio at the planned map time (the map records L'/L at each burst's end; below
-    ``ratio_valid`` it falls steadily as the flagellum buckles), so the buckling the swimmer
-    actually does sets the burst's end, not a clock; the burst is cut at ``burst_max_sigmas``
-    standard deviations of the shift past its expected length. The ratio reached and the time it
-    took read the shift (``ratio_shift_std_s``); the angle turned then reads a bias of the
-    ratio-turn relation (prior ``prior_bias_std_s``).
+    Flying by L'/L (``fly_by_ratio``): the map records L'/L at each burst's end, i.e. L'/L against
+    time during a burst; below ``ratio_valid`` it falls as the flagellum buckles, but not steadily:
+    it pauses (at faithful 7.0-7.2 s and 7.5-7.8 s, where the turn still grows from 92 to 128 deg).
+    Where it falls by at least ``clock_slope_per_s`` the ratio seen tells the map time the swimmer
+    has reached (``OnlineTurnMap.clock_reading``): the *ratio clock*. During a burst every such
+    reading gives the swimmer's shift, and the burst ends when the map time so read reaches the
+    planned one (on a pause, by the last reading plus the time flown since), so the buckling the
+    swimmer actually does sets the burst's end; before any reading it is cut at ``burst_max_sigmas``
+    standard deviations of the shift past its expected length. The last reading is the turn's
+    shift reading (``ratio_shift_std_s``); the angle turned then reads a bias of the ratio-turn
+    relation (prior ``prior_bias_std_s``).
 
     The reading before any turn (``OnlineTurnMap.observe_cruise``): shift = strain_shift_s x
     (relative change of the steady strain L'/L - 1) + rate_shift_s x (relative change of the
@@ -103,6 +107,7 @@ class OnlineMapConfig:
     max_shift_s: float = 3.0
     fly_by_ratio: bool = True
     ratio_valid: float = 0.98
+    clock_slope_per_s: float = 0.05
     ratio_shift_std_s: float = 0.15
     prior_bias_std_s: float = 0.3
     burst_max_sigmas: float = 2.5
@@ -113,7 +118,7 @@ class OnlineMapConfig:
         require_finite("OnlineMapConfig.ratio_valid", self.ratio_valid, 0.0, 1.0, lo_open=True)
         for name in ("prior_shift_std_s", "theta_noise_deg", "max_shift_s", "cruise_residual_std_s",
                      "ratio_shift_std_s", "prior_bias_std_s", "burst_max_sigmas", "direction_std_deg",
-                     "large_turn_ramp_deg", "confirmed_direction_std_deg"):
+                     "large_turn_ramp_deg", "confirmed_direction_std_deg", "clock_slope_per_s"):
             require_finite(f"OnlineMapConfig.{name}", getattr(self, name), 0.0, lo_open=True)
         for name in ("theta_noise_fraction", "large_turn_deg", "min_theta_deg", "psi_min_theta_deg", "min_cruise_samples",
                      "lift_after_turns", "confirm_theta_deg", "confirm_theta_fraction", "confirm_azimuth_deg"):
@@ -262,14 +267,30 @@ class OnlineTurnMap:
         t, r = self._ratio
         return float(np.interp(ratio, r[::-1], t[::-1]))
 
+    def clock_reading(self, ratio: float) -> float | None:
+        """The ratio clock (``OnlineMapConfig``): the map time (s) at which the map's L'/L is ``ratio``, where
+        the map's L'/L falls by at least ``clock_slope_per_s``; None before buckling (not below
+        ``ratio_valid``), on a pause of L'/L or past the map's recorded ratios."""
+        if self._ratio is None or not ratio < self.config.ratio_valid:
+            return None
+        t, r = self._ratio
+        for k in range(1, len(t)):
+            if r[k] <= ratio <= r[k - 1]:
+                drop, dt = float(r[k - 1] - r[k]), float(t[k] - t[k - 1])
+                if drop > 0.0 and drop >= self.config.clock_slope_per_s * dt:
+                    return float(t[k - 1] + (r[k - 1] - ratio) / drop * dt)
+                return None
+        return None
+
     def burst_plan(self, t_fly: float) -> dict:
-        """How to fly a candidate chosen with burst length ``t_fly`` (s, from ``outcomes``):
-        its map time, the L'/L to stop at (None: fly the time), and the longest burst allowed (s)."""
+        """How to fly a candidate chosen with burst length ``t_fly`` (s, from ``outcomes``): its map time,
+        the map time of the ratio clock to stop at (``clock_map_t``; None: fly the time) and the longest
+        burst allowed before a clock reading (s)."""
         cfg = self.config
         map_t = t_fly + self.shift_s
-        target = self.ratio_for(map_t - self.bias_s) if cfg.fly_by_ratio else None
+        clock = map_t - self.bias_s if (cfg.fly_by_ratio and self.ratio_for(map_t - self.bias_s) is not None) else None
         longest = t_fly - self.bias_s + cfg.burst_max_sigmas * math.hypot(self.shift_std_s, self.bias_std_s)
-        return {"map_t": map_t, "target_ratio": target, "max_burst_s": max(longest, t_fly)}
+        return {"map_t": map_t, "clock_map_t": clock, "max_burst_s": max(longest, t_fly)}
 
     @property
     def psi_offset_rad(self) -> float:
@@ -311,24 +332,30 @@ class OnlineTurnMap:
         return rec
 
     def observe(self, t_c: float, theta_obs_deg: float, azimuth_error_rad: float | None = None,
-                ratio_end: float | None = None, planned_theta_deg: float | None = None) -> dict:
+                ratio_end: float | None = None, planned_theta_deg: float | None = None,
+                clock_shift_s: float | None = None) -> dict:
         """Update from one settled turn: burst ``t_c`` (s) flown, angle ``theta_obs_deg`` turned;
         ``azimuth_error_rad``: observed minus predicted azimuth of the new heading about the old
         one (the prediction used ``psi_offset_rad`` as it was), or None; ``ratio_end``: L'/L seen
         at the burst's end, or None; ``planned_theta_deg``: the angle the planner expected (confirms the
-        map or restores the wide direction spread, ``OnlineMapConfig.lift_after_turns``), or None. Returns the reading.
+        map or restores the wide direction spread, ``OnlineMapConfig.lift_after_turns``), or None;
+        ``clock_shift_s``: the last reading of the ratio clock during the burst (its map time minus the
+        time flown then), or None. Returns the reading.
 
-        With a buckled ratio at the end (below ``ratio_valid``), the ratio reads the shift (map time
-        of that ratio minus the time flown) and the angle reads the bias (map time of the angle
-        minus map time of the ratio); otherwise the angle reads the shift."""
+        With a clock reading (``clock_shift_s``, else the clock at ``ratio_end``), it is the shift reading
+        and the angle reads the bias (map time of the angle minus the map time reached, ``t_c`` + shift);
+        otherwise the angle reads the shift."""
         cfg = self.config
         rec: dict = {"t_c": float(t_c), "theta_obs_deg": float(theta_obs_deg), "shift_before_s": self.shift_s,
                      "ratio_end": ratio_end}
         if planned_theta_deg is not None:
             self._confirm(float(planned_theta_deg), float(theta_obs_deg), azimuth_error_rad)
-        map_end = self.map_time_for_ratio(ratio_end) if ratio_end is not None else None
-        if map_end is not None:
-            s = float(np.clip(map_end - t_c, -cfg.max_shift_s, cfg.max_shift_s))
+        if clock_shift_s is None and ratio_end is not None:
+            m = self.clock_reading(ratio_end)
+            clock_shift_s = None if m is None else m - t_c
+        if clock_shift_s is not None:
+            s = float(np.clip(clock_shift_s, -cfg.max_shift_s, cfg.max_shift_s))
+            map_end = t_c + s
             self._combine(s, cfg.ratio_shift_std_s)
             rec.update(shift_reading_s=s, shift_reading_std_s=cfg.ratio_shift_std_s)
             reading = shift_reading(*self._branch, map_end, theta_obs_deg, cfg)

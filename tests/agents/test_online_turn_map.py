@@ -207,15 +207,31 @@ def test_direction_spread_grows_with_the_turn_until_turns_confirm_the_map(faithf
 def test_ratio_branch_inverts_and_a_burst_plan_targets_it(faithful_map):
     om = OnlineTurnMap(faithful_map)
     t, r = om._ratio
-    assert r[0] == pytest.approx(OnlineMapConfig().ratio_valid) and np.all(np.diff(r) < 0.0)
-    for m in (5.5, 6.5, 7.2):
+    assert r[0] == pytest.approx(OnlineMapConfig().ratio_valid) and np.all(np.diff(r) <= 0.0)
+    for m in (5.5, 6.5, 7.4):
         assert om.map_time_for_ratio(om.ratio_for(m)) == pytest.approx(m)
+        assert om.clock_reading(om.ratio_for(m)) == pytest.approx(m)
     assert om.ratio_for(3.0) is None and om.map_time_for_ratio(1.01) is None  # not buckled yet
+    assert om.clock_reading(1.01) is None
     om.shift_s, om.bias_s = 0.4, 0.1
     plan = om.burst_plan(6.0)
-    assert plan["map_t"] == pytest.approx(6.4)
-    assert plan["target_ratio"] == pytest.approx(om.ratio_for(6.3))
+    assert plan["map_t"] == pytest.approx(6.4) and plan["clock_map_t"] == pytest.approx(6.3)
     assert plan["max_burst_s"] > 6.0 - 0.1
+    assert OnlineTurnMap(faithful_map, OnlineMapConfig(fly_by_ratio=False)).burst_plan(6.0)["clock_map_t"] is None
+
+
+def test_the_ratio_clock_says_nothing_where_the_ratio_pauses(faithful_map):
+    # the faithful map's L'/L pauses at ~0.478 from 7.6 to 7.8 s while the turn grows from 102 to 128 deg
+    om = OnlineTurnMap(faithful_map)
+    t, r = om._ratio
+    flat = [k for k in range(1, len(t)) if r[k - 1] - r[k] < om.config.clock_slope_per_s * (t[k] - t[k - 1])]
+    assert any(t[k] > 7.55 for k in flat), "the map has no pause after 7.5 s: the test lost its subject"
+    for k in flat:
+        if r[k - 1] > r[k]:
+            assert om.clock_reading(0.5 * (r[k - 1] + r[k])) is None
+    for k in range(1, len(t)):
+        if k not in flat:
+            assert om.clock_reading(0.5 * (r[k - 1] + r[k])) == pytest.approx(0.5 * (t[k - 1] + t[k]))
 
 
 def test_turn_flown_by_ratio_reads_shift_from_ratio_and_bias_from_angle(faithful_map):
@@ -227,6 +243,10 @@ def test_turn_flown_by_ratio_reads_shift_from_ratio_and_bias_from_angle(faithful
     assert rec["shift_reading_s"] == pytest.approx(0.5, abs=1e-6)
     assert rec["bias_reading_s"] == pytest.approx(0.2, abs=1e-6)
     assert 0.4 < om.shift_s < 0.5 and 0.0 < om.bias_s < 0.2
+    # the clock read during the burst instead of at its end: the same readings
+    clocked = OnlineTurnMap(faithful_map).observe(6.0, float(np.interp(6.7, t_b, th_b)), None, ratio_end=0.47,
+                                                  clock_shift_s=0.5)
+    assert clocked["shift_reading_s"] == pytest.approx(0.5) and clocked["bias_reading_s"] == pytest.approx(0.2, abs=1e-6)
     # without a buckled ratio the angle reads the shift, as before
     plain = OnlineTurnMap(faithful_map)
     rec = plain.observe(6.0, float(np.interp(6.7, t_b, th_b)), None, ratio_end=1.02)
@@ -241,24 +261,36 @@ def _burst_planner(faithful_map):
     return AdaptivePlanner(faithful_map, layout, 0.1, 0.015, lambda rpm: rpm, end_slice=slice(0, 1))
 
 
-@pytest.mark.parametrize("t_c, ratios, target, stop_after, why", [
-    (0.6, [1.0, 0.9, 0.8, 0.7, 0.6, 0.5], 0.71, 4, "ratio"),      # 0.70 is nearest to 0.71
-    (0.6, [1.0, 0.9, 0.8, 0.7, 0.6, 0.5], 0.76, 3, "ratio"),      # 0.80 is nearer to 0.76 than 0.70 would be
-    (1.0, [1.0] * 20, 0.7, 12, "time"),                           # never buckles: cut at the longest burst
-    (1.0, [0.5] * 20, 0.7, 5, "ratio"),                           # low from the start: not before half the plan
-])
-def test_burst_ends_at_the_ratio_crossing_or_the_longest_burst(faithful_map, t_c, ratios, target, stop_after, why):
-    planner = _burst_planner(faithful_map)
-    ep = planner._new_episode()
-    ep.turns.append({"t_c": t_c, "burst_step": 0, "target_ratio": target, "max_burst_s": 1.2})
+def _fly(planner, ep, ratios):
     obs = np.zeros(37)
     for k, r in enumerate(ratios, start=1):
-        ep.step = k
-        obs[0] = r
+        ep.step, obs[0] = k, r
         if not planner._continue_burst(ep, obs):
-            break
-    assert (k, ep.turns[-1]["stopped_by"]) == (stop_after, why)
-    assert ep.turns[-1]["burst_s"] == pytest.approx(0.1 * stop_after)
+            return k
+    return None
+
+
+@pytest.mark.parametrize("clock_t, shift", [(6.6, 0.0), (6.6, 0.4), (7.4, -0.3), (7.7, 0.3), (7.75, -0.2)])
+def test_burst_ends_when_the_ratio_clock_reaches_the_planned_map_time(faithful_map, clock_t, shift):
+    # a swimmer that is the map shifted by ``shift`` (s > 0: buckles early): the burst ends at the step nearest
+    # to clock_t - shift, also on a pause of L'/L (7.7 s), where the last reading before the pause times it
+    planner = _burst_planner(faithful_map)
+    om = OnlineTurnMap(faithful_map)
+    ratios = [om.ratio_for(0.1 * k + shift) or 1.0 for k in range(1, 120)]
+    ep = planner._new_episode()
+    ep.turns.append({"t_c": clock_t - shift, "burst_step": 0, "clock_map_t": clock_t, "max_burst_s": clock_t - shift + 1.0})
+    k = _fly(planner, ep, ratios)
+    turn = ep.turns[-1]
+    assert turn["stopped_by"] == "ratio" and k == round((clock_t - shift) / 0.1)
+    assert turn["clock_shift_s"] == pytest.approx(shift, abs=0.03)
+
+
+def test_burst_without_buckling_is_cut_at_the_longest_burst(faithful_map):
+    planner = _burst_planner(faithful_map)
+    ep = planner._new_episode()
+    ep.turns.append({"t_c": 1.0, "burst_step": 0, "clock_map_t": 6.0, "max_burst_s": 1.2})
+    assert _fly(planner, ep, [1.0] * 20) == 12 and ep.turns[-1]["stopped_by"] == "time"
+    assert "clock_shift_s" not in ep.turns[-1]
 
 
 def test_graded_miss_rewards_turning_towards_a_target_behind():
@@ -279,18 +311,17 @@ def test_graded_miss_rewards_turning_towards_a_target_behind():
 
 
 def test_a_late_buckler_may_burst_past_the_planned_length(faithful_map):
+    # planned 6.0 s of map time with a longest burst of 6.2 s; the swimmer buckles 1 s late (its L'/L leaves
+    # 0.98 at ~5.9 s instead of ~4.9 s): seen buckling, the burst may go on, and ends by the ratio clock at 7.0 s
     planner = _burst_planner(faithful_map)
+    om = OnlineTurnMap(faithful_map)
+    ratios = [om.ratio_for(0.1 * k - 1.0) or 1.0 for k in range(1, 120)]
     ep = planner._new_episode()
-    ep.turns.append({"t_c": 1.0, "burst_step": 0, "target_ratio": 0.72, "max_burst_s": 1.2})
-    ratios = [1.0] * 10 + [0.95, 0.9, 0.85, 0.8, 0.75, 0.7, 0.65]  # buckles at 1.1 s, reaches 0.72 at 1.6 s
-    obs = np.zeros(37)
-    for k, r in enumerate(ratios, start=1):
-        ep.step, obs[0] = k, r
-        if not planner._continue_burst(ep, obs):
-            break
+    ep.turns.append({"t_c": 6.0, "burst_step": 0, "clock_map_t": 6.0, "max_burst_s": 6.2})
+    k = _fly(planner, ep, ratios)
     turn = ep.turns[-1]
-    assert turn["onset_s"] == pytest.approx(1.1) and turn["max_burst_s"] > 1.6
-    assert (k, turn["stopped_by"]) == (16, "ratio")
+    assert 5.8 < turn["onset_s"] < 6.1 and turn["max_burst_s"] > 7.0
+    assert (k, turn["stopped_by"]) == (70, "ratio") and turn["clock_shift_s"] == pytest.approx(-1.0, abs=0.03)
 
 
 def _planner(faithful_map, **adaptive):
@@ -357,11 +388,38 @@ def test_swim_on_then_turn_for_a_target_just_behind(faithful_map):
     assert p._plan_turn(np.zeros(3), D, target, NODE, ep) is None  # swims on first ...
     assert ep.swim_until is not None and 0.0 < ep.swim_until[0] <= p.adaptive.swim_on_m + 1e-12
     assert p._plan_turn(0.5 * ep.swim_until, D, target, NODE, ep) is None  # ... and keeps swimming
-    now = p._best_turn(np.zeros(3), D, target, ep, np.inf)
-    later = p._best_turn(ep.swim_until, D, target, ep, np.inf)
+    scale = p._miss_scale(p._miss_if_off_course(np.zeros(3), D, target))  # one scale for the decision
+    now = p._best_turn(np.zeros(3), D, target, ep, np.inf, scale)
+    later = p._best_turn(ep.swim_until, D, target, ep, np.inf, scale)
     assert later["predicted_miss_m"] + p.adaptive.swim_cost * ep.swim_until[0] < now["predicted_miss_m"]
     off, ep_off = _planner(faithful_map, swim_on_m=0.0)
     assert off._plan_turn(np.zeros(3), D, target, NODE, ep_off) is not None  # never swims on: turns now
     assert ep_off.swim_until is None
 
 
+
+
+def test_saturating_miss_is_the_miss_when_small_and_bounded_by_its_scale():
+    from agents.adaptive_planner import AdaptiveConfig, saturating_miss
+
+    m = np.array([0.0, 1e-4, 0.01, 0.03, 0.1, 1.0])
+    s = saturating_miss(m, 0.03)
+    assert s[0] == 0.0 and s[1] == pytest.approx(1e-4, rel=2e-3)
+    assert np.all(np.diff(s) > 0.0) and np.all(s < 0.03) and np.all(s <= m)
+    assert s[-1] == pytest.approx(0.03, rel=1e-12)
+    assert np.array_equal(saturating_miss(m, math.inf), m)
+    for bad in (0.0, -0.01, float("nan")):
+        with pytest.raises(ValueError, match="miss_scale_m"):
+            AdaptiveConfig(miss_scale_m=bad)
+
+
+def test_saturated_score_takes_the_full_turn_that_a_linear_one_caps(faithful_map):
+    # a target 10 cm away, 70 deg off the heading, before any turn confirmed the map: scored by the miss
+    # itself the planner keeps to a predictable smaller turn (the unlikely wide misses of the larger one weigh
+    # on the mean); with misses bounded by their scale those cost no more than another turn, and it turns further
+    target = 0.1 * np.array([math.cos(math.radians(70.0)), math.sin(math.radians(70.0)), 0.0])
+    p, ep = _planner(faithful_map, miss_scale_m=math.inf)
+    linear = p._plan_turn(np.zeros(3), D, target, NODE, ep)
+    p, ep = _planner(faithful_map)
+    saturated = p._plan_turn(np.zeros(3), D, target, NODE, ep)
+    assert saturated["theta_deg"] > linear["theta_deg"] + 5.0
