@@ -50,7 +50,8 @@ class OnlineMapConfig:
     theta_noise_fraction * theta: standard deviation of a measured turn angle (phase scatter,
     the unrelaxed flagellum of a turn right after another). min_theta_deg: smaller observed turns
     give no shift reading (the branch is flat there). psi_min_theta_deg: smaller turns give no
-    direction reading (their azimuth is ill-defined). max_shift_s: readings are clipped to +-this.
+    direction reading (their azimuth is ill-defined). max_shift_s: readings are clipped to +-this (the
+    ratio clock read -3.8 s on a development swimmer within +-10 %).
 
     The direction of a turn (``OnlineTurnMap.outcomes``): its azimuth error is normal with the
     standard deviation ``direction_std_deg`` for turns up to ``large_turn_deg``, and with a
@@ -61,8 +62,11 @@ class OnlineMapConfig:
     ``lift_after_turns`` turns in a row confirmed the corrected map (a turn of at least
     ``psi_min_theta_deg`` planned that turned within ``confirm_theta_deg`` + ``confirm_theta_fraction``
     x the planned angle, its new heading within ``confirm_azimuth_deg`` of the predicted azimuth),
-    every turn's direction has the spread ``confirmed_direction_std_deg``; a turn that does not
-    confirm restores the wider spread (the count restarts). 0: never confirmed.
+    every turn up to ``confirmed_margin_deg`` beyond the largest of those turns has the direction spread
+    ``confirmed_direction_std_deg``, and the chance that a larger one goes anywhere ramps up from there
+    (the map is trusted where turns tested it: on development swimmers at +-5 % a map confirmed by turns of
+    92-131 deg let through 177-178 deg turns near the branch's cliff, whose outcome left the corridor); a turn
+    that does not confirm restores the wider spread (the count restarts). 0: never confirmed.
 
     Flying by L'/L (``fly_by_ratio``): the map records L'/L at each burst's end, i.e. L'/L against
     time during a burst; below ``ratio_valid`` it falls as the flagellum buckles, but not steadily:
@@ -98,13 +102,14 @@ class OnlineMapConfig:
     large_turn_deg: float = 80.0
     large_turn_ramp_deg: float = 20.0
     confirmed_direction_std_deg: float = 10.0
+    confirmed_margin_deg: float = 20.0
     lift_after_turns: int = 2
     confirm_theta_deg: float = 10.0
     confirm_theta_fraction: float = 0.15
     confirm_azimuth_deg: float = 15.0
     min_theta_deg: float = 6.0
     psi_min_theta_deg: float = 20.0
-    max_shift_s: float = 3.0
+    max_shift_s: float = 5.0
     fly_by_ratio: bool = True
     ratio_valid: float = 0.98
     clock_slope_per_s: float = 0.05
@@ -121,7 +126,8 @@ class OnlineMapConfig:
                      "large_turn_ramp_deg", "confirmed_direction_std_deg", "clock_slope_per_s"):
             require_finite(f"OnlineMapConfig.{name}", getattr(self, name), 0.0, lo_open=True)
         for name in ("theta_noise_fraction", "large_turn_deg", "min_theta_deg", "psi_min_theta_deg", "min_cruise_samples",
-                     "lift_after_turns", "confirm_theta_deg", "confirm_theta_fraction", "confirm_azimuth_deg"):
+                     "lift_after_turns", "confirm_theta_deg", "confirm_theta_fraction", "confirm_azimuth_deg",
+                     "confirmed_margin_deg"):
             require_finite(f"OnlineMapConfig.{name}", getattr(self, name), 0.0)
         for name in ("strain_shift_s", "rate_shift_s"):
             require_finite(f"OnlineMapConfig.{name}", getattr(self, name))
@@ -228,12 +234,14 @@ class OnlineTurnMap:
         self._psi_sum = 0j
         self._psi_weight = 0.0
         self.confirmed = 0  # turns in a row that confirmed the corrected map (``OnlineMapConfig``)
+        self.confirmed_upto_deg = 0.0  # the largest of them, deg
         self.readings: list[dict] = []
 
     @property
     def map_confirmed(self) -> bool:
         """True once enough turns in a row confirmed the corrected map (``OnlineMapConfig.lift_after_turns``):
-        every turn's direction then has the narrow spread ``confirmed_direction_std_deg``."""
+        turns up to ``confirmed_margin_deg`` beyond the largest confirming one then have the narrow direction
+        spread ``confirmed_direction_std_deg``."""
         return 0 < self.config.lift_after_turns <= self.confirmed
 
     def _confirm(self, planned_deg: float, theta_obs_deg: float, azimuth_error_rad: float | None) -> None:
@@ -243,6 +251,7 @@ class OnlineTurnMap:
         ok = (abs(theta_obs_deg - planned_deg) <= cfg.confirm_theta_deg + cfg.confirm_theta_fraction * planned_deg
               and azimuth_error_rad is not None and abs(math.degrees(azimuth_error_rad)) <= cfg.confirm_azimuth_deg)
         self.confirmed = self.confirmed + 1 if ok else 0
+        self.confirmed_upto_deg = max(self.confirmed_upto_deg, planned_deg) if ok else 0.0
 
     @property
     def shift_std_s(self) -> float:
@@ -288,7 +297,8 @@ class OnlineTurnMap:
         burst allowed before a clock reading (s)."""
         cfg = self.config
         map_t = t_fly + self.shift_s
-        clock = map_t - self.bias_s if (cfg.fly_by_ratio and self.ratio_for(map_t - self.bias_s) is not None) else None
+        # beyond the map's recorded ratios too: the burst is then timed from the last reading before it
+        clock = map_t - self.bias_s if (cfg.fly_by_ratio and self._ratio is not None) else None
         longest = t_fly - self.bias_s + cfg.burst_max_sigmas * math.hypot(self.shift_std_s, self.bias_std_s)
         return {"map_t": map_t, "clock_map_t": clock, "max_burst_s": max(longest, t_fly)}
 
@@ -394,9 +404,12 @@ class OnlineTurnMap:
         deviation rad of its normal part, probability that it is anything instead), each of that shape."""
         cfg = self.config
         shape = np.shape(theta_rad)
+        theta_deg = np.degrees(theta_rad)
         if self.map_confirmed:
-            return np.full(shape, math.radians(cfg.confirmed_direction_std_deg)), np.zeros(shape)
-        anything = np.clip((np.degrees(theta_rad) - cfg.large_turn_deg) / cfg.large_turn_ramp_deg, 0.0, 1.0)
+            start = max(cfg.large_turn_deg, self.confirmed_upto_deg + cfg.confirmed_margin_deg)
+            anything = np.clip((theta_deg - start) / cfg.large_turn_ramp_deg, 0.0, 1.0)
+            return np.full(shape, math.radians(cfg.confirmed_direction_std_deg)), anything
+        anything = np.clip((theta_deg - cfg.large_turn_deg) / cfg.large_turn_ramp_deg, 0.0, 1.0)
         return np.full(shape, math.radians(cfg.direction_std_deg)), anything
 
     def outcomes(self, control_dt: float) -> TurnOutcomes:

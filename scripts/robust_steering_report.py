@@ -3,6 +3,9 @@
     python scripts/robust_steering_report.py
 
 Inputs (each made by a committed command; missing ones are reported as not measured):
+- results/eval_clock/<level>/results.json for level nominal, rand05, rand10, rand10_helix10 and
+  results/eval_clock/square/summary.json: the adaptive planner on the finer turn map with bursts timed by the
+  ratio clock (issue #23, 2026-12-03) against the rule planner on held-out paths and swimmers (``CLOCK_COMMANDS``)
 - results/eval_robust/<level>/results.json for level nominal, rand05, rand10, rand10_helix10 and
   results/eval_robust/square/summary.json: the adaptive planner with spread-scored turns (issue #23, 2026-12-03)
   against the rule planner on held-out paths and swimmers (``ROBUST_COMMANDS`` below)
@@ -329,6 +332,56 @@ planar_6100, a path both controllers found hard: rule 17.5 %); the score has no 
 level is a small sample: one path is 17 %."""
 
 
+CLOCK = Path("results/eval_clock")
+CLOCK_DESIGN = """The adaptive planner of the next section with four changes (commits 5bb8449 and CLOCK_COMMIT):
+
+1. **The shipped `faithful` turn map measured again on a finer grid** (0.1 s from 7.0 to 8.3 s, 33 turns;
+   docs/time_integration.md has the table). The old map's straight lines between 7.5 and 8.0 s promised
+   7-10° more than the swimmer turns at 7.6-7.9 s, and hid that L'/L pauses (at 0.60 from 7.0 to 7.2 s and at
+   0.48 from 7.6 to 7.8 s) while the turn keeps growing. Both planners use it.
+2. **Bursts timed by the ratio clock** (`OnlineTurnMap.clock_reading`): L'/L is read as the map time the
+   swimmer has reached only where the map's L'/L falls (at least 0.05 per s), each time it makes a new low;
+   every reading gives the swimmer's shift, and the burst ends at the control step nearest to the planned map
+   time by the last reading (on a pause, the reading before it plus the time flown since; past the map's
+   recorded ratios too). Before, a burst ended when L'/L reached the map's value at the planned time, which on
+   a pause could be anywhere in it. The last reading is the turn's shift reading (clipped to ±5 s, was ±3 s:
+   the clock read -3.8 s on a development swimmer).
+3. **Misses scored up to a scale**: each predicted miss m counts as c (1 - exp(-m / c)), c = max(3 cm, half the
+   straight-line miss), so a large turn with spread-out outcomes is not ruled out by its unlikely worst cases
+   (a bad turn is followed by another); and swimming on before a turn is checked every cm up to 8.5 cm from the
+   segment (was every 2 cm up to 6 cm: past a waypoint that limit is where a swimmer circled it).
+4. **A confirmed map is trusted only as far as turns tested it**: after two confirming turns the narrow direction
+   spread (10°) holds up to 20° beyond the largest of them, and the chance that a larger turn goes anywhere
+   ramps up from there (before, every turn was trusted: on development swimmers at ±5 % a map confirmed by
+   turns of 92-131° let 177-178° turns near the branch's cliff through)."""
+CLOCK_HELD_OUT = """Development: the paths and swimmers of the sections below (seeds 5200-5207 and 5300-5307 for these
+changes; nothing from 6100-6105 or any set below was used to tune them, 3d_6100 at ±5 % was replayed to read
+why it circled). The numbers here are on paths drawn with seeds 6400-6404 (`--count 5`: five planar, five
+3-D, three waypoints, segments 12-20 cm, turns 30-150°, reach radius 1.5 cm) and swimmers from env seeds
+6400-6409 (the k-th path sorted by name gets seed 6400 + k), preset `faithful`, two workers; both controllers
+keep the nominal turn map. The controller evaluated is commit CLOCK_COMMIT; nothing was changed after the
+results were seen."""
+CLOCK_COMMANDS = """```
+python scripts/make_eval_paths.py --out results/eval_clock/paths --count 5 --seed0 6400
+flagellum evaluate --paths results/eval_clock/paths --controller rule --controller adaptive --seed0 6400 \
+    --workers 2 --out results/eval_clock/nominal
+flagellum evaluate ... --randomize 0.05 --seed0 6400 --out results/eval_clock/rand05   # swimmers 6400-6409
+flagellum evaluate ... --randomize 0.1 --seed0 6400 --out results/eval_clock/rand10
+flagellum evaluate --paths results/eval_clock/paths --controller adaptive --randomize 0.1 --randomize-geometry 0.1 \
+    --seed0 6400 --workers 2 --out results/eval_clock/rand10_helix10
+flagellum follow --path square --controller rule --controller adaptive --out results/eval_clock/square
+python scripts/robust_steering_report.py
+```"""
+CLOCK_FINDINGS = """(findings pending)"""
+
+
+def clock_section(lines: list[str]) -> None:
+    """The adaptive planner on the finer map with the ratio clock, on the held-out set of 2026-12-03 (seeds 6400)."""
+    held_out_section(lines, "## The adaptive planner on a finer turn map, bursts timed by the ratio clock (controller "
+                     "`adaptive`, issue #23; measured 2026-12-03)", CLOCK, ("rule", "adaptive"), "adaptive",
+                     (CLOCK_DESIGN, CLOCK_HELD_OUT, CLOCK_COMMANDS), "square", CLOCK_FINDINGS, "clock")
+
+
 def robust_section(lines: list[str]) -> None:
     """The adaptive planner scored by its outcomes' spread, on the held-out set of 2026-12-03."""
     held_out_section(lines, "## The adaptive planner, turns scored by their spread (controller `adaptive`, issue #23; "
@@ -498,6 +551,7 @@ def main() -> None:
              "`agents/online_turn_map.py` (the correction), `agents/adaptive_planner.py` (the planner that uses it, "
              "controller `adaptive`), `agents/horizon_planner.py` (the receding-horizon planner over it, controller "
              "`horizon`).", ""]
+    clock_section(lines)
     robust_section(lines)
     horizon_section(lines)
     sensitivity_section(lines)

@@ -192,7 +192,13 @@ def test_direction_spread_grows_with_the_turn_until_turns_confirm_the_map(faithf
     om.observe(4.0, 30.0, math.radians(40.0), planned_theta_deg=10.0)  # too small to say anything
     assert om.confirmed == 1 and spread(160.0) == (20.0, 1.0)
     om.observe(7.0, 66.0, math.radians(-8.0), planned_theta_deg=59.0)  # within 10 deg + 15 %
-    assert om.map_confirmed and spread(160.0) == spread(30.0) == (10.0, 0.0)
+    # confirmed by turns of 59 deg: narrow up to 80 deg (the unconfirmed ramp's start) and ramping from there;
+    # turns 20 deg beyond the largest confirming one
+    assert om.map_confirmed and spread(30.0) == spread(80.0) == (10.0, 0.0)
+    assert spread(90.0) == (10.0, 0.5) and spread(160.0) == (10.0, 1.0)
+    om.observe(7.6, 118.0, math.radians(-3.0), planned_theta_deg=112.0)  # a larger turn confirms too
+    assert om.confirmed == 3 and om.confirmed_upto_deg == pytest.approx(112.0)
+    assert spread(132.0) == (10.0, 0.0) and spread(142.0) == (10.0, 0.5) and spread(160.0) == (10.0, 1.0)
     om.observe(7.0, 59.0, math.radians(30.0), planned_theta_deg=59.0)  # heading 30 deg off the prediction
     assert not om.map_confirmed and spread(160.0) == (20.0, 1.0)
     om.observe(7.0, 59.0, math.radians(2.0), planned_theta_deg=59.0)
@@ -217,6 +223,8 @@ def test_ratio_branch_inverts_and_a_burst_plan_targets_it(faithful_map):
     plan = om.burst_plan(6.0)
     assert plan["map_t"] == pytest.approx(6.4) and plan["clock_map_t"] == pytest.approx(6.3)
     assert plan["max_burst_s"] > 6.0 - 0.1
+    # past the map's recorded ratios the burst is still timed by the clock (from its last reading)
+    assert om.burst_plan(om.t_peak_s)["clock_map_t"] == pytest.approx(om.t_peak_s + 0.4 - 0.1)
     assert OnlineTurnMap(faithful_map, OnlineMapConfig(fly_by_ratio=False)).burst_plan(6.0)["clock_map_t"] is None
 
 
