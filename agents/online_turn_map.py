@@ -70,7 +70,8 @@ class OnlineMapConfig:
 
     Flying by L'/L (``fly_by_ratio``): the map records L'/L at each burst's end, i.e. L'/L against
     time during a burst; below ``ratio_valid`` it falls as the flagellum buckles, but not steadily:
-    it pauses (at faithful 7.0-7.2 s and 7.5-7.8 s, where the turn still grows from 92 to 128 deg).
+    it pauses (at faithful 7.0-7.2 s and 7.6-7.8 s, where the turn still grows from 59 to 71 and from
+    102 to 128 deg).
     Where it falls by at least ``clock_slope_per_s`` the ratio seen tells the map time the swimmer
     has reached (``OnlineTurnMap.clock_reading``): the *ratio clock*. During a burst every such
     reading gives the swimmer's shift, and the burst ends when the map time so read reaches the
@@ -404,13 +405,11 @@ class OnlineTurnMap:
         deviation rad of its normal part, probability that it is anything instead), each of that shape."""
         cfg = self.config
         shape = np.shape(theta_rad)
-        theta_deg = np.degrees(theta_rad)
+        std, start = cfg.direction_std_deg, cfg.large_turn_deg
         if self.map_confirmed:
-            start = max(cfg.large_turn_deg, self.confirmed_upto_deg + cfg.confirmed_margin_deg)
-            anything = np.clip((theta_deg - start) / cfg.large_turn_ramp_deg, 0.0, 1.0)
-            return np.full(shape, math.radians(cfg.confirmed_direction_std_deg)), anything
-        anything = np.clip((theta_deg - cfg.large_turn_deg) / cfg.large_turn_ramp_deg, 0.0, 1.0)
-        return np.full(shape, math.radians(cfg.direction_std_deg)), anything
+            std, start = cfg.confirmed_direction_std_deg, max(start, self.confirmed_upto_deg + cfg.confirmed_margin_deg)
+        anything = np.clip((np.degrees(theta_rad) - start) / cfg.large_turn_ramp_deg, 0.0, 1.0)
+        return np.full(shape, math.radians(std)), anything
 
     def outcomes(self, control_dt: float) -> TurnOutcomes:
         """The turns the planner may choose now and, for each, sigma points of their outcome
