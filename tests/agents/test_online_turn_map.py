@@ -405,6 +405,20 @@ def test_swim_on_then_turn_for_a_target_just_behind(faithful_map):
     assert ep_off.swim_until is None
 
 
+def test_swim_on_stops_at_the_soft_corridor(faithful_map):
+    # the farther on, the better the turn: the swimmer swims on as far as it may, which is where the next
+    # cm would leave the soft corridor (6 cm from the segment), not the hard one (8.5 cm) or swim_near_m (9 cm:
+    # 7.4 cm here)
+    target = np.array([0.0, 0.05, 0.0])
+    p, ep = _planner(faithful_map)
+    ep.segment = (np.zeros(3), target.copy())  # the head swims along D, straight away from the segment
+    p._best_turn = lambda head, d, tgt, ep_, miss0, scale: {"predicted_miss_m": -float(head[0])}
+    assert p._swim_on_first(np.zeros(3), D, target, ep, {"predicted_miss_m": 0.05}, 0.03)
+    soft = p.adaptive.corridor_soft * p.adaptive.corridor_m  # checked every cm: within a cm of it
+    assert ep.swim_until[1:] == pytest.approx([0.0, 0.0], abs=1e-15)
+    assert soft - 0.01 - 1e-9 <= ep.swim_until[0] <= soft
+
+
 
 
 def test_saturating_miss_is_the_miss_when_small_and_bounded_by_its_scale():
