@@ -25,7 +25,8 @@ test: install
 
 # The rule-based planner and the adaptive planner (the same planner correcting its turn map online from
 # what the swimmer does) steer the swimmer around the paper's 0.25 m square (the default preset,
-# faithful), side by side: out/demo/summary.json, path.png (target vs achieved) and omega.png (the control signal).
+# faithful), side by side (one worker process each): out/demo/summary.json, path.png (target vs achieved) and
+# omega.png (the control signal).
 demo: install
 	OPENBLAS_NUM_THREADS=1 $(BIN)/flagellum follow --path square --controller rule --controller adaptive --out out/demo
 

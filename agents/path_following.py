@@ -126,9 +126,10 @@ def is_planar(path: WaypointPath) -> bool:
     return bool(np.all(np.abs(path.waypoints[:, 2]) < 1e-12))
 
 
-def run_episode(env, controller, path: WaypointPath, seed: int = 0, progress: bool = False
-                ) -> tuple[dict[str, Any], EpisodeTrace]:
-    """Run one episode of ``controller`` on ``path``; (metrics, trace). ``env``: a FlagellumSteer-v0.
+def run_episode(env, controller, path: WaypointPath, seed: int = 0, progress: bool = False,
+                position: int | None = None) -> tuple[dict[str, Any], EpisodeTrace]:
+    """Run one episode of ``controller`` on ``path``; (metrics, trace). ``env``: a FlagellumSteer-v0;
+    ``progress``: a tqdm bar on stderr, on line ``position`` (None: the next free one).
 
     Ctrl-C or SIGTERM (in the main thread, where they interrupt) end the episode after the current env step
     (``physics.run.stop_requests``: a flag, never an exception inside a compiled kernel); a second signal stops
@@ -152,7 +153,7 @@ def run_episode(env, controller, path: WaypointPath, seed: int = 0, progress: bo
             rows.append(_row(info))
             start = True
             bar = tqdm(total=round(info["max_sim_time_s"]), unit="sim s", desc=f"{path.name}",
-                       disable=not progress, dynamic_ncols=True)
+                       disable=not progress, dynamic_ncols=True, position=position)
             done = False
             while not done and not stop.requested:
                 action, _ = controller.predict(obs, episode_start=np.array([start]), deterministic=True)
@@ -247,3 +248,78 @@ class EpisodeTask:
             record["status"], record["error"] = "error", f"{type(exc).__name__}: {exc}"
             record["wall_time_s"] = time.perf_counter() - t0
         return PointOutcome(record, trace)
+
+
+@dataclass(frozen=True)
+class FollowTask:
+    """One controller's episode for ``follow_controllers``, in a worker process; picklable. ``execute`` returns
+    a ``PointOutcome`` whose record is the metrics (with the planner's ``turns`` where it keeps them) and whose
+    trajectory is the ``EpisodeTrace``, also of an episode cut short: SIGTERM from the parent (a worker ignores
+    Ctrl-C) ends the episode after the current env step, as Ctrl-C does in ``run_episode``."""
+
+    controller: str
+    path: WaypointPath
+    preset: str
+    env_kwargs: tuple[tuple[str, Any], ...] = ()
+    seed: int = 0
+    progress: bool = False
+    position: int | None = None
+
+    def execute(self) -> PointOutcome:
+        import signal
+
+        from flagellum_env.steer_env import FlagellumSteerEnv
+
+        signal.signal(signal.SIGTERM, _raise_interrupt)  # a Python handler: run_episode's stop_requests takes it over
+        env = FlagellumSteerEnv(path=self.path, **env_settings(self.controller, self.preset, dict(self.env_kwargs)))
+        controller = make_controller(self.controller, env, self.preset)
+        metrics, trace = run_episode(env, controller, self.path, seed=self.seed, progress=self.progress,
+                                     position=self.position)
+        if hasattr(controller, "turns"):
+            metrics["turns"] = controller.turns
+        return PointOutcome(metrics, trace, interrupted=bool(metrics.get("interrupted")))
+
+
+def _raise_interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+def follow_controllers(tasks: Sequence[FollowTask], workers: int) -> tuple[dict[str, tuple[dict, EpisodeTrace]], bool]:
+    """Run each task's episode on ``workers`` local processes at once (``batch.backends.LocalBackend``: one BLAS
+    thread each; they exit if this process dies). Returns ({controller: (metrics, trace)} of the episodes that
+    ran, in ``tasks``' order, whether interrupted). Ctrl-C or SIGTERM asks every running episode to stop after
+    its current step (``LocalBackend.interrupt``) and returns what they computed, flagged ``interrupted``; a
+    second signal stops at once (KeyboardInterrupt, the episodes lost). An episode that raised raises here."""
+    import concurrent.futures
+
+    from batch.backends import LocalBackend
+    from physics.run import stop_requests
+
+    backend = LocalBackend(workers)
+    interrupted = False
+    got: dict[str, tuple[dict, EpisodeTrace]] = {}
+    try:
+        futures = {backend.submit(t): t for t in tasks}
+        with stop_requests() as stop:
+            pending = set(futures)
+            while pending:
+                finished, pending = concurrent.futures.wait(pending, timeout=0.2)
+                for fut in finished:
+                    if fut.cancelled():
+                        continue
+                    if fut.exception() is not None:
+                        if interrupted:  # stopped before its episode began: nothing to report
+                            continue
+                        raise fut.exception()
+                    outcome = fut.result()
+                    got[futures[fut].controller] = (outcome.record, outcome.trajectory)
+                if stop.requested and not interrupted:
+                    interrupted = True
+                    backend.interrupt(pending)
+    except BaseException:
+        backend.abort(futures if "futures" in locals() else ())
+        raise
+    finally:
+        backend.close()
+    return {t.controller: got[t.controller] for t in tasks if t.controller in got}, interrupted
+

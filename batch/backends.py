@@ -111,6 +111,15 @@ class LocalBackend:
             if proc.is_alive():
                 proc.terminate()
 
+    def interrupt(self, futures: Iterable[Any]) -> None:
+        """Cancel queued tasks and send SIGTERM to the workers: a task that handles it (an episode of
+        ``agents.path_following.FollowTask``) returns what it computed; one that does not loses its worker."""
+        for fut in futures:
+            fut.cancel()
+        for proc in list((getattr(self._pool, "_processes", None) or {}).values()):
+            if proc.is_alive():
+                proc.terminate()
+
     def close(self) -> None:
         self._pool.shutdown(wait=True, cancel_futures=True)
 

@@ -48,7 +48,7 @@ def test_output_folders_that_cannot_be_made_are_named(usage_error, a_file, one_t
 
 
 @pytest.mark.parametrize("command", [["bench", "--quick"], ["evaluate", "--paths", "square", "--controller", "rule"],
-                                     ["calibrate-turns", "--preset", "coarse"]])
+                                     ["calibrate-turns", "--preset", "coarse"], ["follow", "--path", "square"]])
 @pytest.mark.parametrize("value", ["-1", "0", "1.5", "many"])
 def test_workers_must_be_a_whole_number_of_at_least_one(usage_error, tmp_path, command, value):
     line = usage_error(command + ["--workers", value, "--out" if command[0] != "bench" else "--json",

@@ -98,6 +98,38 @@ def test_an_interrupted_follow_writes_the_episode_so_far(tmp_path, sig):
     assert b"interrupted" in stdout
 
 
+def test_an_interrupted_parallel_follow_writes_every_episode_so_far(tmp_path):
+    # two controllers run at once (the default: one worker process per controller); SIGTERM to the command asks
+    # both episodes to stop after their step, and each writes what it computed; no worker outlives the command
+    path = tmp_path / "long.json"
+    path.write_text(json.dumps(LONG))
+    out = tmp_path / "o"
+    proc = _cli(["follow", "--path", str(path), "--preset", "coarse", "--controller", "rule", "--controller",
+                 "adaptive", "--out", str(out), "--no-progress"], tmp_path)
+    kids: list[psutil.Process] = []
+    try:
+        _wait_for(proc, lambda: out.is_dir() and len(psutil.Process(proc.pid).children(recursive=True)) >= 2)
+        time.sleep(6.0)  # into both episodes
+        kids = psutil.Process(proc.pid).children(recursive=True)
+        proc.send_signal(signal.SIGTERM)
+        stdout, err = proc.communicate(timeout=120)
+        alive = _running_after(kids, 2.0)
+    finally:
+        _reap(proc, kids)
+    assert proc.returncode == 130, err
+    assert b"Traceback" not in err and b"BrokenProcessPool" not in err
+    assert not alive, f"worker processes {[p.pid for p in alive]} outlived the command"
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["interrupted"] is True and summary["not_run"] == []
+    for spec in ("rule", "adaptive"):
+        m = summary["controllers"][spec]
+        assert m["interrupted"] is True and 0.0 < m["time_s"] < 500.0, (spec, m["time_s"])
+        assert (out / f"trace_{spec}.npz").is_file()
+    for name in ("path.png", "omega.png"):
+        assert (out / name).is_file(), name
+    assert b"interrupted" in stdout
+
+
 def test_sigterm_stops_train_and_saves_the_model_and_a_checkpoint(tmp_path):
     cfg = tmp_path / "tiny.yml"
     cfg.write_text(yaml.safe_dump(tiny_config(1)))

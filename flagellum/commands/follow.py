@@ -7,7 +7,8 @@ import json
 import re
 from pathlib import Path
 
-from flagellum.commands.common import DEFAULT_PRESET_ARG, UsageError, ensure_dir, parse_int, parse_number
+from flagellum.commands.common import (DEFAULT_PRESET_ARG, UsageError, ensure_dir, parse_int, parse_number,
+                                      parse_workers)
 
 NAME = "follow"
 HELP = "drive FlagellumSteer-v0 along a path with a controller; write summary.json and plots (Fig. 6)"
@@ -17,7 +18,9 @@ DESCRIPTION = ("Follow --path (square = the paper's 0.25 m square, or a path fil
                "ppo:AGENT_DIR) and write "
                "DIR/summary.json, DIR/path.png (target vs achieved, x-y and 3-D), DIR/omega.png (ω(t), L'/L) "
                "and the per-step trace: DIR/trace.npz for one controller, DIR/trace_<controller>.npz (each "
-               "controller's spec with other characters than letters, digits, '-' and '_' as '_') for several.")
+               "controller's spec with other characters than letters, digits, '-' and '_' as '_') for several. "
+               "Several controllers run at once, one worker process each (--workers); Ctrl-C or SIGTERM writes the "
+               "episodes so far.")
 ACCEPTS_SET = False  # the turn map fixes the swimmer: choose --preset
 PRESET = DEFAULT_PRESET_ARG
 
@@ -31,6 +34,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/follow"), help="default out/follow")
     parser.add_argument("--reach-radius", metavar="M", help="waypoint reach radius, m (default: the path's or 0.015)")
     parser.add_argument("--seed", default="0", help="env seed, an integer >= 0 (default 0)")
+    parser.add_argument("--workers", help="controllers run at once, each in its own process (an integer >= 1; "
+                        "default: one per controller, up to the cores; 1: one after the other in this process)")
     parser.add_argument("--no-progress", action="store_true", help="do not show the progress bar")
 
 
@@ -41,7 +46,6 @@ def trace_name(spec: str, n_controllers: int) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from agents.evaluation import check_controllers, resolve_paths
-    from agents.follow_plots import omega_figure, path_figure, save
     from agents.path_following import check_unique_controllers, env_settings, make_controller, run_episode
     from flagellum_env.steer_env import FlagellumSteerEnv
     from physics.errors import is_interrupt
@@ -58,6 +62,11 @@ def run(args: argparse.Namespace) -> int:
                                                    positive=True)
     seed = parse_int("--seed", args.seed, 0)
     specs = args.controller or ["rule"]
+    workers, _ = parse_workers(args)
+    if workers is None:
+        from batch.backends import default_workers
+
+        workers = min(len(specs), default_workers())
     try:
         check_unique_controllers(specs)
         check_controllers(specs, [path], preset, overrides)  # every controller builds, before any output
@@ -66,6 +75,8 @@ def run(args: argparse.Namespace) -> int:
     ensure_dir("--out", args.out)
     traces, summary = {}, {"path": path.to_dict(), "preset": preset, "controllers": {}, "interrupted": False}
     interrupted = False
+    if workers > 1 and len(specs) > 1:
+        return _run_parallel(args, specs, path, preset, overrides, seed, min(workers, len(specs)), summary)
     try:
         for spec in specs:
             env = FlagellumSteerEnv(path=path, **env_settings(spec, preset, overrides))
@@ -85,6 +96,42 @@ def run(args: argparse.Namespace) -> int:
         if not is_interrupt(exc):
             raise
         interrupted = True
+    return _write(args, specs, path, preset, traces, summary, interrupted)
+
+
+def _run_parallel(args: argparse.Namespace, specs: list[str], path, preset: str, overrides: dict, seed: int,
+                  workers: int, summary: dict) -> int:
+    """The controllers' episodes at once on ``workers`` processes (``agents.path_following.follow_controllers``)."""
+    from agents.path_following import FollowTask, follow_controllers
+    from physics.errors import is_interrupt
+    from physics.run import stop_requests
+
+    env_kw = tuple(sorted(overrides.items()))
+    tasks = [FollowTask(spec, path, preset, env_kw, seed, progress=not args.no_progress, position=k)
+             for k, spec in enumerate(specs)]
+    traces, interrupted = {}, False
+    try:
+        episodes, interrupted = follow_controllers(tasks, workers)
+    except BaseException as exc:  # a second Ctrl-C or SIGTERM: the episodes are lost, the summary says so
+        if not is_interrupt(exc):
+            raise
+        episodes, interrupted = {}, True
+    with stop_requests():  # the traces are written whole (a second signal stops at once)
+        for spec, (metrics, trace) in episodes.items():
+            traces[spec] = trace
+            summary["controllers"][spec] = metrics
+            trace.save_npz(args.out / trace_name(spec, len(specs)))
+            _report(spec, metrics)
+            interrupted = interrupted or bool(metrics.get("interrupted"))
+    return _write(args, specs, path, preset, traces, summary, interrupted)
+
+
+def _write(args: argparse.Namespace, specs: list[str], path, preset: str, traces: dict, summary: dict,
+           interrupted: bool) -> int:
+    """summary.json and the figures of the episodes in ``traces``; the exit status (130: interrupted)."""
+    from agents.follow_plots import omega_figure, path_figure, save
+    from physics.run import stop_requests
+
     with stop_requests() as stop:  # a signal while writing waits for the files (a second one stops at once)
         summary["interrupted"] = interrupted
         summary["not_run"] = [s for s in specs if s not in summary["controllers"]]

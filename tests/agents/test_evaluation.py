@@ -17,6 +17,24 @@ from flagellum_env.paths import RandomPathConfig, path_from_waypoints, random_pa
 SHORT = path_from_waypoints([[0.004, 0.0, 0.0]], name="short", reach_radius_m=0.002)
 
 
+def test_controllers_followed_at_once_match_one_after_the_other():
+    from agents.path_following import FollowTask, env_settings, follow_controllers, make_controller, run_episode
+    from flagellum_env.steer_env import FlagellumSteerEnv
+
+    path, specs = SHORT, ["rule", "adaptive"]
+    got, interrupted = follow_controllers([FollowTask(s, path, "coarse") for s in specs], workers=2)
+    assert interrupted is False and list(got) == specs
+    for spec in specs:
+        env = FlagellumSteerEnv(path=path, **env_settings(spec, "coarse"))
+        metrics, trace = run_episode(env, make_controller(spec, env, "coarse"), path)
+        par_metrics, par_trace = got[spec]
+        assert par_metrics["time_s"] > 0.0 and "interrupted" not in par_metrics
+        for field in ("t", "head", "omega_rpm", "end_to_end_ratio", "cross_track_m", "waypoint_index"):
+            assert np.array_equal(getattr(par_trace, field), getattr(trace, field)), (spec, field)
+        assert {k: v for k, v in par_metrics.items() if k not in ("wall_time_s", "turns")} == {
+            k: v for k, v in metrics.items() if k != "wall_time_s"}
+
+
 def test_evaluate_writes_results_and_resumes(tmp_path, monkeypatch):
     out = tmp_path / "eval"
     res = evaluate([SHORT], ["rule"], "coarse", out, workers=1, progress=False)
