@@ -122,7 +122,9 @@ def head_path_figure(folder: str | Path, results: dict[str, Any], out_png: str |
     if title:
         fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    return save(fig, Path(out_png))
+    out = save(fig, Path(out_png))
+    plt.close(fig)  # pyplot keeps every figure it made until closed (a report makes dozens)
+    return out
 
 
 def folder_report(folder: str | Path, fig_dir: str | Path | None = None, name: str | None = None,

@@ -3,9 +3,11 @@
     python scripts/robust_steering_report.py
 
 Inputs (each made by a committed command; missing ones are reported as not measured):
+- results/eval_softswim2/<level>/results.json for level nominal, rand05, rand10, rand10_helix10: the same
+  planner on a second held-out set, seeds 6600 (section first in the report; no square run);
 - results/eval_softswim/<level>/results.json for level nominal, rand05, rand10, rand10_helix10 and
   results/eval_softswim/square/summary.json: the adaptive planner swimming on within the soft corridor (e4e4c15)
-  and the rule planner, held-out paths and swimmers from seeds 6500 (section first in the report);
+  and the rule planner, held-out paths and swimmers from seeds 6500;
 - results/eval_clock/<level>/results.json for level nominal, rand05, rand10, rand10_helix10 and
   results/eval_clock/square/summary.json: the adaptive planner on the finer turn map with bursts timed by the
   ratio clock (issue #23, 2026-12-03) against the rule planner on held-out paths and swimmers (``CLOCK_COMMANDS``)
@@ -378,6 +380,43 @@ One set of ten paths is a small sample: on the previous set (6400) the version b
 waypoint (856 s, five bursts)."""
 
 
+SOFTSWIM2 = Path("results/eval_softswim2")
+SOFTSWIM2_DESIGN = """The same planner as the section below (commit e4e4c15; the commits after it, up to 6282840, change no
+episode: `flagellum follow` runs its controllers in parallel, bit for bit the same), on a second held-out set drawn
+after the first one's results were in, to see how much one set of ten paths says."""
+SOFTSWIM2_HELD_OUT = """Paths drawn with seeds 6600-6604 (`--count 5`, as below), swimmers from env seeds 6600-6609, preset
+`faithful`, two workers, 13:19-13:55 UTC, from a worktree at 6282840. No path or swimmer of this set was seen
+before the run and nothing was changed after it. The paper's square was not run again: its episodes are those of
+the section below (same planner, same swimmer)."""
+SOFTSWIM2_COMMANDS = """```
+python scripts/make_eval_paths.py --out results/eval_softswim2/paths --count 5 --seed0 6600
+flagellum evaluate --paths results/eval_softswim2/paths --controller rule --controller adaptive --seed0 6600 \\
+    --workers 2 --out results/eval_softswim2/nominal
+flagellum evaluate ... --randomize 0.05 --seed0 6600 --out results/eval_softswim2/rand05   # swimmers 6600-6609
+flagellum evaluate ... --randomize 0.1 --seed0 6600 --out results/eval_softswim2/rand10
+flagellum evaluate --paths results/eval_softswim2/paths --controller adaptive --randomize 0.1 --randomize-geometry 0.1 \\
+    --seed0 6600 --workers 2 --out results/eval_softswim2/rand10_helix10
+python scripts/robust_steering_report.py
+```"""
+SOFTSWIM2_FINDINGS = """**Verdict (second held-out set, 10 paths per level, 2026-12-03):** within ±5 % (helix ±2 %) the adaptive
+planner finished 9 of 10 (rule 2 of 10): **≥ 90 % reached** (just); within ±10 % (helix ±4 %) 9 of 10 (rule 0 of
+10): **≥ 75 % reached**; with the helix within ±10 % as well 8 of 10. No episode ended in a `SimulationError`. On
+the two fresh sets together (6500 and 6600, 20 paths): ±5 % 19 of 20, ±10 % 18 of 20, helix ±10 % 16 of 20, rule
+2 and 0 of 20. **The nominal swimmer is where this set is worse**: the adaptive planner failed one of ten
+(planar_6600; rule 10 of 10), so the nominal target (success = the rule planner's, mean cross-track ≤ it) is **not
+met**: mean cross-track 1.01 cm against 0.64 cm (without planar_6600 0.83 cm against 0.64 cm over the same nine; the
+adaptive planner is worse on 8 of 10 paths). Max Δz/ΔL on the planar held-out paths, nominal: adaptive 29.1 %
+(planar_6600, the failure; the others 5.9-11.5 %), rule 11.0 %.
+
+What failed: nominal planar_6600 left the corridor after its first waypoint (238 s, five turns of which three
+buckled): its third turn (84°, at the waypoint, toward a second waypoint 16 cm away at ~110° to the heading) and a
+34° correction both came out as predicted (azimuth errors -6° and 3°), yet at the next decision the straight line
+missed by 17 cm with the head 3.6 cm out of the plane, and the fifth turn (104°) took it out (head 4.8 cm out of
+the plane at the end); replayed from the results, not analysed further. ±5 % 3d_6604 and ±10 % 3d_6600 left the
+corridor after their first waypoint (3 and 4 bursts); with the helix within ±10 %, 3d_6600 (5 bursts, no waypoint)
+and planar_6604 (23 bursts in 1353 s without reaching its first waypoint; not analysed)."""
+
+
 CLOCK = Path("results/eval_clock")
 CLOCK_DESIGN = """The adaptive planner of the next section with four changes (commits 5bb8449 and 54c21a0):
 
@@ -461,6 +500,14 @@ def softswim_section(lines: list[str]) -> None:
                      (SOFTSWIM_DESIGN, SOFTSWIM_HELD_OUT, SOFTSWIM_COMMANDS), "square", SOFTSWIM_FINDINGS, "softswim")
 
 
+def softswim2_section(lines: list[str]) -> None:
+    """The same planner on a second held-out set (seeds 6600), 2026-12-03."""
+    held_out_section(lines, "## The same planner on a second held-out set (controller `adaptive`, issue #23; measured "
+                     "2026-12-03)", SOFTSWIM2, ("rule", "adaptive"), "adaptive",
+                     (SOFTSWIM2_DESIGN, SOFTSWIM2_HELD_OUT, SOFTSWIM2_COMMANDS), None, SOFTSWIM2_FINDINGS,
+                     "softswim2")
+
+
 def clock_section(lines: list[str]) -> None:
     """The adaptive planner on the finer map with the ratio clock, on the held-out set of 2026-12-03 (seeds 6400)."""
     held_out_section(lines, "## The adaptive planner on a finer turn map, bursts timed by the ratio clock (controller "
@@ -491,10 +538,10 @@ python scripts/report_evaluation.py results/eval_horizon/{nominal,rand05,rand10,
 
 
 def held_out_section(lines: list[str], title: str, root: Path, controllers: tuple[str, ...], judged: str,
-                     texts: tuple[str, str, str], square: str, findings: str, figure_prefix: str) -> None:
+                     texts: tuple[str, str, str], square: str | None, findings: str, figure_prefix: str) -> None:
     """One held-out evaluation: design, what was held out and the commands (``texts``), the tables and figures
     of each level under ``root`` (``agents.evaluation_report``), the paper's square (``root/square``'s
-    summary.json, controller ``judged``) and the targets of issue #23 for ``judged``."""
+    summary.json, controller ``judged``; ``square`` None: not run for this set) and the targets of issue #23 for ``judged``."""
     from agents.evaluation_report import folder_report
 
     design, held_out, commands = texts
@@ -508,9 +555,11 @@ def held_out_section(lines: list[str], title: str, root: Path, controllers: tupl
         found[level] = json.loads((folder / "results.json").read_text())
         present = [c for c in controllers if c in found[level]["aggregate"]]
         lines += folder_report(folder, DOCS / "figures", f"{figure_prefix}_{level}", present, link_from=DOCS)
-    sq = root / square / "summary.json"
+    sq = None if square is None else root / square / "summary.json"
     lines += ["### The paper's square (nominal swimmer)", ""]
-    if sq.is_file():
+    if sq is None:
+        lines += ["Not run for this set (the same episodes as in the next section).", ""]
+    elif sq.is_file():
         for c, m in json.loads(sq.read_text())["controllers"].items():
             lines.append(f"- `{c}`: {'every corner made' if m['success'] else 'failed'}, mean cross-track "
                          f"{100 * m['mean_cross_track_m']:.2f} cm (max {100 * m['max_cross_track_m']:.2f} cm), Δz/ΔL "
@@ -637,6 +686,7 @@ def main() -> None:
              "`agents/online_turn_map.py` (the correction), `agents/adaptive_planner.py` (the planner that uses it, "
              "controller `adaptive`), `agents/horizon_planner.py` (the receding-horizon planner over it, controller "
              "`horizon`).", ""]
+    softswim2_section(lines)
     softswim_section(lines)
     clock_section(lines)
     robust_section(lines)
