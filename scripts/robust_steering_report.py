@@ -385,7 +385,7 @@ SOFTSWIM2_DESIGN = """The same planner as the section below (commit e4e4c15; the
 episode: `flagellum follow` runs its controllers in parallel, bit for bit the same), on a second held-out set drawn
 after the first one's results were in, to see how much one set of ten paths says."""
 SOFTSWIM2_HELD_OUT = """Paths drawn with seeds 6600-6604 (`--count 5`, as below), swimmers from env seeds 6600-6609, preset
-`faithful`, two workers, 13:19-13:55 UTC, from a worktree at 6282840. No path or swimmer of this set was seen
+`faithful`, two workers, 13:19-13:44 UTC, from a worktree at 6282840. No path or swimmer of this set was seen
 before the run and nothing was changed after it. The paper's square was not run again: its episodes are those of
 the section below (same planner, same swimmer)."""
 SOFTSWIM2_COMMANDS = """```
