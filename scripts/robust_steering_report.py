@@ -409,10 +409,18 @@ adaptive planner is worse on 8 of 10 paths). Max Δz/ΔL on the planar held-out 
 (planar_6600, the failure; the others 5.9-11.5 %), rule 11.0 %.
 
 What failed: nominal planar_6600 left the corridor after its first waypoint (238 s, five turns of which three
-buckled): its third turn (84°, at the waypoint, toward a second waypoint 16 cm away at ~110° to the heading) and a
-34° correction both came out as predicted (azimuth errors -6° and 3°), yet at the next decision the straight line
-missed by 17 cm with the head 3.6 cm out of the plane, and the fifth turn (104°) took it out (head 4.8 cm out of
-the plane at the end); replayed from the results, not analysed further. ±5 % 3d_6604 and ±10 % 3d_6600 left the
+buckled). Replayed (the episode is deterministic): its third turn (84°, at the waypoint, toward a second waypoint
+16 cm away at ~110° to the heading) came out as predicted (azimuth error -6°); the fourth, a 34° correction aimed
+at the waypoint (azimuth 102° about the heading, the waypoint's own; predicted miss 0.5 cm), **was flown 156° off
+its burst phase**: the hover that waits at 10 rpm for the flagellum's phase node to reach the planned azimuth gave
+up after its limit of 1.5 periods and started the burst where the node was (`RulePlanner`'s hover, shared by both
+planners; the turn record's `phase_error_deg` -155.8°). The turn went where that phase sends it (azimuth -43°, 2.7°
+from the phase-corrected prediction): from -163° to about -146° in the plane and from 6° to 30° up out of it, the
+waypoint 40° the other way; at the next decision the straight line missed by 17 cm with the head 3.6 cm out of the
+plane, and the fifth turn (104°) took it out (4.8 cm out of the plane at the end). Replayed (the episode is
+deterministic); the other four turns had phase errors below 1°. How often the hover gives up, and why it missed
+the phase here, is for the next version (re-planning at the phase reached instead of flying the old plan is the
+obvious remedy). ±5 % 3d_6604 and ±10 % 3d_6600 left the
 corridor after their first waypoint (3 and 4 bursts); with the helix within ±10 %, 3d_6600 (5 bursts, no waypoint)
 and planar_6604 (23 bursts in 1353 s without reaching its first waypoint; not analysed)."""
 
