@@ -337,6 +337,21 @@ planar_6100, a path both controllers found hard: rule 17.5 %); the score has no 
 level is a small sample: one path is 17 %."""
 
 
+def held_out_commands(root: str, seed0: int, square: bool) -> str:
+    """The commands of a held-out evaluation of the rule and the adaptive planner in ``root`` (paths drawn with
+    ``seed0``, swimmers from it on; ``square``: the paper's square run too), as a Markdown code block."""
+    run = f"flagellum evaluate --paths {root}/paths --controller"
+    return "\n".join([
+        "```", f"python scripts/make_eval_paths.py --out {root}/paths --count 5 --seed0 {seed0}",
+        f"{run} rule --controller adaptive --seed0 {seed0} \\", f"    --workers 2 --out {root}/nominal",
+        f"flagellum evaluate ... --randomize 0.05 --seed0 {seed0} --out {root}/rand05   # swimmers {seed0}-{seed0 + 9}",
+        f"flagellum evaluate ... --randomize 0.1 --seed0 {seed0} --out {root}/rand10",
+        f"{run} adaptive --randomize 0.1 --randomize-geometry 0.1 \\",
+        f"    --seed0 {seed0} --workers 2 --out {root}/rand10_helix10",
+        *([f"flagellum follow --path square --controller rule --controller adaptive --out {root}/square"] if square else []),
+        "python scripts/robust_steering_report.py", "```"])
+
+
 SOFTSWIM = Path("results/eval_softswim")
 SOFTSWIM_DESIGN = """The adaptive planner of the next section with one change (commit e4e4c15): **swimming on before a turn
 stays within the soft corridor** (6 cm of the segment; the next section's version swam on up to the hard limit,
@@ -350,17 +365,7 @@ swimmer of this section was seen before the run. Paths drawn with seeds 6500-650
 (the k-th path sorted by name gets seed 6500 + k), preset `faithful`, two workers, 12:19-12:54 UTC; both
 controllers keep the nominal turn map. The controller evaluated is commit e4e4c15; nothing was changed after the
 results were seen."""
-SOFTSWIM_COMMANDS = """```
-python scripts/make_eval_paths.py --out results/eval_softswim/paths --count 5 --seed0 6500
-flagellum evaluate --paths results/eval_softswim/paths --controller rule --controller adaptive --seed0 6500 \\
-    --workers 2 --out results/eval_softswim/nominal
-flagellum evaluate ... --randomize 0.05 --seed0 6500 --out results/eval_softswim/rand05   # swimmers 6500-6509
-flagellum evaluate ... --randomize 0.1 --seed0 6500 --out results/eval_softswim/rand10
-flagellum evaluate --paths results/eval_softswim/paths --controller adaptive --randomize 0.1 --randomize-geometry 0.1 \\
-    --seed0 6500 --workers 2 --out results/eval_softswim/rand10_helix10
-flagellum follow --path square --controller rule --controller adaptive --out results/eval_softswim/square
-python scripts/robust_steering_report.py
-```"""
+SOFTSWIM_COMMANDS = held_out_commands("results/eval_softswim", 6500, square=True)
 SOFTSWIM_FINDINGS = """**Verdict (held out, 10 paths per level, 2026-12-03):** within ±5 % (helix ±2 %) the adaptive planner finished
 10 of 10 paths (rule 0 of 10): **≥ 90 % reached**. Within ±10 % (helix ±4 %) 9 of 10 (rule 0 of 10): **≥ 75 %
 reached**. With the helix within ±10 % as well, 8 of 10. No episode ended in a `SimulationError`. On the nominal
@@ -388,16 +393,7 @@ SOFTSWIM2_HELD_OUT = """Paths drawn with seeds 6600-6604 (`--count 5`, as below)
 `faithful`, two workers, 13:19-13:44 UTC, from a worktree at 6282840. No path or swimmer of this set was seen
 before the run and nothing was changed after it. The paper's square was not run again: its episodes are those of
 the section below (same planner, same swimmer)."""
-SOFTSWIM2_COMMANDS = """```
-python scripts/make_eval_paths.py --out results/eval_softswim2/paths --count 5 --seed0 6600
-flagellum evaluate --paths results/eval_softswim2/paths --controller rule --controller adaptive --seed0 6600 \\
-    --workers 2 --out results/eval_softswim2/nominal
-flagellum evaluate ... --randomize 0.05 --seed0 6600 --out results/eval_softswim2/rand05   # swimmers 6600-6609
-flagellum evaluate ... --randomize 0.1 --seed0 6600 --out results/eval_softswim2/rand10
-flagellum evaluate --paths results/eval_softswim2/paths --controller adaptive --randomize 0.1 --randomize-geometry 0.1 \\
-    --seed0 6600 --workers 2 --out results/eval_softswim2/rand10_helix10
-python scripts/robust_steering_report.py
-```"""
+SOFTSWIM2_COMMANDS = held_out_commands("results/eval_softswim2", 6600, square=False)
 SOFTSWIM2_FINDINGS = """**Verdict (second held-out set, 10 paths per level, 2026-12-03):** within ±5 % (helix ±2 %) the adaptive
 planner finished 9 of 10 (rule 2 of 10): **≥ 90 % reached** (just); within ±10 % (helix ±4 %) 9 of 10 (rule 0 of
 10): **≥ 75 % reached**; with the helix within ±10 % as well 8 of 10. No episode ended in a `SimulationError`. On
@@ -501,33 +497,19 @@ behind, drifting to the corridor's edge). (4) Out-of-plane drift: max Δz/ΔL on
 (nominal, adaptive; rule 9.4 %); the score still has no planar term."""
 
 
-def softswim_section(lines: list[str]) -> None:
-    """The adaptive planner swimming on only within the soft corridor, on the held-out set of 2026-12-03 (seeds 6500)."""
-    held_out_section(lines, "## The adaptive planner swimming on within the soft corridor (controller `adaptive`, "
-                     "issue #23; measured 2026-12-03)", SOFTSWIM, ("rule", "adaptive"), "adaptive",
-                     (SOFTSWIM_DESIGN, SOFTSWIM_HELD_OUT, SOFTSWIM_COMMANDS), "square", SOFTSWIM_FINDINGS, "softswim")
-
-
-def softswim2_section(lines: list[str]) -> None:
-    """The same planner on a second held-out set (seeds 6600), 2026-12-03."""
-    held_out_section(lines, "## The same planner on a second held-out set (controller `adaptive`, issue #23; measured "
-                     "2026-12-03)", SOFTSWIM2, ("rule", "adaptive"), "adaptive",
-                     (SOFTSWIM2_DESIGN, SOFTSWIM2_HELD_OUT, SOFTSWIM2_COMMANDS), None, SOFTSWIM2_FINDINGS,
-                     "softswim2")
-
-
-def clock_section(lines: list[str]) -> None:
-    """The adaptive planner on the finer map with the ratio clock, on the held-out set of 2026-12-03 (seeds 6400)."""
-    held_out_section(lines, "## The adaptive planner on a finer turn map, bursts timed by the ratio clock (controller "
-                     "`adaptive`, issue #23; measured 2026-12-03)", CLOCK, ("rule", "adaptive"), "adaptive",
-                     (CLOCK_DESIGN, CLOCK_HELD_OUT, CLOCK_COMMANDS), "square", CLOCK_FINDINGS, "clock")
-
-
-def robust_section(lines: list[str]) -> None:
-    """The adaptive planner scored by its outcomes' spread, on the held-out set of 2026-12-03."""
-    held_out_section(lines, "## The adaptive planner, turns scored by their spread (controller `adaptive`, issue #23; "
-                     "measured 2026-12-03)", ROBUST, ("rule", "adaptive"), "adaptive",
-                     (ROBUST_DESIGN, ROBUST_HELD_OUT, ROBUST_COMMANDS), "square", ROBUST_FINDINGS, "robust")
+#: the held-out evaluations of the adaptive planner against the rule planner, newest first: (title, results folder,
+#: (design, what was held out, commands), the folder of its square run under it or None, findings, figure prefix)
+ADAPTIVE_EVALUATIONS = (
+    ("## The same planner on a second held-out set (controller `adaptive`, issue #23; measured 2026-12-03)",
+     SOFTSWIM2, (SOFTSWIM2_DESIGN, SOFTSWIM2_HELD_OUT, SOFTSWIM2_COMMANDS), None, SOFTSWIM2_FINDINGS, "softswim2"),
+    ("## The adaptive planner swimming on within the soft corridor (controller `adaptive`, issue #23; measured "
+     "2026-12-03)", SOFTSWIM, (SOFTSWIM_DESIGN, SOFTSWIM_HELD_OUT, SOFTSWIM_COMMANDS), "square", SOFTSWIM_FINDINGS,
+     "softswim"),
+    ("## The adaptive planner on a finer turn map, bursts timed by the ratio clock (controller `adaptive`, issue #23; "
+     "measured 2026-12-03)", CLOCK, (CLOCK_DESIGN, CLOCK_HELD_OUT, CLOCK_COMMANDS), "square", CLOCK_FINDINGS, "clock"),
+    ("## The adaptive planner, turns scored by their spread (controller `adaptive`, issue #23; measured 2026-12-03)",
+     ROBUST, (ROBUST_DESIGN, ROBUST_HELD_OUT, ROBUST_COMMANDS), "square", ROBUST_FINDINGS, "robust"),
+)
 
 
 HORIZON = Path("results/eval_horizon")
@@ -694,10 +676,8 @@ def main() -> None:
              "`agents/online_turn_map.py` (the correction), `agents/adaptive_planner.py` (the planner that uses it, "
              "controller `adaptive`), `agents/horizon_planner.py` (the receding-horizon planner over it, controller "
              "`horizon`).", ""]
-    softswim2_section(lines)
-    softswim_section(lines)
-    clock_section(lines)
-    robust_section(lines)
+    for title, root, texts, square, findings, prefix in ADAPTIVE_EVALUATIONS:
+        held_out_section(lines, title, root, ("rule", "adaptive"), "adaptive", texts, square, findings, prefix)
     horizon_section(lines)
     sensitivity_section(lines)
     lines += [METHOD]
