@@ -252,7 +252,8 @@ class EpisodeTask:
 
 @dataclass(frozen=True)
 class FollowTask:
-    """One controller's episode for ``follow_controllers``, in a worker process; picklable. ``execute`` returns
+    """One controller's episode of ``flagellum follow``: ``run`` here, or ``execute`` in a worker process
+    (``follow_controllers``; picklable). ``execute`` returns
     a ``PointOutcome`` whose record is the metrics (with the planner's ``turns`` where it keeps them) and whose
     trajectory is the ``EpisodeTrace``, also of an episode cut short: SIGTERM from the parent (a worker ignores
     Ctrl-C) ends the episode after the current env step, as Ctrl-C does in ``run_episode``."""
@@ -265,18 +266,23 @@ class FollowTask:
     progress: bool = False
     position: int | None = None
 
-    def execute(self) -> PointOutcome:
-        import signal
-
+    def run(self) -> tuple[dict[str, Any], EpisodeTrace]:
+        """The episode in this process: (metrics with the planner's ``turns`` where it keeps them, trace)."""
         from flagellum_env.steer_env import FlagellumSteerEnv
 
-        signal.signal(signal.SIGTERM, _raise_interrupt)  # a Python handler: run_episode's stop_requests takes it over
         env = FlagellumSteerEnv(path=self.path, **env_settings(self.controller, self.preset, dict(self.env_kwargs)))
         controller = make_controller(self.controller, env, self.preset)
         metrics, trace = run_episode(env, controller, self.path, seed=self.seed, progress=self.progress,
                                      position=self.position)
         if hasattr(controller, "turns"):
             metrics["turns"] = controller.turns
+        return metrics, trace
+
+    def execute(self) -> PointOutcome:
+        import signal
+
+        signal.signal(signal.SIGTERM, _raise_interrupt)  # a Python handler: run_episode's stop_requests takes it over
+        metrics, trace = self.run()
         return PointOutcome(metrics, trace, interrupted=bool(metrics.get("interrupted")))
 
 
@@ -298,8 +304,9 @@ def follow_controllers(tasks: Sequence[FollowTask], workers: int) -> tuple[dict[
     backend = LocalBackend(workers)
     interrupted = False
     got: dict[str, tuple[dict, EpisodeTrace]] = {}
+    futures: dict[Any, FollowTask] = {}
     try:
-        futures = {backend.submit(t): t for t in tasks}
+        futures.update((backend.submit(t), t) for t in tasks)
         with stop_requests() as stop:
             pending = set(futures)
             while pending:
@@ -317,7 +324,7 @@ def follow_controllers(tasks: Sequence[FollowTask], workers: int) -> tuple[dict[
                     interrupted = True
                     backend.interrupt(pending)
     except BaseException:
-        backend.abort(futures if "futures" in locals() else ())
+        backend.abort(futures)
         raise
     finally:
         backend.close()

@@ -101,15 +101,13 @@ class LocalBackend:
 
     def abort(self, futures: Iterable[Any]) -> None:
         """Cancel queued points and stop the running ones (their partial work is dropped)."""
+        terminate = getattr(self._pool, "terminate_workers", None)  # Python >= 3.14
+        if terminate is None:
+            self.interrupt(futures)  # SIGTERM: a task that does not handle it stops at once
+            return
         for fut in futures:
             fut.cancel()
-        terminate = getattr(self._pool, "terminate_workers", None)  # Python >= 3.14
-        if terminate is not None:
-            terminate()
-            return
-        for proc in list((getattr(self._pool, "_processes", None) or {}).values()):
-            if proc.is_alive():
-                proc.terminate()
+        terminate()
 
     def interrupt(self, futures: Iterable[Any]) -> None:
         """Cancel queued tasks and send SIGTERM to the workers: a task that handles it (an episode of

@@ -46,8 +46,7 @@ def trace_name(spec: str, n_controllers: int) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from agents.evaluation import check_controllers, resolve_paths
-    from agents.path_following import check_unique_controllers, env_settings, make_controller, run_episode
-    from flagellum_env.steer_env import FlagellumSteerEnv
+    from agents.path_following import FollowTask, check_unique_controllers
     from physics.errors import is_interrupt
     from physics.run import stop_requests
 
@@ -75,15 +74,15 @@ def run(args: argparse.Namespace) -> int:
     ensure_dir("--out", args.out)
     traces, summary = {}, {"path": path.to_dict(), "preset": preset, "controllers": {}, "interrupted": False}
     interrupted = False
-    if workers > 1 and len(specs) > 1:
-        return _run_parallel(args, specs, path, preset, overrides, seed, min(workers, len(specs)), summary)
+    parallel = workers > 1 and len(specs) > 1
+    tasks = [FollowTask(spec, path, preset, tuple(sorted(overrides.items())), seed, progress=not args.no_progress,
+                        position=k if parallel else None) for k, spec in enumerate(specs)]
+    if parallel:
+        return _run_parallel(args, tasks, path, preset, min(workers, len(specs)), summary)
     try:
-        for spec in specs:
-            env = FlagellumSteerEnv(path=path, **env_settings(spec, preset, overrides))
-            controller = make_controller(spec, env, preset)
-            metrics, trace = run_episode(env, controller, path, seed=seed, progress=not args.no_progress)
-            if hasattr(controller, "turns"):
-                metrics["turns"] = controller.turns
+        for task in tasks:
+            spec = task.controller
+            metrics, trace = task.run()
             traces[spec] = trace
             summary["controllers"][spec] = metrics
             with stop_requests() as stop:  # the trace of a finished (or interrupted) episode is written whole
@@ -99,16 +98,14 @@ def run(args: argparse.Namespace) -> int:
     return _write(args, specs, path, preset, traces, summary, interrupted)
 
 
-def _run_parallel(args: argparse.Namespace, specs: list[str], path, preset: str, overrides: dict, seed: int,
-                  workers: int, summary: dict) -> int:
-    """The controllers' episodes at once on ``workers`` processes (``agents.path_following.follow_controllers``)."""
-    from agents.path_following import FollowTask, follow_controllers
+def _run_parallel(args: argparse.Namespace, tasks: list, path, preset: str, workers: int, summary: dict) -> int:
+    """The controllers' episodes (``tasks``) at once on ``workers`` processes
+    (``agents.path_following.follow_controllers``)."""
+    from agents.path_following import follow_controllers
     from physics.errors import is_interrupt
     from physics.run import stop_requests
 
-    env_kw = tuple(sorted(overrides.items()))
-    tasks = [FollowTask(spec, path, preset, env_kw, seed, progress=not args.no_progress, position=k)
-             for k, spec in enumerate(specs)]
+    specs = [t.controller for t in tasks]
     traces, interrupted = {}, False
     try:
         episodes, interrupted = follow_controllers(tasks, workers)
