@@ -207,7 +207,8 @@ def episode_metrics(trace: EpisodeTrace, path: WaypointPath, last_info: dict[str
 # --- many episodes in parallel (the shared task pool) -------------------------------------------
 @dataclass(frozen=True)
 class EpisodeTask:
-    """One (controller, path) episode; picklable, ``execute`` runs in a worker process."""
+    """One (controller, path) episode; picklable, ``execute`` runs in a worker process. Its record is the
+    episode's metrics, with the planner's ``turns`` where it keeps them."""
 
     controller: str
     path: WaypointPath
@@ -242,6 +243,8 @@ class EpisodeTask:
             if metrics.get("interrupted"):  # a partial episode is not a result
                 return PointOutcome(record, None, interrupted=True)
             record.update(metrics)
+            if hasattr(controller, "turns"):  # the planners' turns (burst length, phase error, ...) for diagnosis
+                record["turns"] = controller.turns
             if metrics.get("error"):
                 record["status"] = "error"
         except Exception as exc:  # recorded, not raised: one bad episode must not stop the others

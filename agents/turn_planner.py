@@ -96,6 +96,18 @@ class _Episode:
     turns: list[dict] = field(default_factory=list)
 
 
+def burst_phase_reached(prev_phase: float, phase: float, target: float) -> bool:
+    """Whether the hover should burst now: the phase node's azimuth (rad) moved from ``prev_phase`` to
+    ``phase`` in the last control step and ``target`` is within half of that step ahead of ``phase`` along
+    the rotation, or was passed during that step (the first step past it; the rotation's rate varies from step
+    to step, so a window of half a step either side alone can be jumped). Once per rotation either way."""
+    moved = wrap_angle(phase - prev_phase)
+    sense = 1.0 if moved > 0 else -1.0
+    togo = wrap_angle(target - phase) * sense          # along the rotation, ahead > 0
+    passed = wrap_angle(target - prev_phase) * sense   # where the target lay when the step began
+    return 0.0 <= togo <= 0.5 * abs(moved) or 0.0 <= passed <= abs(moved)
+
+
 class RulePlanner:
     """Rule-based controller with a stable-baselines3-like ``predict``.
 
@@ -103,6 +115,11 @@ class RulePlanner:
     ``ObservationLayout.from_env(env, turn_map)``. control_dt: the env's step (s).
     ``action_of(rpm)`` maps a motor speed to the env's action (``for_env`` sets it up).
     """
+
+    #: A hover that has not met its phase after this many map periods bursts at the phase it has (a guard against
+    #: a phase that does not rotate; the phase node's lab-frame azimuth turns once in ~1.5 map periods at omega_l,
+    #: the head counter-rotating, so a shorter limit fires turns at the wrong phase).
+    HOVER_LIMIT_PERIODS = 3.0
 
     def __init__(self, turn_map: TurnMap, layout: ObservationLayout, control_dt: float, reach_radius_m: float,
                  action_of, config: PlannerConfig | None = None) -> None:
@@ -217,17 +234,14 @@ class RulePlanner:
         if ep.mode == "hover":
             phase = azimuth(node, ep.axis)
             if ep.prev_phase is not None:
-                rate = wrap_angle(phase - ep.prev_phase) / self.control_dt
                 ep.hover_steps += 1
-                # angle still to turn (signed, along the rotation); one step turns |rate| dt, so the
-                # window of half a step either side of zero is met exactly once per rotation
-                togo = wrap_angle(ep.target_phase - phase) * (1.0 if rate > 0 else -1.0)
-                wait = abs(togo) / max(abs(rate), 1e-9)
-                if wait <= 0.5 * self.control_dt or ep.hover_steps > 1.5 * self.period_steps:
+                timed_out = ep.hover_steps > self.HOVER_LIMIT_PERIODS * self.period_steps
+                if burst_phase_reached(ep.prev_phase, phase, ep.target_phase) or timed_out:
                     # this step is the first of max(1, t_c / control_dt) steps at omega_h
                     ep.mode, ep.burst_left = "burst", max(1, round(ep.plan["t_c"] / self.control_dt)) - 1
                     ep.plan["burst_step"] = ep.step
                     ep.plan["phase_error_deg"] = math.degrees(wrap_angle(phase - ep.target_phase))
+                    ep.plan["hover_timed_out"] = bool(timed_out)
                     ep.turns.append(dict(ep.plan))
                     return wh
             ep.prev_phase = phase

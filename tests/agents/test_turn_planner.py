@@ -96,3 +96,38 @@ def test_turn_choice_keeps_course_or_predicts_a_better_line():
     plan = planner._plan_turn(head, d, np.array([0.0, 0.2, 0.0]), node)
     assert plan is not None and plan["predicted_miss_m"] < 0.01 < plan["miss_straight_m"]
     assert 45.0 < plan["theta_deg"] < 122.5  # about a right angle, less what the displacement does
+
+
+
+@pytest.mark.parametrize("sense", [1.0, -1.0])
+@pytest.mark.parametrize("target_deg", [0.0, 2.1, 179.0, -179.0, 91.3])
+def test_hover_bursts_at_the_first_step_near_or_past_the_phase(sense, target_deg):
+    from agents.turn_planner import burst_phase_reached
+    from flagellum_env.turn_geometry import wrap_angle
+
+    target = np.radians(target_deg)
+    rng = np.random.default_rng(int(abs(target_deg) * 10) + (7 if sense > 0 else 0))
+    for start_deg in np.linspace(-180.0, 180.0, 37):
+        for steps_deg in (np.full(200, 4.0), rng.uniform(3.5, 4.5, 200)):  # steady, and varying as at omega_l
+            travelled = np.radians(np.concatenate([[0.0], np.cumsum(steps_deg)]))
+            phases = wrap_angle(sense * travelled + np.radians(start_deg))
+            fired = next(k for k in range(1, len(phases))
+                         if burst_phase_reached(float(phases[k - 1]), float(phases[k]), target))
+            # never later than the first step past the phase (the rotation reaches it within one turn) ...
+            ahead0 = np.radians(np.mod((target_deg - start_deg) * sense, 360.0))
+            first_past = int(np.argmax(travelled >= ahead0 - 1e-12))
+            assert fired <= max(first_past, 1)
+            # ... and never earlier than half a step before it
+            err = np.degrees(wrap_angle(phases[fired] - target)) * sense
+            assert -0.5 * steps_deg[fired - 1] - 1e-9 <= err <= steps_deg[fired - 1] + 1e-9
+
+
+def test_hover_window_alone_could_be_jumped_when_steps_lengthen():
+    # the case seen on a held-out path: just over half a 4 deg step ahead, then just over half a 4.4 deg step past
+    from agents.turn_planner import burst_phase_reached
+
+    a, b, c = 0.0, np.radians(4.0), np.radians(4.0 + 4.4)
+    target = b + np.radians(2.1)
+    assert not burst_phase_reached(a, b, target)
+    assert burst_phase_reached(b, c, target)
+    assert not burst_phase_reached(c, c + np.radians(4.0), target)  # not again on the next step
