@@ -298,8 +298,12 @@ class OnlineTurnMap:
         burst allowed before a clock reading (s)."""
         cfg = self.config
         map_t = t_fly + self.shift_s
-        # beyond the map's recorded ratios too: the burst is then timed from the last reading before it
+        # beyond the map's recorded ratios too: the burst is then timed from the last reading before it; not a
+        # burst planned to end before the map's L'/L falls below ratio_valid (no reading would come: it is flown
+        # by time)
         clock = map_t - self.bias_s if (cfg.fly_by_ratio and self._ratio is not None) else None
+        if clock is not None and clock < float(self._ratio[0][0]):
+            clock = None
         longest = t_fly - self.bias_s + cfg.burst_max_sigmas * math.hypot(self.shift_std_s, self.bias_std_s)
         return {"map_t": map_t, "clock_map_t": clock, "max_burst_s": max(longest, t_fly)}
 

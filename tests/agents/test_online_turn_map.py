@@ -228,6 +228,25 @@ def test_ratio_branch_inverts_and_a_burst_plan_targets_it(faithful_map):
     assert OnlineTurnMap(faithful_map, OnlineMapConfig(fly_by_ratio=False)).burst_plan(6.0)["clock_map_t"] is None
 
 
+def test_a_burst_planned_to_end_before_buckling_shows_is_flown_by_time(faithful_map):
+    # L'/L leaves ratio_valid only at the map's first ratio time (~4.9 s at faithful): a burst planned to stop
+    # before it would wait for a clock reading that never comes and be cut at its longest length instead
+    # (development: small corrections planned at 4.2 s flew 4.9 s and turned ~10 deg instead of ~5)
+    om = OnlineTurnMap(faithful_map)
+    t_on = float(om._ratio[0][0])
+    assert 4.0 < t_on < 6.0, "the map's buckling time moved: the test lost its subject"
+    assert om.burst_plan(t_on - 0.7)["clock_map_t"] is None
+    assert om.burst_plan(t_on + 0.1)["clock_map_t"] == pytest.approx(t_on + 0.1)
+    om.shift_s, om.bias_s = 0.5, 0.0  # an early buckler: the same burst reaches the clock's range in map time
+    assert om.burst_plan(t_on - 0.4)["clock_map_t"] == pytest.approx(t_on + 0.1)
+    # flown by time, the burst lasts its planned steps
+    planner = _burst_planner(faithful_map)
+    ep = planner._new_episode()
+    ep.turns.append({"t_c": 4.2, "burst_step": 0, "clock_map_t": None, "max_burst_s": 4.9})
+    ep.burst_left = round(4.2 / 0.1) - 1
+    assert _fly(planner, ep, [1.0] * 80) == 42 and ep.turns[-1]["stopped_by"] == "time"
+
+
 def test_the_ratio_clock_says_nothing_where_the_ratio_pauses(faithful_map):
     # the faithful map's L'/L pauses at ~0.478 from 7.6 to 7.8 s while the turn grows from 102 to 128 deg
     om = OnlineTurnMap(faithful_map)
