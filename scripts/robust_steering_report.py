@@ -434,7 +434,13 @@ against 3.2; worse on 6 paths, better on 3, one tie). Max Δz/ΔL on the planar 
 The hover: over the 449 turns of this set no turn of either planner at nominal, ±5 % or with the helix ±10 % was
 flown more than 5° off its phase; one hover timed out (the rule planner at ±10 % on planar_6801, after its first
 128° turn: 3 map periods without the phase node reaching the planned azimuth, flown 153° off; that episode was
-lost anyway).
+lost anyway). Replayed (deterministic; seed 6806): during that hover the phase node's azimuth about the heading
+measured when the hover began did not turn at all, it swung between -32° and +13° with the wobble period, and the
+planned azimuth was 150°, so no waiting could reach it. An azimuth that swings instead of turning is what a
+flagellum axis tilted off the measured heading by more than the node's radius over its distance along the axis
+gives (inferred, not measured; L'/L was still 0.984 at the hover's start, rising to 1.005). Re-measuring
+the heading, or re-planning, when the phase does not advance is the remedy not yet built; firing after the time-out
+is what both planners do now.
 
 Why the nominal swimmer loses, read from the turn records (`results.jsonl`): where a path starts with a turn of
 100° or more, the adaptive planner flies 77-84° (the map's large turns count as going "anywhere" until two turns
