@@ -99,8 +99,9 @@ class _Episode:
 def burst_phase_reached(prev_phase: float, phase: float, target: float) -> bool:
     """Whether the hover should burst now: the phase node's azimuth (rad) moved from ``prev_phase`` to
     ``phase`` in the last control step and ``target`` is within half of that step ahead of ``phase`` along
-    the rotation, or was passed during that step (the first step past it; the rotation's rate varies from step
-    to step, so a window of half a step either side alone can be jumped). Once per rotation either way."""
+    the rotation, or was passed during that step (the rotation's rate varies from step to step, so a window of
+    half a step either side alone can be jumped). Both can hold on two steps in a row; the hover bursts at the
+    first, so never later than the first step past the target."""
     moved = wrap_angle(phase - prev_phase)
     sense = 1.0 if moved > 0 else -1.0
     togo = wrap_angle(target - phase) * sense          # along the rotation, ahead > 0
