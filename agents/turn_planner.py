@@ -92,6 +92,8 @@ class _Episode:
     axis: np.ndarray | None = None              # heading the hover phase is measured about
     prev_phase: float | None = None
     hover_steps: int = 0
+    hover_travel: float = 0.0                   # rad the phase node turned (signed) since the hover began
+    hover_restarts: int = 0                     # hovers given up for this turn (``hover_phase_stuck``)
     plan: dict = field(default_factory=dict)
     turns: list[dict] = field(default_factory=list)
 
@@ -109,6 +111,17 @@ def burst_phase_reached(prev_phase: float, phase: float, target: float) -> bool:
     return 0.0 <= togo <= 0.5 * abs(moved) or 0.0 <= passed <= abs(moved)
 
 
+def hover_phase_stuck(hover_steps: int, travel_rad: float, period_steps: int, restarts: int,
+                      max_restarts: int) -> bool:
+    """Whether a hover should be given up: after 1.5 map periods (``period_steps`` control steps each; the phase
+    node's lab-frame azimuth turns about once per period at omega_l) the azimuth has turned (``travel_rad``, signed
+    sum of its steps) less than once, so it swings about the measured heading instead of turning round it, and
+    fewer than ``max_restarts`` hovers of this turn were given up already (replayed: a heading measured while the
+    swimmer still turned after a 128 deg burst lay 22 deg off the flagellum's axis; the azimuth about it swung
+    between -32 and +13 deg for 27 s)."""
+    return hover_steps > 1.5 * period_steps and abs(travel_rad) < 2.0 * math.pi and restarts < max_restarts
+
+
 class RulePlanner:
     """Rule-based controller with a stable-baselines3-like ``predict``.
 
@@ -121,6 +134,9 @@ class RulePlanner:
     #: a phase that does not rotate; the phase node's lab-frame azimuth turns once in ~1.5 map periods at omega_l,
     #: the head counter-rotating, so a shorter limit fires turns at the wrong phase).
     HOVER_LIMIT_PERIODS = 3.0
+    #: How many times a hover whose phase does not turn (``hover_phase_stuck``) is given up for a new heading
+    #: before the time-out fires the turn as it stands.
+    HOVER_RESTARTS = 2
 
     def __init__(self, turn_map: TurnMap, layout: ObservationLayout, control_dt: float, reach_radius_m: float,
                  action_of, config: PlannerConfig | None = None) -> None:
@@ -236,13 +252,23 @@ class RulePlanner:
             phase = azimuth(node, ep.axis)
             if ep.prev_phase is not None:
                 ep.hover_steps += 1
+                ep.hover_travel += wrap_angle(phase - ep.prev_phase)
+                reached = burst_phase_reached(ep.prev_phase, phase, ep.target_phase)
                 timed_out = ep.hover_steps > self.HOVER_LIMIT_PERIODS * self.period_steps
-                if burst_phase_reached(ep.prev_phase, phase, ep.target_phase) or timed_out:
+                if not reached and not timed_out and self._phase_stuck(ep):
+                    # the phase swings instead of turning: the heading it is measured about is off the
+                    # flagellum's axis (a heading still turning after the last burst); measure it again
+                    ep.hover_restarts += 1
+                    ep.mode, ep.low_since = "cruise", ep.step
+                    return wl
+                if reached or timed_out:
                     # this step is the first of max(1, t_c / control_dt) steps at omega_h
                     ep.mode, ep.burst_left = "burst", max(1, round(ep.plan["t_c"] / self.control_dt)) - 1
                     ep.plan["burst_step"] = ep.step
                     ep.plan["phase_error_deg"] = math.degrees(wrap_angle(phase - ep.target_phase))
                     ep.plan["hover_timed_out"] = bool(timed_out)
+                    ep.plan["hover_restarts"] = ep.hover_restarts
+                    ep.hover_restarts = 0
                     ep.turns.append(dict(ep.plan))
                     return wh
             ep.prev_phase = phase
@@ -255,11 +281,17 @@ class RulePlanner:
         if plan is not None:
             plan = self._review_plan(ep, plan, obs)
         if plan is None:
+            ep.hover_restarts = 0
             return wl
         # hover at omega_l from here until the phase node reaches the planned azimuth
         ep.mode, ep.plan, ep.axis = "hover", plan, d
-        ep.target_phase, ep.prev_phase, ep.hover_steps = plan["burst_phase"], azimuth(node, d), 0
+        ep.target_phase, ep.prev_phase, ep.hover_steps, ep.hover_travel = plan["burst_phase"], azimuth(node, d), 0, 0.0
         return wl
+
+    def _phase_stuck(self, ep: _Episode) -> bool:
+        """True when the hover should give up and measure the heading again (``hover_phase_stuck``)."""
+        return hover_phase_stuck(ep.hover_steps, ep.hover_travel, self.period_steps, ep.hover_restarts,
+                                 self.HOVER_RESTARTS)
 
     def _new_episode(self) -> _Episode:
         """The memory of a new episode (subclasses may remember more)."""

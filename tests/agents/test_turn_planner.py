@@ -131,3 +131,21 @@ def test_hover_window_alone_could_be_jumped_when_steps_lengthen():
     assert not burst_phase_reached(a, b, target)
     assert burst_phase_reached(b, c, target)
     assert not burst_phase_reached(c, c + np.radians(4.0), target)  # not again on the next step
+
+
+def test_a_hover_whose_phase_swings_is_given_up_and_one_that_turns_is_not():
+    from agents.turn_planner import hover_phase_stuck
+    from flagellum_env.turn_geometry import wrap_angle
+
+    period = 90
+    # the replayed case: the azimuth about a heading 22 deg off the flagellum's axis swings between -32 and +13 deg
+    swing = np.radians(-10.0 + 22.5 * np.sin(2 * np.pi * np.arange(300) / period))
+    turning = wrap_angle(np.radians(0.8 * 4.0) * np.arange(300))  # a slow rotation: 3.2 deg per step
+    for phases, stuck_at in ((swing, int(1.5 * period) + 1), (turning, None)):
+        travel, first = 0.0, None
+        for k in range(1, len(phases)):
+            travel += wrap_angle(phases[k] - phases[k - 1])
+            if first is None and hover_phase_stuck(k, travel, period, 0, 2):
+                first = k
+        assert first == stuck_at
+    assert not hover_phase_stuck(200, 0.1, period, 2, 2)  # restarts used up: the time-out fires the turn
