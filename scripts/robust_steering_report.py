@@ -438,9 +438,13 @@ lost anyway). Replayed (deterministic; seed 6806): during that hover the phase n
 measured when the hover began did not turn at all, it swung between -32° and +13° with the wobble period, and the
 planned azimuth was 150°, so no waiting could reach it. An azimuth that swings instead of turning is what a
 flagellum axis tilted off the measured heading by more than the node's radius over its distance along the axis
-gives (inferred, not measured; L'/L was still 0.984 at the hover's start, rising to 1.005). Re-measuring
-the heading, or re-planning, when the phase does not advance is the remedy not yet built; firing after the time-out
-is what both planners do now.
+gives (inferred, not measured; L'/L was still 0.984 at the hover's start, rising to 1.005). Built after this
+set's run (commit 24a4a99; not in the numbers above, and this set cannot judge it): a hover whose phase node has
+turned less than once in 1.5 map periods is given up and the heading measured again over one period (at most twice
+per turn, then the time-out fires as before; `hover_phase_stuck`, turns record `hover_restarts`). The replayed
+episode then flew that turn 1.2° off its phase after one restart; on the development paths (nominal with both
+planners, ±5 % and ±10 % with the adaptive planner, 64 episodes) no hover swung and every episode came out the
+same as before it.
 
 Why the nominal swimmer loses, read from the turn records (`results.jsonl`): where a path starts with a turn of
 100° or more, the adaptive planner flies 77-84° (the map's large turns count as going "anywhere" until two turns
