@@ -131,8 +131,8 @@ class RulePlanner:
     """
 
     #: A hover that has not met its phase after this many map periods bursts at the phase it has (a guard against
-    #: a phase that does not rotate; the phase node's lab-frame azimuth turns once in ~1.5 map periods at omega_l,
-    #: the head counter-rotating, so a shorter limit fires turns at the wrong phase).
+    #: a phase that does not rotate; the phase node's lab-frame azimuth turns about once per map period at omega_l,
+    #: so the earlier limit of 1.5 periods fired a turn at the wrong phase whenever one pass was missed).
     HOVER_LIMIT_PERIODS = 3.0
     #: How many times a hover whose phase does not turn (``hover_phase_stuck``) is given up for a new heading
     #: before the time-out fires the turn as it stands.

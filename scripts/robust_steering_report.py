@@ -396,7 +396,8 @@ development paths:
    this changes too): the burst starts at the first control step within half a step before the planned phase *or
    past it* (`agents.turn_planner.burst_phase_reached`); before, only the window of half a step either side
    counted, which a step longer than the one before can jump (the phase node turns 3.5-4.5° per 0.1 s step at
-   10 rpm), and the hover then waited for its limit of 1.5 map periods (~one lab-frame rotation, ~9 s) and flew
+   10 rpm), and the hover then waited for its limit of 1.5 map periods (13.5 s; the node passes the phase once per
+   ~9 s map period, so one missed pass runs into it) and flew
    the turn at whatever phase it had: nominal planar_6600 of the set below, a 34° correction flown 156° off its
    phase. The limit is now 3 map periods, and each turn records `phase_error_deg` and `hover_timed_out`
    (`flagellum evaluate` keeps the planners' turns in results.jsonl). On the development episodes below no
