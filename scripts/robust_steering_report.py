@@ -392,7 +392,7 @@ HOVER = Path("results/eval_hover")
 HOVER_DESIGN = """The planner of the two sections below (e4e4c15) with two fixes, each motivated by a failure and checked on the
 development paths:
 
-1. **The hover never misses its phase** (commit 17ee099; shared with the rule planner, the paper's baseline, which
+1. **The hover no longer jumps its phase** (commit 17ee099; shared with the rule planner, the paper's baseline, which
    this changes too): the burst starts at the first control step within half a step before the planned phase *or
    past it* (`agents.turn_planner.burst_phase_reached`); before, only the window of half a step either side
    counted, which a step longer than the one before can jump (the phase node turns 3.5-4.5° per 0.1 s step at
@@ -412,13 +412,13 @@ Development (paths 5200-5203 and 5300-5303, swimmers 5200-5207 and 5300-5307, 16
 cross-track 0.665 cm against the rule planner's 0.644 cm (16/16 each; before fix 2 on the 5300 half 0.754 against
 0.660 cm), ±5 % 16/16, ±10 % 13/16 (both as before). Tried on the same development paths and not kept: the ratio-turn bias prior at 0.15 s
 instead of 0.3 s (nominal 0.750 cm on the 5300 half, no better); and, for the nominal swimmer's sake, letting an
-unconfirmed large turn go "anywhere" with a chance of at most 0.3 instead of 1 (`large_turn_anything`; on these
+unconfirmed large turn go "anywhere" with a chance of at most 0.3 instead of 1 (a variant in a worktree, not in the code; on these
 development swimmers 3 of 36 unconfirmed turns of 100-180° came out more than 45° off, at ±10 %; none at ±5 %):
 nominal 0.649 cm against the rule planner's 0.644 cm (the first turn of planar_5302 became the rule planner's
 128° instead of 114°), ±5 % 16/16, but ±10 % 11/16 instead of 13/16 — the nominal swimmer's gain is paid for by
 the swimmers the planner is for."""
-HOVER_HELD_OUT = """Development: the paths and swimmers named above; no path or swimmer of this section was seen before the run
-and nothing was changed after it. Paths drawn with seeds 6800-6804 (`--count 5`: five planar, five 3-D, three
+HOVER_HELD_OUT = """Development: the paths and swimmers named above; no path or swimmer of this section was seen before the run,
+and the numbers are those of the evaluated commit (the hover restart described under the verdict came after them). Paths drawn with seeds 6800-6804 (`--count 5`: five planar, five 3-D, three
 waypoints, segments 12-20 cm, turns 30-150°, reach radius 1.5 cm), swimmers from env seeds 6800-6809 (the k-th
 path sorted by name gets seed 6800 + k), preset `faithful`, two workers, from a worktree at c4d707e, 16:17-16:45 UTC;
 both controllers keep the nominal turn map. The paper's square was run again (both fixes can change it)."""
@@ -579,7 +579,7 @@ behind, drifting to the corridor's edge). (4) Out-of-plane drift: max Δz/ΔL on
 #: the held-out evaluations of the adaptive planner against the rule planner, newest first: (title, results folder,
 #: (design, what was held out, commands), the folder of its square run under it or None, findings, figure prefix)
 ADAPTIVE_EVALUATIONS = (
-    ("## The hover that cannot miss its phase, and small bursts flown by time (controller `adaptive`, issue #23; "
+    ("## A hover that no longer jumps its phase, and small bursts flown by time (controller `adaptive`, issue #23; "
      "measured 2026-12-03)", HOVER, (HOVER_DESIGN, HOVER_HELD_OUT, HOVER_COMMANDS), "square", HOVER_FINDINGS, "hover"),
     ("## The same planner on a second held-out set (controller `adaptive`, issue #23; measured 2026-12-03)",
      SOFTSWIM2, (SOFTSWIM2_DESIGN, SOFTSWIM2_HELD_OUT, SOFTSWIM2_COMMANDS), None, SOFTSWIM2_FINDINGS, "softswim2"),
