@@ -3,9 +3,12 @@
     python scripts/robust_steering_report.py
 
 Inputs (each made by a committed command; missing ones are reported as not measured):
+- results/eval_restart/<level>/results.json for level nominal, rand05, rand10, rand10_helix10 and
+  results/eval_restart/square/summary.json: the planners with the hover restart (24a4a99), held-out paths and
+  swimmers from seeds 6900 (section first in the report);
 - results/eval_hover/<level>/results.json for level nominal, rand05, rand10, rand10_helix10 and
   results/eval_hover/square/summary.json: the adaptive planner with the hover and small-burst fixes (c4d707e) and
-  the rule planner, held-out paths and swimmers from seeds 6800 (section first in the report);
+  the rule planner, held-out paths and swimmers from seeds 6800;
 - results/eval_softswim2/<level>/results.json for level nominal, rand05, rand10, rand10_helix10: the same
   planner on a second held-out set, seeds 6600 (no square run);
 - results/eval_softswim/<level>/results.json for level nominal, rand05, rand10, rand10_helix10 and
@@ -388,6 +391,42 @@ One set of ten paths is a small sample: on the previous set (6400) the version b
 waypoint (856 s, five bursts)."""
 
 
+RESTART = Path("results/eval_restart")
+RESTART_DESIGN = """The planner of the next section with the hover restart (commit 24a4a99; both planners): a hover whose phase
+node has turned less than once in 1.5 map periods is given up and the heading measured again (at most twice per
+turn). Built after the next section's held-out run from a replay of one of its episodes, so that set cannot judge
+it; this is a fresh set for the planner as it stands (HEAD 4f52d96: the commits after 24a4a99 change text only)."""
+RESTART_HELD_OUT = """Paths drawn with seeds 6900-6904 (`--count 5`), swimmers from env seeds 6900-6909, preset `faithful`, two
+workers, 17:48-18:12 UTC, from a worktree at 4f52d96. No path or swimmer of this set was seen before the run and nothing
+was changed after it."""
+RESTART_COMMANDS = held_out_commands("results/eval_restart", 6900, square=True)
+RESTART_FINDINGS = """**Verdict (fourth held-out set, 10 paths per level, 2026-12-03):** within ±5 % (helix ±2 %) the adaptive
+planner finished 9 of 10 paths (rule 2 of 10): **≥ 90 % reached** (just); within ±10 % (helix ±4 %) 8 of 10 (rule 2
+of 10): **≥ 75 % reached**; with the helix within ±10 % as well 7 of 10. No episode ended in a `SimulationError`.
+The paper's square (R10): the same episodes as in the next section (the restart did not come into play): Δz/ΔL
+4.53 % < 5 % with the default controller (rule 4.85 %). **The nominal target is not met**: the adaptive planner finished 9 of 10 (rule 10 of 10), mean cross-track
+1.04 cm against 0.67 cm (0.76 against 0.65 cm over the nine both finished; worse on 6 paths, better on 4). Max
+Δz/ΔL on the planar held-out paths, nominal: adaptive 27.9 % (planar_6903, five bursts; the others 4.9-7.1 %), rule
+8.3 %.
+
+No hover swung or timed out on this set and no turn was flown more than 5° off its phase (481 turns): the restart
+never came into play, so this set measures the planner of the next section on fresh paths and swimmers.
+
+What failed: nominal 3d_6901: at its first waypoint the adaptive planner turned 84° where the rule planner turned
+102° (the capped first large turn, as in the next section), passed the second waypoint and then circled it: nine
+U-turns of 128-178°, each as the map predicted (azimuth errors ≤ 12°), each ending 4-8 cm to one side of the
+waypoint or the other, until the episode ended (1402 s) — the issue's failure kind 1 (circling a waypoint about as
+far away as a turn carries the head), here on the nominal swimmer. ±5 % planar_6904 reached two waypoints in 11
+bursts, not the third (1456 s). ±10 %: 3d_6902 (a late buckler, shift read -1.6 s before the first turn;
+bursts of 9-13 s) ended after one waypoint (501 s); planar_6900 (shift -0.9 s) flew 23 bursts of ~10 s
+without reaching its first waypoint.
+
+All four fresh held-out sets together (40 paths per level; 6500 and 6600 with the planner before the hover and
+small-burst fixes): ±5 % 38 of 40, ±10 % 34 of 40, helix ±10 % 30 of 40; rule 6 and 2 of 40. Nominal:
+adaptive 38 of 40, rule 40 of 40, and the adaptive planner's mean cross-track above the rule planner's on every
+set."""
+
+
 HOVER = Path("results/eval_hover")
 HOVER_DESIGN = """The planner of the two sections below (e4e4c15) with two fixes, each motivated by a failure and checked on the
 development paths:
@@ -579,6 +618,8 @@ behind, drifting to the corridor's edge). (4) Out-of-plane drift: max Δz/ΔL on
 #: the held-out evaluations of the adaptive planner against the rule planner, newest first: (title, results folder,
 #: (design, what was held out, commands), the folder of its square run under it or None, findings, figure prefix)
 ADAPTIVE_EVALUATIONS = (
+    ("## The hover restart on a fourth held-out set (controller `adaptive`, issue #23; measured 2026-12-03)", RESTART,
+     (RESTART_DESIGN, RESTART_HELD_OUT, RESTART_COMMANDS), "square", RESTART_FINDINGS, "restart"),
     ("## A hover that no longer jumps its phase, and small bursts flown by time (controller `adaptive`, issue #23; "
      "measured 2026-12-03)", HOVER, (HOVER_DESIGN, HOVER_HELD_OUT, HOVER_COMMANDS), "square", HOVER_FINDINGS, "hover"),
     ("## The same planner on a second held-out set (controller `adaptive`, issue #23; measured 2026-12-03)",
