@@ -255,7 +255,8 @@ class RulePlanner:
                 ep.hover_travel += wrap_angle(phase - ep.prev_phase)
                 reached = burst_phase_reached(ep.prev_phase, phase, ep.target_phase)
                 timed_out = ep.hover_steps > self.HOVER_LIMIT_PERIODS * self.period_steps
-                if not reached and not timed_out and self._phase_stuck(ep):
+                if not reached and not timed_out and hover_phase_stuck(
+                        ep.hover_steps, ep.hover_travel, self.period_steps, ep.hover_restarts, self.HOVER_RESTARTS):
                     # the phase swings instead of turning: the heading it is measured about is off the
                     # flagellum's axis (a heading still turning after the last burst); measure it again
                     ep.hover_restarts += 1
@@ -287,11 +288,6 @@ class RulePlanner:
         ep.mode, ep.plan, ep.axis = "hover", plan, d
         ep.target_phase, ep.prev_phase, ep.hover_steps, ep.hover_travel = plan["burst_phase"], azimuth(node, d), 0, 0.0
         return wl
-
-    def _phase_stuck(self, ep: _Episode) -> bool:
-        """True when the hover should give up and measure the heading again (``hover_phase_stuck``)."""
-        return hover_phase_stuck(ep.hover_steps, ep.hover_travel, self.period_steps, ep.hover_restarts,
-                                 self.HOVER_RESTARTS)
 
     def _new_episode(self) -> _Episode:
         """The memory of a new episode (subclasses may remember more)."""
