@@ -103,6 +103,7 @@ class _AdaptiveEpisode(_Episode):
     azimuths: list[float] = field(default_factory=list)  # of the phase node about the first X_b, rad
     axis: np.ndarray | None = None
     cruise_used: bool = False
+    cruise_reading: dict | None = None            # OnlineTurnMap.observe_cruise's, before the first turn
 
 
 def cruise_reference(params, numerics, omega_l_rpm: float, phase_node: int, duration_s: float, sample_s: float,
@@ -225,7 +226,7 @@ class AdaptivePlanner(RulePlanner):
         if it beats swimming straight by ``PlannerConfig.improvement_m`` and swimming on first would not."""
         if not ep.cruise_used and self.reference is not None and not ep.turns and len(ep.strains) >= 3:
             seen = summarise_cruise(np.array(ep.strains), np.array(ep.azimuths), self.control_dt)
-            ep.online.observe_cruise(seen, self.reference)
+            ep.cruise_reading = ep.online.observe_cruise(seen, self.reference)
             ep.cruise_used = True
         if ep.segment is None:
             ep.segment = (np.zeros(3), target.copy())  # the path starts at the head's start
@@ -245,6 +246,9 @@ class AdaptivePlanner(RulePlanner):
         on = ep.online
         plan.update(shift_s=on.shift_s, shift_std_s=on.shift_std_s, bias_s=on.bias_s,
                     psi_offset_deg=math.degrees(on.psi_offset_rad), **on.burst_plan(plan["t_c"]))
+        if not ep.turns and ep.cruise_reading is not None:  # the first turn records what the cruise read
+            plan.update(cruise={k: ep.cruise_reading[k] for k in ("strain_relative_change", "rate_relative_change",
+                                                                   "shift_reading_s", "cruise_matched")})
         return plan
 
     def _miss_scale(self, miss0: float) -> float:

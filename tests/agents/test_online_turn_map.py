@@ -210,6 +210,28 @@ def test_direction_spread_grows_with_the_turn_until_turns_confirm_the_map(faithf
     assert not never.map_confirmed
 
 
+def test_a_cruise_like_the_maps_swimmer_trusts_the_map_until_a_turn_contradicts_it(faithful_map):
+    ref = _cruise(4.6e-3, -0.667)
+
+    def spread(om: OnlineTurnMap, theta_deg: float) -> tuple[float, float]:
+        std, anything = om.direction_spread(np.radians(theta_deg))
+        return round(math.degrees(float(std)), 9), round(float(anything), 9)
+
+    matched = OnlineTurnMap(faithful_map, OnlineMapConfig(fly_by_ratio=False))
+    rec = matched.observe_cruise(_cruise(4.6e-3 * 1.004, -0.667 * 0.993), ref)  # within 1 % in both
+    assert rec["cruise_matched"] and matched.map_confirmed
+    assert spread(matched, 150.0) == spread(matched, 180.0) == (10.0, 0.0)  # a large first turn is trusted
+    matched.observe(7.0, 59.0, math.radians(30.0), planned_theta_deg=59.0)  # a turn 30 deg off: trust withdrawn
+    assert not matched.map_confirmed and spread(matched, 160.0) == (20.0, 1.0)
+    for seen in (_cruise(4.6e-3 * 1.02, -0.667), _cruise(4.6e-3, -0.667 * 1.012)):  # one of them off by > 1 %
+        off = OnlineTurnMap(faithful_map, OnlineMapConfig(fly_by_ratio=False))
+        assert not off.observe_cruise(seen, ref)["cruise_matched"] and not off.map_confirmed
+        assert spread(off, 160.0) == (20.0, 1.0)
+    for cfg in (OnlineMapConfig(cruise_match_tol=0.0), OnlineMapConfig(lift_after_turns=0)):  # switched off
+        om = OnlineTurnMap(faithful_map, cfg)
+        assert not om.observe_cruise(ref, ref)["cruise_matched"] and not om.map_confirmed
+
+
 def test_ratio_branch_inverts_and_a_burst_plan_targets_it(faithful_map):
     om = OnlineTurnMap(faithful_map)
     t, r = om._ratio
