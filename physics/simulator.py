@@ -63,8 +63,8 @@ from physics.params import NumericsConfig, SwimmerParams
 from physics.step_context import StepContext, SystemDescription
 from physics.step_solvers import BandedNewtonSolver, DenseChordSolver
 from physics.threads import one_blas_thread
-from physics.time_integrator import (SAFETY, SHRINK_MIN, ContractionRate, History, StepBase, error_norm, next_step,
-                                     split_remaining, step_base, step_spans, velocity_of)
+from physics.time_integrator import (SAFETY, SHRINK_MIN, ContractionRate, History, StepBase, error_norm, extrapolate,
+                                     next_step, split_remaining, step_base, step_spans, velocity_of)
 
 
 @dataclass
@@ -189,6 +189,9 @@ class Simulator:
         # error estimate, restarted at every kink of the motion (a start or a motor-speed change)
         self._history = History()
         self._restart = True
+        # the flagellum's node forces at the last accepted points since the restart (t s, (n, 3) N), oldest first:
+        # the Newton-Krylov step starts its force unknowns from their extrapolation (``time_integrator.extrapolate``)
+        self._force_points: list[tuple[float, np.ndarray]] = []
         self._h = self.numerics.h_start  # the adaptive controller's next step, s
         self._base: StepBase | None = None
         self.contraction = ContractionRate()  # the nonlinear iteration's convergence test (adaptive steps)
@@ -227,6 +230,7 @@ class Simulator:
                              f"<= {MAX_RPM * RPM_TO_RAD_S:.6g} rad/s ({MAX_RPM:g} rpm)")
         if float(omega_rad_s) != self.omega:
             self._restart = True  # the motion has a kink here: no multistep formula may cross it
+            self._force_points = []  # nor may the forces' extrapolation
         self.omega = float(omega_rad_s)
 
     @one_blas_thread
@@ -282,6 +286,7 @@ class Simulator:
         self._v_prev = None
         self._h_prev = -1.0
         self._restart = True
+        self._force_points = []
         self._h = self.numerics.h_start
 
     @property
@@ -433,7 +438,9 @@ class Simulator:
         if self._solver.krylov:  # the resistance was rebuilt: Newton-Krylov in the mobility form
             self.stats.krylov_steps += 1
             first = 1 if p.has_head else 0
-            return self._solver.mobility.solve(q, -self.node_forces[first:].ravel(), h)
+            forces = (extrapolate(self._force_points, self.time + base.h) if self._force_points
+                      else self.node_forces)  # the last forces where no accepted point since the restart
+            return self._solver.mobility.solve(q, -forces[first:].ravel(), h)
         if self.compiled_chord and compiled_chord_applies(self):
             return chord_solve(self, q, h)  # the iteration below, compiled (bit-identical)
         return self._chord_python(q, h)
@@ -566,6 +573,7 @@ class Simulator:
         self.motor_angle += h * self.omega
         self._solver.end_step()
         self.node_forces = nodes_of(f)  # the (n, 3) node blocks of f
+        self._force_points = [*self._force_points[-2:], (self.time, self.node_forces)]
         self.head_axial_torque = float(f[3]) if self.head_spins else 0.0
         self.motor_torque = float(grad[3])
         self.body_frame = transported_body_frame(self.body_frame, q[0:3], q[4:7], dq[3] - h * self.omega,

@@ -195,6 +195,25 @@ def base_kernel(times: np.ndarray, qs: tuple, vs: tuple, h: float, order: int):
     return q_hat, v_hat, h_eff, q_pred, s_all / s_but_oldest - 1.0
 
 
+def extrapolate(points: list[tuple[float, np.ndarray]], t_new: float) -> np.ndarray:
+    """The polynomial through ``points`` [(t_j s, y_j (n,)), ...] (1-3 of them, oldest first; order one less)
+    at ``t_new`` (s), by Newton's divided differences: the start of an iteration for quantities the scheme does
+    not integrate (the flagellum's node forces of the Newton-Krylov step), predicted as the BDF predictor
+    predicts q (as IDA predicts every component of a DAE: Hindmarsh et al., ACM TOMS 31, 2005, Sec. 2.1)."""
+    if not 1 <= len(points) <= 3:
+        raise ValueError(f"{len(points)} points are not allowed; allowed: 1 to 3")
+    t0, y0 = points[-1]
+    if len(points) == 1:
+        return y0.copy()
+    t1, y1 = points[-2]
+    d01 = (y0 - y1) / (t0 - t1)
+    if len(points) == 2:
+        return y0 + (t_new - t0) * d01
+    t2, y2 = points[-3]
+    d012 = (d01 - (y1 - y2) / (t1 - t2)) / (t0 - t2)
+    return y0 + (t_new - t0) * d01 + (t_new - t0) * (t_new - t1) * d012
+
+
 def error_norm(q_new: np.ndarray, base: StepBase, weights: np.ndarray, tol: float) -> float:
     """Estimated local error of an accepted iterate over the tolerance (<= 1: accept), max norm with
     ``weights`` (1/r0 on positions, 1 on twists). 0 if the step has no estimate."""

@@ -3,9 +3,12 @@
     python scripts/robust_steering_report.py
 
 Inputs (each made by a committed command; missing ones are reported as not measured):
+- results/eval_cruise/<level>/results.json for level nominal, rand05, rand10, rand10_helix10 and
+  results/eval_cruise/square/summary.json: the adaptive planner whose cruise can confirm the map (d348e58) and the
+  rule planner, held-out paths and swimmers from seeds 7400 (section first in the report);
 - results/eval_restart/<level>/results.json for level nominal, rand05, rand10, rand10_helix10 and
   results/eval_restart/square/summary.json: the planners with the hover restart (24a4a99), held-out paths and
-  swimmers from seeds 6900 (section first in the report);
+  swimmers from seeds 6900;
 - results/eval_hover/<level>/results.json for level nominal, rand05, rand10, rand10_helix10 and
   results/eval_hover/square/summary.json: the adaptive planner with the hover and small-burst fixes (c4d707e) and
   the rule planner, held-out paths and swimmers from seeds 6800;
@@ -391,6 +394,27 @@ One set of ten paths is a small sample: on the previous set (6400) the version b
 waypoint (856 s, five bursts)."""
 
 
+CRUISE = Path("results/eval_cruise")
+CRUISE_DESIGN = """The planner of the next section with one change (commit d348e58; the rule planner is unchanged): **a cruise
+that matches the map's swimmer confirms the map**. Before its first turn the adaptive planner reads the steady
+strain L'/L - 1 and the rotation rate of the flagellum at 10 rpm against the map swimmer's (`observe_cruise`); when
+both are within 1 % (`OnlineMapConfig.cruise_match_tol`), the map counts as confirmed for every turn (direction
+spread 10°, no turn "goes anywhere") until a turn contradicts it, as two confirming turns did before. The 31
+randomised swimmers of the shift fit (±10 %) differed from the reference by 3.3-21.6 % in the larger of the two
+changes, the development swimmers at ±5 % by 1.1-8.7 %; the nominal swimmer reads 0.00 %. So the swimmer the map
+was made for flies a large first turn whole, as the rule planner does, instead of 77-84° and a correction (the cause
+of the nominal gap on every earlier set); a swimmer that cruises differently keeps the cautious model. Development
+(paths 5200-5203 and 5300-5303): nominal 0.650 cm against the rule planner's 0.644 cm (was 0.665 cm), 16/16; at ±5 %
+every episode identical to before (no swimmer matched). The first turn's record keeps the cruise reading
+(`cruise`: relative changes, shift read, matched)."""
+CRUISE_HELD_OUT = """Development: the paths and swimmers named above; the earlier held-out sets (6500, 6600, 6800, 6900) were
+read to find the cause of the nominal gap. Paths drawn with seeds 7400-7404 (`--count 5`), swimmers from env seeds
+7400-7409, preset `faithful`, two workers, 19:05-19:40 UTC, from a worktree at d348e58. No path or swimmer of this set
+was seen before the run and nothing was changed after it."""
+CRUISE_COMMANDS = held_out_commands("results/eval_cruise", 7400, square=True)
+CRUISE_FINDINGS = """TBD"""
+
+
 RESTART = Path("results/eval_restart")
 RESTART_DESIGN = """The planner of the next section with the hover restart (commit 24a4a99; both planners): a hover whose phase
 node has turned less than once in 1.5 map periods is given up and the heading measured again (at most twice per
@@ -618,6 +642,9 @@ behind, drifting to the corridor's edge). (4) Out-of-plane drift: max Δz/ΔL on
 #: the held-out evaluations of the adaptive planner against the rule planner, newest first: (title, results folder,
 #: (design, what was held out, commands), the folder of its square run under it or None, findings, figure prefix)
 ADAPTIVE_EVALUATIONS = (
+    ("## A cruise that matches the map confirms it, on a fifth held-out set (controller `adaptive`, issue #23; "
+     "measured 2026-12-03)", CRUISE, (CRUISE_DESIGN, CRUISE_HELD_OUT, CRUISE_COMMANDS), "square", CRUISE_FINDINGS,
+     "cruise"),
     ("## The hover restart on a fourth held-out set (controller `adaptive`, issue #23; measured 2026-12-03)", RESTART,
      (RESTART_DESIGN, RESTART_HELD_OUT, RESTART_COMMANDS), "square", RESTART_FINDINGS, "restart"),
     ("## A hover that no longer jumps its phase, and small bursts flown by time (controller `adaptive`, issue #23; "

@@ -11,7 +11,6 @@ from agents.assets import default_turn_map
 from agents.adaptive_planner import AdaptivePlanner
 from agents.online_turn_map import OnlineMapConfig, OnlineTurnMap, shift_reading
 from agents.turn_map import TurnMap
-from agents.turn_planner import RulePlanner
 from flagellum_env.turn_measurement import CruiseObservables, summarise_cruise
 
 # a rising branch: 0 deg at 0 s, 10 deg at 4 s, then 30 deg/s up to 130 deg at 8 s

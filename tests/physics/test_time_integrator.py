@@ -12,8 +12,8 @@ import pytest
 from physics.elastic import banded_to_dense, elastic_hessian_banded_kernel
 from physics import MotorSchedule, Simulator, SimulationError, advance, configure, run_simulation
 from physics.params import RPM_TO_RAD_S
-from physics.time_integrator import (GROW_MAX, History, error_norm, next_step, split_remaining, step_base,
-                                     step_spans, velocity_of)
+from physics.time_integrator import (GROW_MAX, History, error_norm, extrapolate, next_step, split_remaining,
+                                     step_base, step_spans, velocity_of)
 
 
 def _quadratic(t):
@@ -135,6 +135,50 @@ def test_a_schedule_switch_is_a_step_boundary_and_restarts_the_history():
     order, h, omega = orders[i + 1]
     assert order == 1 and h == pytest.approx(n.h_start) and omega == pytest.approx(150 * RPM_TO_RAD_S)
     assert all(o[2] == pytest.approx(10 * RPM_TO_RAD_S) for o in orders[: i + 1])
+
+
+def test_extrapolate_is_exact_for_polynomials_one_degree_below_its_points():
+    rng = np.random.default_rng(3)
+    for k in (1, 2, 3):
+        times = np.sort(rng.uniform(0.0, 0.05, k))
+        t_new = times[-1] + rng.uniform(0.001, 0.02)
+        coef = rng.standard_normal((k + 1, 4))
+
+        def poly(t, degree):
+            return sum(coef[j] * t ** j for j in range(degree + 1))
+
+        exact = extrapolate([(t, poly(t, k - 1)) for t in times], t_new)
+        np.testing.assert_allclose(exact, poly(t_new, k - 1), rtol=1e-9, atol=1e-12)
+        above = extrapolate([(t, poly(t, k)) for t in times], t_new)  # one degree more: not reproduced
+        assert np.max(np.abs(above - poly(t_new, k))) > 1e-9
+    for bad in ([], [(0.0, np.zeros(2))] * 4):
+        with pytest.raises(ValueError, match=f"{len(bad)} points are not allowed"):
+            extrapolate(bad, 1.0)
+
+
+def test_newton_krylov_starts_the_forces_from_their_extrapolation_and_not_across_a_switch():
+    """The force unknowns of a Newton-Krylov step start from the quadratic through the last three accepted
+    steps' node forces; a motor-speed change restarts that history (its first step starts from the last forces)."""
+    p, n = configure("faithful", {"n_nodes": 24})
+    sim = Simulator(p, n)
+    sim.set_motor_speed(10 * RPM_TO_RAD_S)
+    advance(sim, 0.5)
+    sim.set_motor_speed(150 * RPM_TO_RAD_S)
+    assert sim._force_points == []
+    starts = []
+    solve = sim._solver.mobility.solve
+
+    def spy(q, y, h):
+        points = list(sim._force_points)
+        expected = extrapolate(points, sim.time + sim._base.h) if points else sim.node_forces
+        starts.append((len(points), np.array_equal(y, -expected[1:].ravel())))
+        return solve(q, y, h)
+
+    sim._solver.mobility.solve = spy
+    advance(sim, 1.0)
+    assert starts and all(same for _, same in starts)
+    assert 3 in {k for k, _ in starts}  # the quadratic (the first steps after the switch reuse the resistance)
+    assert len(sim._force_points) == 3
 
 
 def test_newton_jacobian_matches_finite_differences_of_the_bdf2_residual():
