@@ -63,8 +63,9 @@ from physics.params import NumericsConfig, SwimmerParams
 from physics.step_context import StepContext, SystemDescription
 from physics.step_solvers import BandedNewtonSolver, DenseChordSolver
 from physics.threads import one_blas_thread
-from physics.time_integrator import (SAFETY, SHRINK_MIN, ContractionRate, History, StepBase, error_norm, extrapolate,
-                                     next_step, split_remaining, step_base, step_spans, velocity_of)
+from physics.time_integrator import (EXTRAPOLATION_POINTS, SAFETY, SHRINK_MIN, ContractionRate, History, StepBase,
+                                     error_norm, extrapolate, next_step, split_remaining, step_base, step_spans,
+                                     velocity_of)
 
 
 @dataclass
@@ -189,8 +190,8 @@ class Simulator:
         # error estimate, restarted at every kink of the motion (a start or a motor-speed change)
         self._history = History()
         self._restart = True
-        # the flagellum's node forces at the last accepted points since the restart (t s, (n, 3) N), oldest first:
-        # the Newton-Krylov step starts its force unknowns from their extrapolation (``time_integrator.extrapolate``)
+        # the flagellum's node forces at the last accepted points since the restart (t s, (n, 3) N), oldest first, at
+        # most EXTRAPOLATION_POINTS: the Newton-Krylov step starts its force unknowns from their extrapolation
         self._force_points: list[tuple[float, np.ndarray]] = []
         self._h = self.numerics.h_start  # the adaptive controller's next step, s
         self._base: StepBase | None = None
@@ -573,7 +574,7 @@ class Simulator:
         self.motor_angle += h * self.omega
         self._solver.end_step()
         self.node_forces = nodes_of(f)  # the (n, 3) node blocks of f
-        self._force_points = [*self._force_points[-2:], (self.time, self.node_forces)]
+        self._force_points = [*self._force_points[1 - EXTRAPOLATION_POINTS:], (self.time, self.node_forces)]
         self.head_axial_torque = float(f[3]) if self.head_spins else 0.0
         self.motor_torque = float(grad[3])
         self.body_frame = transported_body_frame(self.body_frame, q[0:3], q[4:7], dq[3] - h * self.omega,

@@ -195,23 +195,28 @@ def base_kernel(times: np.ndarray, qs: tuple, vs: tuple, h: float, order: int):
     return q_hat, v_hat, h_eff, q_pred, s_all / s_but_oldest - 1.0
 
 
+#: accepted points the force extrapolation uses: a cubic, as the BDF3 predictor of q
+EXTRAPOLATION_POINTS = 4
+
+
 def extrapolate(points: list[tuple[float, np.ndarray]], t_new: float) -> np.ndarray:
-    """The polynomial through ``points`` [(t_j s, y_j (n,)), ...] (1-3 of them, oldest first; order one less)
-    at ``t_new`` (s), by Newton's divided differences: the start of an iteration for quantities the scheme does
-    not integrate (the flagellum's node forces of the Newton-Krylov step), predicted as the BDF predictor
-    predicts q (as IDA predicts every component of a DAE: Hindmarsh et al., ACM TOMS 31, 2005, Sec. 2.1)."""
-    if not 1 <= len(points) <= 3:
-        raise ValueError(f"{len(points)} points are not allowed; allowed: 1 to 3")
-    t0, y0 = points[-1]
-    if len(points) == 1:
-        return y0.copy()
-    t1, y1 = points[-2]
-    d01 = (y0 - y1) / (t0 - t1)
-    if len(points) == 2:
-        return y0 + (t_new - t0) * d01
-    t2, y2 = points[-3]
-    d012 = (d01 - (y1 - y2) / (t1 - t2)) / (t0 - t2)
-    return y0 + (t_new - t0) * d01 + (t_new - t0) * (t_new - t1) * d012
+    """The polynomial through ``points`` [(t_j s, y_j (n,)), ...] (1 to ``EXTRAPOLATION_POINTS`` of them, oldest
+    first; degree one less) at ``t_new`` (s), by Newton's divided differences: the start of an iteration for
+    quantities the scheme does not integrate (the flagellum's node forces of the Newton-Krylov step), predicted as
+    the BDF predictor predicts q (as IDA predicts every component of a DAE: Hindmarsh et al., ACM TOMS 31, 2005,
+    Sec. 2.1)."""
+    k = len(points)
+    if not 1 <= k <= EXTRAPOLATION_POINTS:
+        raise ValueError(f"{k} points are not allowed; allowed: 1 to {EXTRAPOLATION_POINTS}")
+    ts = [t for t, _ in points]
+    diff = [np.asarray(y, dtype=np.float64) for _, y in points]  # diff[m] becomes y[t_0, ..., t_m]
+    for level in range(1, k):
+        for m in range(k - 1, level - 1, -1):
+            diff[m] = (diff[m] - diff[m - 1]) / (ts[m] - ts[m - level])
+    out = diff[k - 1].copy()
+    for m in range(k - 2, -1, -1):  # Horner on the Newton form
+        out = diff[m] + (t_new - ts[m]) * out
+    return out
 
 
 def error_norm(q_new: np.ndarray, base: StepBase, weights: np.ndarray, tol: float) -> float:

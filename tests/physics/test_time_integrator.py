@@ -139,7 +139,7 @@ def test_a_schedule_switch_is_a_step_boundary_and_restarts_the_history():
 
 def test_extrapolate_is_exact_for_polynomials_one_degree_below_its_points():
     rng = np.random.default_rng(3)
-    for k in (1, 2, 3):
+    for k in (1, 2, 3, 4):
         times = np.sort(rng.uniform(0.0, 0.05, k))
         t_new = times[-1] + rng.uniform(0.001, 0.02)
         coef = rng.standard_normal((k + 1, 4))
@@ -151,14 +151,14 @@ def test_extrapolate_is_exact_for_polynomials_one_degree_below_its_points():
         np.testing.assert_allclose(exact, poly(t_new, k - 1), rtol=1e-9, atol=1e-12)
         above = extrapolate([(t, poly(t, k)) for t in times], t_new)  # one degree more: not reproduced
         assert np.max(np.abs(above - poly(t_new, k))) > 1e-9
-    for bad in ([], [(0.0, np.zeros(2))] * 4):
+    for bad in ([], [(0.0, np.zeros(2))] * 5):
         with pytest.raises(ValueError, match=f"{len(bad)} points are not allowed"):
             extrapolate(bad, 1.0)
 
 
 def test_newton_krylov_starts_the_forces_from_their_extrapolation_and_not_across_a_switch():
-    """The force unknowns of a Newton-Krylov step start from the quadratic through the last three accepted
-    steps' node forces; a motor-speed change restarts that history (its first step starts from the last forces)."""
+    """The force unknowns of a Newton-Krylov step start from the cubic through the last four accepted steps' node
+    forces; a motor-speed change restarts that history (its first step starts from the last forces)."""
     p, n = configure("faithful", {"n_nodes": 24})
     sim = Simulator(p, n)
     sim.set_motor_speed(10 * RPM_TO_RAD_S)
@@ -177,8 +177,8 @@ def test_newton_krylov_starts_the_forces_from_their_extrapolation_and_not_across
     sim._solver.mobility.solve = spy
     advance(sim, 1.0)
     assert starts and all(same for _, same in starts)
-    assert 3 in {k for k, _ in starts}  # the quadratic (the first steps after the switch reuse the resistance)
-    assert len(sim._force_points) == 3
+    assert 4 in {k for k, _ in starts}  # the cubic (the first steps after the switch reuse the resistance)
+    assert len(sim._force_points) == 4
 
 
 def test_newton_jacobian_matches_finite_differences_of_the_bdf2_residual():
