@@ -409,10 +409,46 @@ every episode identical to before (no swimmer matched). The first turn's record 
 (`cruise`: relative changes, shift read, matched)."""
 CRUISE_HELD_OUT = """Development: the paths and swimmers named above; the earlier held-out sets (6500, 6600, 6800, 6900) were
 read to find the cause of the nominal gap. Paths drawn with seeds 7400-7404 (`--count 5`), swimmers from env seeds
-7400-7409, preset `faithful`, two workers, 19:05-19:40 UTC, from a worktree at d348e58. No path or swimmer of this set
+7400-7409, preset `faithful`, two workers, 19:05-19:28 UTC, from a worktree at d348e58. No path or swimmer of this set
 was seen before the run and nothing was changed after it."""
 CRUISE_COMMANDS = held_out_commands("results/eval_cruise", 7400, square=True)
-CRUISE_FINDINGS = """TBD"""
+CRUISE_FINDINGS = """**Verdict (fifth held-out set, 10 paths per level, 2026-12-03):** within ±5 % (helix ±2 %) the adaptive planner
+finished 10 of 10 paths (rule 3 of 10): **≥ 90 % reached**; within ±10 % (helix ±4 %) 8 of 10 (rule 2 of 10): **≥ 75 %
+reached**; with the helix within ±10 % as well 6 of 10. No episode ended in a `SimulationError`; no randomised
+swimmer's cruise matched the map (the larger relative change 1.7-25.8 %), so at every randomised level the planner
+behaved as the one of the next section. The paper's square (R10): Δz/ΔL 4.45 % < 5 % with the default controller
+(rule 4.85 %), mean cross-track 0.58 cm (rule 0.74 cm), both every corner in 3 bursts.
+
+**Nominal swimmer: every first turn is now the rule planner's** (147°, 128°, 102° on the paths that start with a
+large turn: the change did what it was for), and both finished 10 of 10, but **the mean cross-track target is still
+not met: 0.77 cm against 0.73 cm** (worse on 5 paths by 0.09-0.29 cm, better on 4 by 0.08-0.13 cm; mean paired
+difference +0.04 cm, standard error 0.04 cm). With the same first turns the two part at later turns, where the
+adaptive planner picks by expected miss under the corrected map's spread (a shift spread of 0.08-0.14 s and a
+direction spread of 10° after the first turns, which the nominal swimmer does not have) and ends each burst by the
+ratio clock (the nominal swimmer's observed turns were within 1.8° rms of the planned ones), the rule planner by the
+map alone; from there the paths differ by small amounts that the rest of the episode carries either way. On the
+development paths the same change gave 0.650 cm against 0.644 cm. Energy 0.253 J against 0.258 J, time 553 s
+against 544 s. Max Δz/ΔL on the planar held-out paths, nominal: adaptive 9.2 %, rule 9.1 %.
+
+What failed: ±10 % 3d_7400 (an early buckler, shift +2.0 s read from the cruise, the cruise's strain 26 % off the
+map's; target behind at the start): two bursts whose headings came out 138-178° off the predicted direction, out of
+the corridor after 155 s; ±10 % 3d_7403 (target behind at the start; shift +1.3 s after the first turn): seven
+bursts, each planned at 109-124° and each ended by the ratio clock after 6.6 s, came out 141-151° — the clock
+target fell in the map's L'/L pause (7.6-7.8 s of map time), so each burst ran to the first reading past it, ~0.2 s
+of map time late; the angle then agreed with the clock's last reading, so the correction learnt nothing, and the
+head circled its first waypoint until the episode ended (497 s). With the helix within ±10 %, the same two paths
+(two bursts each), 3d_7401 (30 bursts of 4.7-5.8 s, two of three waypoints) and planar_7402 (out of the plane after
+two bursts).
+
+All five fresh held-out sets together (50 paths per level): ±5 % 48 of 50, ±10 % 42 of 50, helix ±10 % 36 of 50;
+rule 9 and 4 of 50. Nominal: adaptive 48 of 50, rule 50 of 50; the adaptive planner's mean cross-track above the
+rule planner's on every set (0.72/0.65, 1.01/0.64, 0.72/0.65, 1.04/0.67 and, with the cruise match, 0.77/0.73
+cm).
+
+These are the episodes of d348e58. The commit after it (082bfb6, d3f9c7c) starts the Newton-Krylov step's force
+unknowns from their extrapolation: the same equations solved to the same tolerance from a better start, so every
+trajectory moves within the tolerance (the bench burst's θ by 0.005°) and an episode's later decisions can part
+from these."""
 
 
 RESTART = Path("results/eval_restart")
