@@ -236,6 +236,14 @@ class AdaptivePlanner(RulePlanner):
             if float((ep.swim_until - head) @ ep.swim_heading) > 0.0:
                 return None  # swimming on, as decided
             ep.swim_until = None
+        if ep.online.follows_model:
+            # the swimmer is the map's as far as the cruise and the turns so far tell: the paper's rule on the map,
+            # flown by time (no clock_map_t), until a turn contradicts the map
+            plan = self.rule_plan(head, d, target, ep, RulePlanner._line_miss)
+            if plan is not None:
+                plan.update(follows_model=True, shift_s=ep.online.shift_s, shift_std_s=ep.online.shift_std_s)
+                self._record_cruise(ep, plan)
+            return plan
         miss0 = self._miss_if_off_course(head, d, target)
         if miss0 is None:
             return None
@@ -246,10 +254,14 @@ class AdaptivePlanner(RulePlanner):
         on = ep.online
         plan.update(shift_s=on.shift_s, shift_std_s=on.shift_std_s, bias_s=on.bias_s,
                     psi_offset_deg=math.degrees(on.psi_offset_rad), **on.burst_plan(plan["t_c"]))
+        self._record_cruise(ep, plan)
+        return plan
+
+    @staticmethod
+    def _record_cruise(ep: _AdaptiveEpisode, plan: dict) -> None:
         if not ep.turns and ep.cruise_reading is not None:  # the first turn records what the cruise read
             plan.update(cruise={k: ep.cruise_reading[k] for k in ("strain_relative_change", "rate_relative_change",
                                                                    "shift_reading_s", "cruise_matched")})
-        return plan
 
     def _miss_scale(self, miss0: float) -> float:
         """The scale c (m) of ``saturating_miss`` for a decision whose straight-line miss is ``miss0`` (m)."""

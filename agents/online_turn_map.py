@@ -68,10 +68,10 @@ class OnlineMapConfig:
     92-131 deg let through 177-178 deg turns near the branch's cliff, whose outcome left the corridor); a turn
     that does not confirm restores the wider spread (the count restarts). 0: never confirmed.
     A cruise that matches the map's swimmer (``cruise_match_tol``: the steady strain and the rotation rate
-    both within this relative change of the reference's, ``observe_cruise``) confirms the map for every
-    turn before any is flown, until a turn does not confirm it: the 31 randomised swimmers (+-10 %) differed
-    from the reference by 3.3-21.6 % in the larger of the two changes, so only a swimmer that cruises like the
-    map's is trusted with a large first turn. 0: a cruise never confirms.
+    both within this relative change of the reference's, ``observe_cruise``) says the swimmer is the map's
+    (``follows_model``) until a turn of at least ``psi_min_theta_deg`` does not confirm the map (the test
+    above): the 31 randomised swimmers (+-10 %) differed from the reference by 3.3-21.6 % in the larger of the
+    two changes, so only a swimmer that cruises like the map's is taken for it. 0: never.
 
     Flying by L'/L (``fly_by_ratio``): the map records L'/L at each burst's end, i.e. L'/L against
     time during a burst; below ``ratio_valid`` it falls as the flagellum buckles, but not steadily:
@@ -242,6 +242,7 @@ class OnlineTurnMap:
         self._psi_weight = 0.0
         self.confirmed = 0  # turns in a row that confirmed the corrected map (``OnlineMapConfig``)
         self.confirmed_upto_deg = 0.0  # the largest of them, deg
+        self.follows_model = False  # the cruise matched the map's swimmer and no turn has contradicted the map since
         self.readings: list[dict] = []
 
     @property
@@ -258,6 +259,7 @@ class OnlineTurnMap:
         ok = (abs(theta_obs_deg - planned_deg) <= cfg.confirm_theta_deg + cfg.confirm_theta_fraction * planned_deg
               and azimuth_error_rad is not None and abs(math.degrees(azimuth_error_rad)) <= cfg.confirm_azimuth_deg)
         self.confirmed = self.confirmed + 1 if ok else 0
+        self.follows_model = self.follows_model and ok
         self.confirmed_upto_deg = max(self.confirmed_upto_deg, planned_deg) if ok else 0.0
 
     @property
@@ -347,10 +349,8 @@ class OnlineTurnMap:
                            cfg.rate_shift_s * seen.rotation_rate_std / abs(reference.rotation_rate))
         std = math.hypot(cfg.cruise_residual_std_s, noise)
         self._combine(reading, std)
-        matched = 0.0 < cfg.cruise_match_tol and max(abs(d_strain), abs(d_rate)) <= cfg.cruise_match_tol \
-            and cfg.lift_after_turns > 0
-        if matched:  # the swimmer cruises like the map's: the map is trusted for every turn (OnlineMapConfig)
-            self.confirmed, self.confirmed_upto_deg = cfg.lift_after_turns, 180.0
+        matched = 0.0 < cfg.cruise_match_tol and max(abs(d_strain), abs(d_rate)) <= cfg.cruise_match_tol
+        self.follows_model = matched  # the swimmer cruises like the map's (OnlineMapConfig)
         rec = {"strain_relative_change": d_strain, "rate_relative_change": d_rate, "shift_reading_s": reading,
                "shift_reading_std_s": std, "shift_s": self.shift_s, "shift_std_s": self.shift_std_s,
                "cruise_matched": matched}

@@ -324,17 +324,23 @@ class RulePlanner:
 
     def _plan_turn(self, head: np.ndarray, d: np.ndarray, target: np.ndarray, node: np.ndarray,
                    ep: _Episode | None = None) -> dict | None:
-        """The next turn (burst length, phase to burst at), or None to keep swimming straight.
+        """The next turn (burst length, phase to burst at), or None to keep swimming straight
+        (``rule_plan`` with this planner's miss of a line)."""
+        return self.rule_plan(head, d, target, ep, self._line_miss)
+
+    def rule_plan(self, head: np.ndarray, d: np.ndarray, target: np.ndarray, ep: _Episode | None,
+                  line_miss) -> dict | None:
+        """The paper's rule: the next turn (burst length, phase to burst at), or None to keep swimming straight.
 
         Every candidate turn (burst length on the map's rising branch x phase of the flagellum at
         the burst) is predicted from the map: the head moves by the map's displacement and then
         swims along the new heading. The candidate whose straight line passes closest to the
         target is chosen if it beats swimming on by ``improvement_m``; the miss of a line is the
         target's distance from it, or the distance to the target plus a penalty when the target
-        is behind.
+        is behind (``line_miss(starts, directions, target)``, m).
         """
         cfg = self.config
-        miss0 = self._miss_if_off_course(head, d, target)
+        miss0 = self._miss_if_off_course(head, d, target, line_miss)
         if miss0 is None:
             return None
         t_c, theta, psi, off = self._candidate_turns(ep)
@@ -347,7 +353,7 @@ class RulePlanner:
         heading = np.cos(theta)[:, None, None] * d + np.sin(theta)[:, None, None] * across
         after = (head + off[:, 0, None, None] * d + off[:, 1, None, None] * e_ref[None]
                  + off[:, 2, None, None] * e_perp[None])
-        miss = self._line_miss(after.reshape(-1, 3), heading.reshape(-1, 3), target).reshape(after.shape[:2])
+        miss = line_miss(after.reshape(-1, 3), heading.reshape(-1, 3), target).reshape(after.shape[:2])
         i, j = np.unravel_index(int(np.argmin(miss)), miss.shape)
         if miss[i, j] > miss0 - cfg.improvement_m:
             return None
@@ -356,12 +362,13 @@ class RulePlanner:
                 "predicted_miss_m": float(miss[i, j]), "miss_straight_m": float(miss0),
                 "heading": d.tolist(), "head": head.tolist()}
 
-    def _miss_if_off_course(self, head: np.ndarray, d: np.ndarray, target: np.ndarray) -> float | None:
-        """How far swimming straight on misses the target (m), or None when no turn is wanted: on course
-        (below ``hit_fraction`` x the reach radius) or the target less than ``min_turn_deg`` off the heading
-        (re-checked every step)."""
+    def _miss_if_off_course(self, head: np.ndarray, d: np.ndarray, target: np.ndarray,
+                            line_miss=None) -> float | None:
+        """How far swimming straight on misses the target (m; ``line_miss``, default this planner's), or None when
+        no turn is wanted: on course (below ``hit_fraction`` x the reach radius) or the target less than
+        ``min_turn_deg`` off the heading (re-checked every step)."""
         cfg = self.config
-        miss0 = float(self._line_miss(head[None, :], d[None, :], target)[0])
+        miss0 = float((line_miss or self._line_miss)(head[None, :], d[None, :], target)[0])
         if miss0 < cfg.hit_fraction * self.reach_radius_m:
             return None
         if math.degrees(angle_between(d, target - head)) < cfg.min_turn_deg:

@@ -176,6 +176,7 @@ def test_adaptive_planner_reads_the_nominal_swimmer_as_nominal_and_learns_from_i
     assert turns and "observed_theta_deg" in turns[0]
     assert len(readings) == 1 + sum("observed_theta_deg" in t for t in turns)
     assert turns[0]["shift_std_s"] < OnlineMapConfig().prior_shift_std_s  # the cruise reading informed it
+    assert turns[0]["follows_model"] and planner.online_map.follows_model  # the map's swimmer, its turns as mapped
 
 
 def test_direction_spread_grows_with_the_turn_until_turns_confirm_the_map(faithful_map):
@@ -209,26 +210,25 @@ def test_direction_spread_grows_with_the_turn_until_turns_confirm_the_map(faithf
     assert not never.map_confirmed
 
 
-def test_a_cruise_like_the_maps_swimmer_trusts_the_map_until_a_turn_contradicts_it(faithful_map):
+def test_a_cruise_like_the_maps_swimmer_is_taken_for_it_until_a_turn_contradicts_the_map(faithful_map):
     ref = _cruise(4.6e-3, -0.667)
-
-    def spread(om: OnlineTurnMap, theta_deg: float) -> tuple[float, float]:
-        std, anything = om.direction_spread(np.radians(theta_deg))
-        return round(math.degrees(float(std)), 9), round(float(anything), 9)
-
     matched = OnlineTurnMap(faithful_map, OnlineMapConfig(fly_by_ratio=False))
     rec = matched.observe_cruise(_cruise(4.6e-3 * 1.004, -0.667 * 0.993), ref)  # within 1 % in both
-    assert rec["cruise_matched"] and matched.map_confirmed
-    assert spread(matched, 150.0) == spread(matched, 180.0) == (10.0, 0.0)  # a large first turn is trusted
-    matched.observe(7.0, 59.0, math.radians(30.0), planned_theta_deg=59.0)  # a turn 30 deg off: trust withdrawn
-    assert not matched.map_confirmed and spread(matched, 160.0) == (20.0, 1.0)
+    assert rec["cruise_matched"] and matched.follows_model
+    matched.observe(4.0, 5.0, math.radians(40.0), planned_theta_deg=10.0)  # too small to say anything
+    matched.observe(7.0, 61.0, math.radians(8.0), planned_theta_deg=59.0)  # as the map says
+    assert matched.follows_model
+    matched.observe(7.0, 59.0, math.radians(30.0), planned_theta_deg=59.0)  # 30 deg off: not the map's swimmer
+    assert not matched.follows_model
+    matched.observe(7.0, 59.0, math.radians(1.0), planned_theta_deg=59.0)  # for good, whatever follows
+    assert not matched.follows_model
     for seen in (_cruise(4.6e-3 * 1.02, -0.667), _cruise(4.6e-3, -0.667 * 1.012)):  # one of them off by > 1 %
         off = OnlineTurnMap(faithful_map, OnlineMapConfig(fly_by_ratio=False))
-        assert not off.observe_cruise(seen, ref)["cruise_matched"] and not off.map_confirmed
-        assert spread(off, 160.0) == (20.0, 1.0)
-    for cfg in (OnlineMapConfig(cruise_match_tol=0.0), OnlineMapConfig(lift_after_turns=0)):  # switched off
-        om = OnlineTurnMap(faithful_map, cfg)
-        assert not om.observe_cruise(ref, ref)["cruise_matched"] and not om.map_confirmed
+        assert not off.observe_cruise(seen, ref)["cruise_matched"] and not off.follows_model
+    om = OnlineTurnMap(faithful_map, OnlineMapConfig(cruise_match_tol=0.0))  # switched off
+    assert not om.observe_cruise(ref, ref)["cruise_matched"] and not om.follows_model
+    om.reset()
+    assert not om.follows_model
 
 
 def test_ratio_branch_inverts_and_a_burst_plan_targets_it(faithful_map):
