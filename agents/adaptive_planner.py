@@ -15,6 +15,12 @@ timed by the ratio clock (L'/L read as the map time the swimmer has reached, whe
 late. Everything else (hover to the phase, burst, relax,
 re-plan from the measured heading) is the rule planner's.
 
+A swimmer that cruises like the map's (the steady strain and rotation rate read before the first turn within
+``OnlineMapConfig.cruise_match_tol`` of the map swimmer's: ``OnlineTurnMap.follows_model``) is steered by the
+rule planner's own choice on the map, each burst flown by time, until a turn of at least
+``OnlineMapConfig.psi_min_theta_deg`` comes out off the map (``OnlineTurnMap``'s confirmation test); from then on
+by the corrections above. On the nominal swimmer its episodes are the rule planner's.
+
 The correction is per episode by default (``carry_over=False``): each episode may be a
 different swimmer (domain randomisation draws one per episode). ``carry_over=True`` keeps
 what was learnt across episodes (one physical robot).

@@ -15,7 +15,6 @@ import pytest
 
 import agents.evaluation as evaluation
 import agents.turn_calibration as turn_calibration
-from agents.assets import packaged_turn_map
 from flagellum.cli import main
 
 pytest.importorskip("psutil")
@@ -429,3 +428,16 @@ def test_calibrate_turns_resume_refuses_another_calibration(usage_error, tmp_pat
             argv[i:end] = extra
         line = usage_error(argv + ["--resume"])
         assert "holds another calibration" in line and fragment in line, line
+
+
+@pytest.mark.parametrize("options, fragment", [(["--randomize", "0.9"], "--randomize '0.9' is not allowed"),
+                                               (["--randomize", "x"], "--randomize 'x' is not a number"),
+                                               (["--randomize", "0.1", "--randomize-geometry", "-1"],
+                                                "a fraction in [0, 0.5]"),
+                                               (["--randomize-geometry", "0.1"], "needs --randomize")])
+@pytest.mark.parametrize("command", ["follow", "evaluate"])
+def test_randomize_options_are_checked_before_any_output(usage_error, tmp_path, one_turn, command, options, fragment):
+    argv = [command, "--path" if command == "follow" else "--paths", str(one_turn), "--controller", "rule"]
+    line = usage_error(argv + options + ["--out", str(tmp_path / "o")])
+    assert fragment in line
+    assert not (tmp_path / "o").exists()

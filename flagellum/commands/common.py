@@ -120,3 +120,34 @@ def parse_number(option: str, raw: str, allowed: str, positive: bool = False) ->
     if not math.isfinite(value) or (positive and value <= 0.0):
         raise UsageError(f"{option} {raw!r} is not allowed; allowed: {allowed}")
     return value
+
+
+RANDOMIZE_HELP = ("model error: the swimmer has E, mu and b drawn within +-F (a fraction, e.g. 0.05) and the helix "
+                  "pitch and radius within +-G (--randomize-geometry, default 0.4 F), while the controllers keep the "
+                  "nominal turn map")
+RANDOMIZE_GEOMETRY_HELP = "with --randomize: the helix pitch and radius within +-G (a fraction in [0, 0.5]; default 0.4 F)"
+
+
+def add_randomize_arguments(parser: argparse.ArgumentParser, help_suffix: str = "") -> None:
+    """``--randomize F`` and ``--randomize-geometry G`` (``parse_randomize``)."""
+    parser.add_argument("--randomize", metavar="F", help=RANDOMIZE_HELP + help_suffix)
+    parser.add_argument("--randomize-geometry", metavar="G", help=RANDOMIZE_GEOMETRY_HELP)
+
+
+def parse_randomize(args: argparse.Namespace) -> dict | None:
+    """The env's ``randomize`` setting from ``--randomize`` / ``--randomize-geometry`` (None without them);
+    UsageError naming a bad value."""
+    if args.randomize is None:
+        if args.randomize_geometry is not None:
+            raise UsageError("--randomize-geometry needs --randomize")
+        return None
+    f = parse_number("--randomize", args.randomize, "a fraction in (0, 0.5]", positive=True)
+    if f > 0.5:
+        raise UsageError(f"--randomize {args.randomize!r} is not allowed; allowed: a fraction in (0, 0.5]")
+    g = 0.4 * f
+    if args.randomize_geometry is not None:
+        g = parse_number("--randomize-geometry", args.randomize_geometry, "a fraction in [0, 0.5]")
+        if not 0.0 <= g <= 0.5:
+            raise UsageError(f"--randomize-geometry {args.randomize_geometry!r} is not allowed; allowed: a "
+                             "fraction in [0, 0.5]")
+    return {"youngs_modulus": f, "viscosity": f, "head_radius": f, "geometry": g, "obs_noise_std": 0.0}

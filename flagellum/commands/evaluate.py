@@ -6,8 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from flagellum.commands.common import (DEFAULT_PRESET_ARG, SCHEDULER_HELP, UsageError, parse_int, parse_number,
-                                       parse_workers)
+from flagellum.commands.common import (DEFAULT_PRESET_ARG, SCHEDULER_HELP, UsageError, add_randomize_arguments,
+                                       parse_int, parse_randomize, parse_workers)
 
 NAME = "evaluate"
 HELP = "run each controller on each path (parallel, resumable); write results.json and results.md"
@@ -31,13 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--resume", action="store_true", help="keep the episodes already in DIR")
     parser.add_argument("--report-only", action="store_true",
                         help="run nothing: write results.json/.md from the episodes already in DIR")
-    parser.add_argument("--randomize", metavar="F",
-                        help="model error: each path's swimmer has E, mu and b drawn within +-F (a fraction, e.g. "
-                             "0.05) and the helix pitch and radius within +-G (--randomize-geometry, default 0.4 F), "
-                             "while the controllers keep the nominal turn map; the k-th path uses env seed SEED0 + k")
-    parser.add_argument("--randomize-geometry", metavar="G",
-                        help="with --randomize: the helix pitch and radius within +-G (a fraction in [0, 0.5]; "
-                             "default 0.4 F)")
+    add_randomize_arguments(parser, "; the k-th path uses env seed SEED0 + k")
     parser.add_argument("--seed0", metavar="N", default="0",
                         help="env seed of the first path, an integer >= 0 (default 0); with --randomize the k-th path's "
                              "swimmer is drawn with seed N + k, so swimmers no earlier run met come from seeds of your "
@@ -55,21 +49,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     workers, scheduler = parse_workers(args)
     seed0 = parse_int("--seed0", args.seed0, 0)
-    overrides = None
-    if args.randomize is not None:
-        f = parse_number("--randomize", args.randomize, "a fraction in (0, 0.5]", positive=True)
-        if f > 0.5:
-            raise UsageError(f"--randomize {args.randomize!r} is not allowed; allowed: a fraction in (0, 0.5]")
-        g = 0.4 * f
-        if args.randomize_geometry is not None:
-            g = parse_number("--randomize-geometry", args.randomize_geometry, "a fraction in [0, 0.5]")
-            if not 0.0 <= g <= 0.5:
-                raise UsageError(f"--randomize-geometry {args.randomize_geometry!r} is not allowed; allowed: a "
-                                 "fraction in [0, 0.5]")
-        overrides = {"randomize": {"youngs_modulus": f, "viscosity": f, "head_radius": f, "geometry": g,
-                                   "obs_noise_std": 0.0}}
-    elif args.randomize_geometry is not None:
-        raise UsageError("--randomize-geometry needs --randomize")
+    randomize = parse_randomize(args)
+    overrides = None if randomize is None else {"randomize": randomize}
     try:
         results = evaluate(paths, args.controller, args.preset, args.out, workers=workers, scheduler=scheduler,
                            resume=args.resume, progress=not args.no_progress, report_only=args.report_only,

@@ -7,8 +7,8 @@ import json
 import re
 from pathlib import Path
 
-from flagellum.commands.common import (DEFAULT_PRESET_ARG, UsageError, ensure_dir, parse_int, parse_number,
-                                      parse_workers)
+from flagellum.commands.common import (DEFAULT_PRESET_ARG, UsageError, add_randomize_arguments, ensure_dir,
+                                      parse_int, parse_number, parse_randomize, parse_workers)
 
 NAME = "follow"
 HELP = "drive FlagellumSteer-v0 along a path with a controller; write summary.json and plots (Fig. 6)"
@@ -33,7 +33,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "compare on one plot; default rule)")
     parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/follow"), help="default out/follow")
     parser.add_argument("--reach-radius", metavar="M", help="waypoint reach radius, m (default: the path's or 0.015)")
-    parser.add_argument("--seed", default="0", help="env seed, an integer >= 0 (default 0)")
+    parser.add_argument("--seed", default="0", help="env seed, an integer >= 0 (default 0); with --randomize it draws "
+                        "the swimmer")
+    add_randomize_arguments(parser)
     parser.add_argument("--workers", help="controllers run at once, each in its own process (an integer >= 1; "
                         "default: one per controller, up to the cores; 1: one after the other in this process)")
     parser.add_argument("--no-progress", action="store_true", help="do not show the progress bar")
@@ -60,6 +62,9 @@ def run(args: argparse.Namespace) -> int:
         overrides["reach_radius_m"] = parse_number("--reach-radius", args.reach_radius, "a radius > 0 m",
                                                    positive=True)
     seed = parse_int("--seed", args.seed, 0)
+    randomize = parse_randomize(args)
+    if randomize is not None:
+        overrides["randomize"] = randomize
     specs = args.controller or ["rule"]
     workers, _ = parse_workers(args)
     if workers is None:
@@ -72,7 +77,8 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     ensure_dir("--out", args.out)
-    traces, summary = {}, {"path": path.to_dict(), "preset": preset, "controllers": {}, "interrupted": False}
+    traces, summary = {}, {"path": path.to_dict(), "preset": preset, "seed": seed, "randomize": randomize,
+                           "controllers": {}, "interrupted": False}
     interrupted = False
     parallel = workers > 1 and len(specs) > 1
     tasks = [FollowTask(spec, path, preset, tuple(sorted(overrides.items())), seed, progress=not args.no_progress,

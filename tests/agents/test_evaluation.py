@@ -147,3 +147,24 @@ def test_random_paths_respect_the_turn_range():
             assert 30.0 - 1e-9 <= ang <= 150.0 + 1e-9
     with pytest.raises(ValueError, match="min_turn_deg"):
         RandomPathConfig(min_turn_deg=100.0, max_turn_deg=90.0)
+
+
+def test_follow_randomize_draws_the_swimmer_from_the_seed_and_records_it(tmp_path):
+    """``flagellum follow --randomize F --seed S``: the swimmer differs from the nominal one (another episode), the
+    same seed draws the same swimmer, and summary.json says what was drawn from."""
+    path = tmp_path / "one_turn.json"
+    path.write_text(json.dumps({"name": "one_turn", "waypoints": [[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]],
+                                "reach_radius_m": 0.015}))
+    runs = {}
+    for name, extra in (("nominal", []), ("a", ["--randomize", "0.1", "--seed", "3"]),
+                        ("b", ["--randomize", "0.1", "--seed", "3"])):
+        out = tmp_path / name
+        assert main(["follow", "--path", str(path), "--preset", "coarse", "--no-progress", "--out", str(out)]
+                    + extra) == 0
+        runs[name] = json.loads((out / "summary.json").read_text())
+    assert runs["nominal"]["randomize"] is None
+    assert runs["a"]["randomize"] == {"youngs_modulus": 0.1, "viscosity": 0.1, "head_radius": 0.1,
+                                      "geometry": pytest.approx(0.04), "obs_noise_std": 0.0} and runs["a"]["seed"] == 3
+    rule = [r["controllers"]["rule"] for r in (runs["nominal"], runs["a"], runs["b"])]
+    assert all(rule[1][k] == rule[2][k] for k in ("time_s", "mean_cross_track_m", "energy_J"))
+    assert rule[1]["energy_J"] != rule[0]["energy_J"]
