@@ -405,9 +405,10 @@ angle or 15° off its direction: the confirmation test of `OnlineTurnMap`); from
 what the turns so far have taught them. The next section's version (the match only narrowed the direction spread)
 flew the rule planner's first turns but still lost to it on the nominal swimmer at later turns, on that set (0.77
 against 0.73 cm) and on a sixth set of nominal paths drawn for the purpose (paths 7500-7504, swimmer seed 7500,
-the code of d3f9c7c: 0.723 against 0.694 cm, 10/10 each): where the adaptive planner chooses by expected miss under
-a spread the nominal swimmer does not have, it gives away a little at every turn. On paths 7500-7504 with this
-version all ten nominal episodes are the rule planner's (every metric equal; every turn in the rule's mode). A
+the code of d3f9c7c: 0.723 against 0.694 cm, 10/10 each; that run's folder was lost with its worktree, the numbers
+are from its printed table): where the adaptive planner chooses by expected miss under a spread the nominal swimmer
+does not have, it gives away a little at every turn. On paths 7500-7504 with this version all ten nominal episodes
+are the rule planner's (every metric equal; every turn in the rule's mode; results/eval_model/check_7500). A
 swimmer that does not match is steered exactly as by the next section's planner; one that matches but is not the
 map's (none did among the 60 randomised held-out swimmers of this set and the next, nor the 16 development ones at
 ±5 %, whose cruise readings were recorded: the larger relative change 1.1-30 %) flies the rule planner's turns until
