@@ -5,7 +5,8 @@ A scene pays only for what it uses:
 * ``DenseChordSolver`` (hydro_model="lsbt"): nonlocal LSBT + head. The resistance is dense;
   it is factorised (Cholesky of the mobility) only when the shape has changed non-rigidly by
   more than ``hydro_refresh_tol`` * r0 since the last time, and the dense Jacobian
-  M/h^2 + K + R/h only when the chord iteration stops contracting. In between both are reused
+  M/h^2 + K + R/h when the chord iteration stops contracting or once the residuals it took beyond two per step
+  since the last factorisation cost as much as a new one (``LU_REFRESH_BUDGET``). In between both are reused
   through the best-fit rigid rotation of the configuration (exact for a rigid motion, see
   ``rigid_alignment``), which makes a steadily rotating flagellum cheap. The chord iteration on them runs
   compiled (``chord_iteration.chord_solve``); ``resistance`` (for the scene's hydrodynamic term), ``increment``
@@ -63,6 +64,13 @@ _EYE = np.eye(3)
 # iteration still contracts: the hydrodynamic part R/h is off by at most 25 %); outside it, or
 # after a halving, it is refactorised at the new h.
 _H_REUSE = (0.8, 1.25)
+# The kept LU is refactorised (at the predictor, the resistance rotated to it) once the residuals the chord
+# iteration needed beyond two per step (one correction and the forces at the accepted iterate) since the last
+# factorisation add up to what a refactorisation costs: ~3.4 ms against ~0.1 ms per extra residual and solve
+# (N = 122): ski rental, never more than twice the better choice. An LU goes stale as the flagellum turns
+# (the contraction rate of settled 10 rpm steps grows from 0.007 to ~0.1 in 60 steps) and at once when a
+# Newton-Krylov step rebuilds the resistance (the shape changed): ~0.5, 4.9 residuals per step.
+LU_REFRESH_BUDGET = 30
 
 
 class DenseChordSolver:
@@ -81,6 +89,8 @@ class DenseChordSolver:
         self.lu = None
         self.piv1: np.ndarray | None = None
         self.lu_h = -1.0
+        self.extra_iterations = 0  # residuals beyond two per chord step since the factorisation
+        self._iterations_seen = 0
         self.x_jac: np.ndarray | None = None
         self.Qh = self.Qj = _EYE
         self.jac_fresh = False
@@ -123,6 +133,7 @@ class DenseChordSolver:
         self.lu = lu_factor(J, check_finite=False)
         self.piv1 = (self.lu[1] + 1).astype(np.int32)  # LAPACK's 1-based pivots (``chord_iteration``)
         self.lu_h = h
+        self.extra_iterations = 0
         stats.jacobian_factorisations += 1
         stats.time_jacobian_refresh += time.perf_counter() - t0
 
@@ -147,6 +158,10 @@ class DenseChordSolver:
     def begin_step(self, q_pred: np.ndarray, h: float) -> None:
         nm, p = self.system.numerics, self.system.params
         x_pred = nodes_of(q_pred)
+        seen = self.state.stats.newton_iterations
+        if not self.krylov and self.lu is not None:
+            self.extra_iterations += max(seen - self._iterations_seen - 2, 0)
+        self._iterations_seen = seen
         self.jac_fresh = False
         self.krylov = False
         fit = None  # best_fit_rotation(x_hyd, x_pred), computed once
@@ -175,6 +190,9 @@ class DenseChordSolver:
             if self.since_hydro == 0 and nm.jacobian_refresh == "resistance":
                 # the shape has changed: the old Jacobian's elastic and hydrodynamic parts are both stale
                 self._refresh_jacobian(q_pred, h, keep_resistance=True, rotate=False)
+                self.jac_fresh = True
+            elif self.extra_iterations >= LU_REFRESH_BUDGET:
+                self._refresh_jacobian(q_pred, h, keep_resistance=True)
                 self.jac_fresh = True
             elif nm.single_iteration or self._contacts_changed(q_pred, h):
                 # one linearly implicit solve per step needs the current Jacobian, and so does a
