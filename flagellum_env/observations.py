@@ -86,6 +86,9 @@ class ObservationModel:
         highs = [np.full(int(np.prod(s)), self.bounds[n][1], np.float32) for n, s in self.part_shapes.items()]
         self.flat_space = spaces.Box(low=np.concatenate(lows), high=np.concatenate(highs), dtype=np.float32)
         self.space = self.flat_space if observation_type == "flat" else self.dict_space
+        self._low = np.concatenate(lows).astype(np.float64)  # the bounds per entry of the flat vector
+        self._high = np.concatenate(highs).astype(np.float64)
+        self._slices = self.slices()
 
     @property
     def size(self) -> int:
@@ -130,12 +133,9 @@ class ObservationModel:
 
     def finish(self, parts: Mapping[str, np.ndarray]) -> np.ndarray | dict[str, np.ndarray]:
         """float32, clipped to the bounds (non-finite entries zeroed); flat or dict per the type."""
-        done = {}
-        for name in self.part_shapes:
-            lo, hi = self.bounds[name]
-            a = np.nan_to_num(np.asarray(parts[name], dtype=np.float64).reshape(-1), nan=0.0,
-                              posinf=0.0, neginf=0.0)
-            done[name] = np.clip(a, lo, hi).astype(np.float32)
+        flat = np.concatenate([np.asarray(parts[name], dtype=np.float64).reshape(-1) for name in self.part_shapes])
+        flat[~np.isfinite(flat)] = 0.0
+        done = np.clip(flat, self._low, self._high).astype(np.float32)
         if self.observation_type == "dict":
-            return done
-        return np.concatenate([done[name] for name in self.part_shapes])
+            return {name: done[sl].copy() for name, sl in self._slices.items()}
+        return done
