@@ -25,6 +25,13 @@ Two ways to supply the correction:
 - no policy (training, ``agents.turn_decision_env``): the planner stops at each planned turn
   with ``awaiting`` set to the features and keeps cruising until ``decide(action)`` is called;
   the next control step re-plans and flies the corrected turn.
+
+Two planners to correct: ``ResidualPlanner`` corrects the rule planner; ``AdaptiveResidualPlanner`` corrects the
+adaptive planner (``agents.adaptive_planner``, the best planner on swimmers that differ from the map), whose
+corrected turn keeps the online map's timing (the corrected burst's map time, ratio clock and longest burst:
+``corrected_adaptive_plan``) and whose features add the online map's state (``map_features``: the buckling-time
+shift and its uncertainty, the ratio clock's bias, the direction offset, whether the swimmer still follows the
+map and whether turns have confirmed it), so that a policy can learn what the planner's correction misses.
 """
 
 from __future__ import annotations
@@ -36,12 +43,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from flagellum_env.turn_geometry import angle_between, azimuth, wrap_angle
+from agents.adaptive_planner import AdaptiveConfig, AdaptivePlanner
+from agents.online_turn_map import OnlineMapConfig, OnlineTurnMap
 from agents.turn_map import TurnMap
 from agents.turn_planner import PlannerConfig, RulePlanner, _Episode
 from physics.validation import require_finite
 
-#: Length of the feature vector the residual policy sees.
+#: Length of the feature vector the residual policy of the rule planner sees.
 N_FEATURES = 14
+#: Features of the online map's state (``map_features``) and the length of the vector the residual policy of
+#: the adaptive planner sees (``turn_features`` then ``map_features``).
+N_MAP_FEATURES = 6
+N_ADAPTIVE_FEATURES = N_FEATURES + N_MAP_FEATURES
 #: Distances in the features are in units of this, m (about a path segment).
 FEATURE_LENGTH_M = 0.1
 
@@ -128,37 +141,51 @@ def corrected_plan(plan: dict, action: np.ndarray, turn_map: TurnMap, limits: Re
     return out
 
 
-class ResidualPlanner(RulePlanner):
-    """``RulePlanner`` whose planned turns are corrected by a residual policy (module docstring).
+def map_features(online: OnlineTurnMap) -> np.ndarray:
+    """The online map's state as the residual policy sees it, (N_MAP_FEATURES,) float32: the buckling-time
+    shift and its standard deviation (s), the ratio clock's bias (s), the direction offset / 90 deg, 1 if the
+    swimmer still follows the map (``OnlineTurnMap.follows_model``) and 1 if turns have confirmed the map."""
+    f = np.array([online.shift_s, online.shift_std_s, online.bias_s, math.degrees(online.psi_offset_rad) / 90.0,
+                  float(online.follows_model), float(online.map_confirmed)])
+    return np.clip(np.nan_to_num(f, nan=0.0, posinf=10.0, neginf=-10.0), -10.0, 10.0).astype(np.float32)
 
-    policy: ``features -> action`` or None (then ``awaiting`` / ``decide``). The other
-    arguments are ``RulePlanner``'s; ``end_slice`` and ``time_slice`` locate L'/L and the time
-    left in the flat observation.
-    """
 
-    def __init__(self, turn_map: TurnMap, layout, control_dt: float, reach_radius_m: float, action_of,
-                 end_slice: slice, time_slice: slice, config: PlannerConfig | None = None,
-                 limits: ResidualLimits | None = None,
-                 policy: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
-        super().__init__(turn_map, layout, control_dt, reach_radius_m, action_of, config)
+def corrected_adaptive_plan(plan: dict, action: np.ndarray, online: OnlineTurnMap, turn_map: TurnMap,
+                            limits: ResidualLimits) -> dict:
+    """An adaptive planner's plan with the residual ``action`` (2,) applied (``corrected_plan``), its
+    prediction and timing kept consistent with the planner's: a turn chosen on the corrected map flies the
+    corrected burst t_c' by the map's clock (``OnlineTurnMap.burst_plan(t_c')``: map time, ratio clock, longest
+    burst) and is predicted at map time t_c' + shift (``turn_at``: ``theta_deg``, ``predicted_azimuth``); a
+    turn chosen by the paper's rule (``follows_model``) keeps the rule's timing, its ``theta_deg`` the map's
+    turn at t_c'. The planner learns from ``theta_deg`` and ``predicted_azimuth`` after the turn."""
+    out = corrected_plan(plan, action, turn_map, limits)
+    if plan.get("follows_model"):
+        out["theta_deg"] = out["predicted_theta_deg"]
+        return out
+    timing = online.burst_plan(out["t_c"])
+    theta, psi = online.turn_at(timing["map_t"])
+    out.update(timing, theta_deg=math.degrees(theta), predicted_theta_deg=math.degrees(theta),
+               predicted_azimuth=wrap_angle(out["burst_phase"] + psi))
+    return out
+
+
+class ResidualDecisions:
+    """The residual policy's hooks on a planner (a mixin named before ``RulePlanner`` or one of its
+    subclasses): ``awaiting`` / ``decide`` and the review of each planned turn (module docstring).
+    ``n_features`` is the length of the feature vector."""
+
+    n_features = N_FEATURES
+
+    def _init_residual(self, end_slice: slice, time_slice: slice, limits: ResidualLimits | None,
+                       policy: Callable[[np.ndarray], np.ndarray] | None) -> None:
         self.limits = limits or ResidualLimits()
         self.policy = policy
         self.end_slice, self.time_slice = end_slice, time_slice
         self.awaiting: np.ndarray | None = None
         self._decision: np.ndarray | None = None
 
-    @classmethod
-    def for_env(cls, env, turn_map: TurnMap, config: PlannerConfig | None = None,  # type: ignore[override]
-                limits: ResidualLimits | None = None,
-                policy: Callable[[np.ndarray], np.ndarray] | None = None) -> ResidualPlanner:
-        """A residual planner for this env (the rule planner's checks apply)."""
-        base = RulePlanner.for_env(env, turn_map, config)
-        s = env.unwrapped.obs_model.slices()
-        return cls(turn_map, base.layout, base.control_dt, base.reach_radius_m, base.action_of,
-                   s["end_to_end_ratio"], s["time_left"], config, limits, policy)
-
     def reset(self) -> None:
-        super().reset()
+        super().reset()  # type: ignore[misc]
         self.awaiting, self._decision = None, None
 
     def decide(self, action: np.ndarray) -> None:
@@ -171,11 +198,79 @@ class ResidualPlanner(RulePlanner):
     def _review_plan(self, ep: _Episode, plan: dict, obs: np.ndarray) -> dict | None:
         if self._decision is not None:
             action, self._decision = self._decision, None
-            return corrected_plan(plan, action, self.turn_map, self.limits)
-        features = turn_features(plan, ep.prev_rel, self.reach_radius_m, float(obs[self.end_slice][0]),
-                                 float(obs[self.time_slice][0]), ep.turns[-1] if ep.turns else None, len(ep.turns),
-                                 self.turn_map.max_theta_deg)
+            return self._corrected(ep, plan, action)
+        features = self._turn_features(ep, plan, obs)
         if self.policy is None:
             self.awaiting = features
             return None  # cruise on for this step; the next one flies the decided turn
-        return corrected_plan(plan, self.policy(features), self.turn_map, self.limits)
+        return self._corrected(ep, plan, self.policy(features))
+
+    def _turn_features(self, ep: _Episode, plan: dict, obs: np.ndarray) -> np.ndarray:
+        return turn_features(plan, ep.prev_rel, self.reach_radius_m, float(obs[self.end_slice][0]),
+                             float(obs[self.time_slice][0]), ep.turns[-1] if ep.turns else None, len(ep.turns),
+                             self.turn_map.max_theta_deg)
+
+    def _corrected(self, ep: _Episode, plan: dict, action: np.ndarray) -> dict:
+        return corrected_plan(plan, action, self.turn_map, self.limits)
+
+
+class ResidualPlanner(ResidualDecisions, RulePlanner):
+    """``RulePlanner`` whose planned turns are corrected by a residual policy (module docstring).
+
+    policy: ``features -> action`` or None (then ``awaiting`` / ``decide``). The other
+    arguments are ``RulePlanner``'s; ``end_slice`` and ``time_slice`` locate L'/L and the time
+    left in the flat observation.
+    """
+
+    def __init__(self, turn_map: TurnMap, layout, control_dt: float, reach_radius_m: float, action_of,
+                 end_slice: slice, time_slice: slice, config: PlannerConfig | None = None,
+                 limits: ResidualLimits | None = None,
+                 policy: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
+        RulePlanner.__init__(self, turn_map, layout, control_dt, reach_radius_m, action_of, config)
+        self._init_residual(end_slice, time_slice, limits, policy)
+
+    @classmethod
+    def for_env(cls, env, turn_map: TurnMap, config: PlannerConfig | None = None,  # type: ignore[override]
+                limits: ResidualLimits | None = None,
+                policy: Callable[[np.ndarray], np.ndarray] | None = None) -> ResidualPlanner:
+        """A residual planner for this env (the rule planner's checks apply)."""
+        base = RulePlanner.for_env(env, turn_map, config)
+        s = env.unwrapped.obs_model.slices()
+        return cls(turn_map, base.layout, base.control_dt, base.reach_radius_m, base.action_of,
+                   s["end_to_end_ratio"], s["time_left"], config, limits, policy)
+
+
+class AdaptiveResidualPlanner(ResidualDecisions, AdaptivePlanner):
+    """``AdaptivePlanner`` whose planned turns are corrected by a residual policy (module docstring): features
+    ``turn_features`` then ``map_features`` (N_ADAPTIVE_FEATURES), corrections by ``corrected_adaptive_plan``.
+    Arguments: ``ResidualPlanner``'s, then ``AdaptivePlanner``'s (``online``, ``carry_over``, ``reference``,
+    ``adaptive``)."""
+
+    n_features = N_ADAPTIVE_FEATURES
+
+    def __init__(self, turn_map: TurnMap, layout, control_dt: float, reach_radius_m: float, action_of,
+                 end_slice: slice, time_slice: slice, config: PlannerConfig | None = None,
+                 limits: ResidualLimits | None = None, policy: Callable[[np.ndarray], np.ndarray] | None = None,
+                 online: OnlineMapConfig | None = None, carry_over: bool = False, reference=None,
+                 adaptive: AdaptiveConfig | None = None) -> None:
+        AdaptivePlanner.__init__(self, turn_map, layout, control_dt, reach_radius_m, action_of, config, online,
+                                 carry_over, end_slice, reference, adaptive)
+        self._init_residual(end_slice, time_slice, limits, policy)
+
+    @classmethod
+    def for_env(cls, env, turn_map: TurnMap, config: PlannerConfig | None = None,  # type: ignore[override]
+                limits: ResidualLimits | None = None, policy: Callable[[np.ndarray], np.ndarray] | None = None,
+                online: OnlineMapConfig | None = None, carry_over: bool = False,
+                adaptive: AdaptiveConfig | None = None) -> AdaptiveResidualPlanner:
+        """A residual adaptive planner for this env, set up as ``AdaptivePlanner.for_env`` sets one up."""
+        base = AdaptivePlanner.for_env(env, turn_map, config, online, carry_over, adaptive)
+        s = env.unwrapped.obs_model.slices()
+        return cls(turn_map, base.layout, base.control_dt, base.reach_radius_m, base.action_of,
+                   s["end_to_end_ratio"], s["time_left"], config, limits, policy, base.online_config,
+                   base.carry_over, base.reference, base.adaptive)
+
+    def _turn_features(self, ep, plan: dict, obs: np.ndarray) -> np.ndarray:
+        return np.concatenate([super()._turn_features(ep, plan, obs), map_features(ep.online)])
+
+    def _corrected(self, ep, plan: dict, action: np.ndarray) -> dict:
+        return corrected_adaptive_plan(plan, action, ep.online, self.turn_map, self.limits)

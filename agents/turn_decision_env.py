@@ -2,7 +2,7 @@
 
 ``TurnDecisionEnv`` (``FlagellumTurn-v0``; ``-fast`` and ``-coarse`` variants, all registered by
 ``import flagellum_env``) runs ``FlagellumSteer-v0`` under a ``ResidualPlanner`` (0.1 s control steps,
-the rule planner's). Whenever the planner plans a turn it stops and hands the turn's features to the
+the rule planner's; ``planner="adaptive"``: an ``AdaptiveResidualPlanner``, the adaptive planner's). Whenever the planner plans a turn it stops and hands the turn's features to the
 agent (the observation); the agent's action corrects the turn (``ResidualLimits``); the env then
 runs on until the next planned turn or the end of the episode. The reward of a step is the sum of
 ``FlagellumSteer-v0``'s rewards over the control steps it covered (progress, cross-track error,
@@ -34,7 +34,7 @@ from gymnasium import spaces
 
 from agents.assets import default_turn_map, missing_turn_map_message
 from agents.path_following import CONTROLLER_ENV_DEFAULTS
-from agents.residual_planner import N_FEATURES, ResidualLimits, ResidualPlanner
+from agents.residual_planner import AdaptiveResidualPlanner, ResidualLimits, ResidualPlanner
 from agents.turn_map import TurnMap
 from flagellum_env.config import resolve_path
 from flagellum_env.paths import RandomPathConfig, WaypointPath
@@ -52,6 +52,8 @@ DEFAULT_ENV_KWARGS: dict[str, Any] = {"reward": {"cross_track_per_cm_s": 0.05}}
 DEFAULT_RANDOM_PATH: dict[str, Any] = {"n_waypoints": 3, "segment_length_m": [0.12, 0.2], "min_turn_deg": 30.0,
                                        "max_turn_deg": 150.0, "planar": [True, False]}
 RESET_OPTIONS = ("path",)
+#: The planners a residual policy may correct (``planner=``).
+PLANNERS = {"rule": ResidualPlanner, "adaptive": AdaptiveResidualPlanner}
 INFO_KEYS = ("path", "is_success", "waypoints_reached", "mean_cross_track_m", "time_s", "energy_J",
              "buckling_events", "turns")
 
@@ -60,13 +62,15 @@ class TurnDecisionEnv(gym.Env):
     """
     ## Description
 
-    The residual agent's task (module docstring): the rule planner steers ``FlagellumSteer-v0``
-    through waypoints and, at each turn it plans, asks for a correction of that turn.
+    The residual agent's task (module docstring): the rule planner (or, with ``planner="adaptive"``, the
+    adaptive planner) steers ``FlagellumSteer-v0`` through waypoints and, at each turn it plans, asks for a
+    correction of that turn.
 
     ## Spaces
 
-    Observation: ``Box(-10, 10, (N_FEATURES,), float32)``, the planned turn's features
-    (``agents.residual_planner.turn_features``). Action: ``Box(-1, 1, (2,), float32)``: the correction
+    Observation: ``Box(-10, 10, (n,), float32)``, the planned turn's features
+    (``agents.residual_planner.turn_features``, n = ``N_FEATURES``; with ``planner="adaptive"`` followed by the
+    online map's state, ``map_features``, n = ``N_ADAPTIVE_FEATURES``). Action: ``Box(-1, 1, (2,), float32)``: the correction
     of the burst length (a_0 x ``max_dtc_fraction``) and of the burst phase (a_1 x ``max_dphase_deg``).
     An action that is not two finite numbers raises ``ValueError``; entries outside [-1, 1] are clipped.
 
@@ -87,6 +91,7 @@ class TurnDecisionEnv(gym.Env):
     | random_path | 3 waypoints, 12-20 cm, turns 30-150 deg, planar and 3-D alternating | ``RandomPathConfig`` fields of the drawn paths; ``planar`` may be a list |
     | limits      | 0.05, 15 deg (``ResidualLimits()``) | ``ResidualLimits`` or a dict of its fields          |
     | action_cost | 5.0                              | c >= 0: a decision's reward is lowered by c |a|^2     |
+    | planner     | "rule"                           | the planner corrected: "rule" (``ResidualPlanner``) or "adaptive" (``AdaptiveResidualPlanner``) |
     | render_mode | None                             | None or "rgb_array" (the base env's frame after the step) |
 
     The defaults are the shipped agent's settings (agents/pretrained/ppo_residual_coarse), so
@@ -115,10 +120,14 @@ class TurnDecisionEnv(gym.Env):
     def __init__(self, preset: str | None = None, turn_map: str | os.PathLike | None = None,
                  env_kwargs: Mapping[str, Any] | None = None, paths: Sequence[Any] | None = None,
                  random_path: Mapping[str, Any] | None = None, limits: ResidualLimits | Mapping[str, Any] | None = None,
-                 action_cost: float = DEFAULT_ACTION_COST, render_mode: str | None = None, **unknown: Any) -> None:
+                 action_cost: float = DEFAULT_ACTION_COST, render_mode: str | None = None, planner: str = "rule",
+                 **unknown: Any) -> None:
         if unknown:
             raise ValueError(f"unknown argument(s) {sorted(unknown)} for {self.env_id}; known arguments: "
-                             "preset, turn_map, env_kwargs, paths, random_path, limits, action_cost, render_mode")
+                             "preset, turn_map, env_kwargs, paths, random_path, limits, action_cost, render_mode, "
+                             "planner")
+        if planner not in PLANNERS:
+            raise ValueError(f"planner={planner!r} is not allowed; choose one of {list(PLANNERS)}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode={render_mode!r} is not allowed; choose one of "
                              f"{[None] + self.metadata['render_modes']}")
@@ -133,7 +142,7 @@ class TurnDecisionEnv(gym.Env):
         for name, why in (("path", "give paths= or random_path="), ("render_mode", "give render_mode=")):
             if name in env_kwargs:
                 raise ValueError(f"env_kwargs must not hold {name!r}; {why}")
-        kwargs = {**CONTROLLER_ENV_DEFAULTS["rule"], "preset": preset, **dict(env_kwargs)}
+        kwargs = {**CONTROLLER_ENV_DEFAULTS[planner], "preset": preset, **dict(env_kwargs)}
         try:
             self.base = FlagellumSteerEnv(path="random", render_mode=render_mode, **kwargs)
         except ValueError as exc:
@@ -143,11 +152,11 @@ class TurnDecisionEnv(gym.Env):
             raise ValueError(f"turn_map={str(tmap_file)!r}: " + missing_turn_map_message(tmap_file, preset,
                                                                                            given=turn_map is not None))
         tmap = TurnMap.load(tmap_file)
-        self.planner = ResidualPlanner.for_env(self.base, tmap, limits=_limits(limits))
+        self.planner = PLANNERS[planner].for_env(self.base, tmap, limits=_limits(limits))
         self.action_cost = require_finite("action_cost", action_cost, 0.0)
         self.paths = _fixed_paths(paths)
         self.set_random_path(DEFAULT_RANDOM_PATH if random_path is None else random_path)
-        self.observation_space = spaces.Box(-10.0, 10.0, (N_FEATURES,), np.float32)
+        self.observation_space = spaces.Box(-10.0, 10.0, (self.planner.n_features,), np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         self._episode = 0
         self._obs: np.ndarray | None = None
@@ -249,7 +258,7 @@ class TurnDecisionEnv(gym.Env):
     def _features(self) -> np.ndarray:
         if self.planner.awaiting is not None:
             return self.planner.awaiting.copy()
-        return np.zeros(N_FEATURES, np.float32)
+        return np.zeros(self.planner.n_features, np.float32)
 
     def close(self) -> None:
         self.base.close()
