@@ -19,6 +19,7 @@ hyperparameters (flat, as in rl-zoo3's ``hyperparams/ppo.yml``) and a ``task`` s
       task:
         preset: coarse
         turn_map: null          # null: the preset's turn map (agents.assets.default_turn_map)
+        planner: rule            # the planner corrected: rule or adaptive (agents.residual_planner)
         limits: {max_dtc_fraction: 0.05, max_dphase_deg: 15}
         action_cost: 5.0        # reward - action_cost |a|^2 per decision
         env_kwargs: {randomize: true, reward: {cross_track_per_cm_s: 0.05}}
@@ -44,7 +45,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from agents.residual_planner import ResidualLimits
+from agents.residual_planner import BASE_PLANNERS, ResidualLimits
 from flagellum_env.paths import RandomPathConfig, WaypointPath, random_path
 from physics.presets import DEFAULT_PRESET, preset_names
 from physics.validation import require_finite
@@ -55,7 +56,7 @@ PPO_KEYS = ("learning_rate", "n_steps", "batch_size", "n_epochs", "gamma", "gae_
 NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma")
 TOP_KEYS = ("policy", "n_envs", "n_timesteps", "max_wall_time_s", "seed", "checkpoint_every", "normalize", "task",
             "init_from", *PPO_KEYS)
-TASK_KEYS = ("preset", "turn_map", "limits", "action_cost", "env_kwargs", "curriculum", "validation")
+TASK_KEYS = ("preset", "turn_map", "planner", "limits", "action_cost", "env_kwargs", "curriculum", "validation")
 #: Seeds from here on are the held-out evaluation paths.
 HELD_OUT_SEED0 = 1000
 
@@ -112,6 +113,7 @@ class TrainConfig:
     env_kwargs: Mapping[str, Any] = field(default_factory=dict)
     init_from: str | None = None
     source: str = "<dict>"
+    planner: str = "rule"
 
     def stage_at(self, decisions: int) -> CurriculumStage:
         """The curriculum stage in force after ``decisions`` decisions."""
@@ -171,6 +173,10 @@ class TrainConfig:
         preset = task.get("preset", DEFAULT_PRESET)
         if preset not in preset_names():
             raise ValueError(f"{where}: {name}.task.preset={preset!r} is not allowed; choose one of {preset_names()}")
+        planner = task.get("planner", "rule")
+        if planner not in BASE_PLANNERS:
+            raise ValueError(f"{where}: {name}.task.planner={planner!r} is not allowed; choose one of "
+                             f"{list(BASE_PLANNERS)}")
         limits = dict(task.get("limits") or {})
         try:
             ResidualLimits(**limits)
@@ -205,7 +211,7 @@ class TrainConfig:
                    normalize=normalize, ppo={k: body[k] for k in PPO_KEYS if k in body}, preset=preset,
                    turn_map=task.get("turn_map"), limits=limits, action_cost=cost,
                    env_kwargs=dict(task.get("env_kwargs") or {}), init_from=init_from,
-                   source=source)
+                   source=source, planner=planner)
 
 
 def _only(d: Mapping[str, Any], allowed: tuple[str, ...], where: str) -> None:

@@ -18,8 +18,9 @@ and its ``gymnasium.make`` arguments; tests/agents/test_shipped_agent_env.py)::
     venv.training, venv.norm_reward = False, False
     model = PPO.load(f"{folder}/model.zip", env=venv)
 
-The agent is residual (``meta["mode"] == "residual"``): a ``ResidualPlanner`` whose planned turns
-are corrected by the policy, with the turn map of the env's preset. Its corrections are on the
+The agent is residual (``meta["mode"] == "residual"``): a ``ResidualPlanner`` (``meta["planner"] == "rule"``,
+the default) or an ``AdaptiveResidualPlanner`` (``"adaptive"``) whose planned turns are corrected by the policy,
+with the turn map of the env's preset. Its corrections are on the
 map's turning angle, so an agent trained on one preset drives another through that preset's map.
 """
 
@@ -34,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from agents.assets import default_turn_map, missing_turn_map_message, pretrained_dir
-from agents.residual_planner import N_FEATURES, ResidualLimits, ResidualPlanner
+from agents.residual_planner import BASE_PLANNERS, AdaptiveResidualPlanner, ResidualLimits, ResidualPlanner
 from agents.turn_map import TurnMap
 
 #: The pretrained agent shipped with the package (package data, ``agents.assets``).
@@ -53,7 +54,7 @@ class PPOAgent:
     folder: Path
 
     def act(self, features: np.ndarray, deterministic: bool = True) -> np.ndarray:
-        """Residual action (2,) in [-1, 1] for one feature vector (N_FEATURES,)."""
+        """Residual action (2,) in [-1, 1] for one feature vector (``BASE_PLANNERS[planner]``,)."""
         f = np.asarray(features, dtype=np.float64)
         if self.obs_rms is not None:
             f = np.clip((f - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon), -self.clip_obs,
@@ -83,10 +84,15 @@ def load_agent(arg: str | None = None) -> PPOAgent:
     if meta.get("mode") != "residual":
         raise ValueError(f"the agent in {str(folder)!r} has mode {meta.get('mode')!r}; this version drives "
                          "'residual' agents")
+    planner = meta.get("planner", "rule")
+    if planner not in BASE_PLANNERS:
+        raise ValueError(f"the agent in {str(folder)!r} corrects the planner {planner!r}; this version has "
+                         f"{list(BASE_PLANNERS)}")
     model = PPO.load(str(folder / "model.zip"), device="cpu")
-    if model.observation_space.shape != (N_FEATURES,):
+    n = BASE_PLANNERS[planner]
+    if model.observation_space.shape != (n,):
         raise ValueError(f"the agent in {str(folder)!r} expects {model.observation_space.shape} observations, "
-                         f"this version's turn features are ({N_FEATURES},): retrain it")
+                         f"this version's turn features of the {planner} planner are ({n},): retrain it")
     obs_rms, clip, eps = None, 10.0, 1e-8
     stats = folder / "vecnormalize.pkl"
     if stats.is_file():
@@ -97,18 +103,26 @@ def load_agent(arg: str | None = None) -> PPOAgent:
     return PPOAgent(model, obs_rms, clip, eps, meta, folder)
 
 
-class PPOController(ResidualPlanner):
-    """The residual planner driven by a trained agent; ``predict`` like a stable-baselines3 policy."""
+class _AgentDriven:
+    """A residual planner driven by a trained agent (mixin); ``predict`` like a stable-baselines3 policy."""
 
     agent: PPOAgent
     _deterministic: bool = True
 
     def predict(self, observation: np.ndarray, state=None, episode_start=None, deterministic: bool = True):
         self._deterministic = bool(deterministic)
-        return super().predict(observation, state, episode_start, deterministic)
+        return super().predict(observation, state, episode_start, deterministic)  # type: ignore[misc]
 
 
-def load_ppo_controller(arg: str | None, env, preset: str) -> PPOController:
+class PPOController(_AgentDriven, ResidualPlanner):
+    """The rule planner corrected by a trained agent."""
+
+
+class AdaptivePPOController(_AgentDriven, AdaptiveResidualPlanner):
+    """The adaptive planner corrected by a trained agent."""
+
+
+def load_ppo_controller(arg: str | None, env, preset: str) -> PPOController | AdaptivePPOController:
     """``--controller ppo[:PATH]`` for this env: the agent plus the turn map of ``preset``."""
     agent = load_agent(arg)
     tmap_file = default_turn_map(preset)
@@ -116,7 +130,8 @@ def load_ppo_controller(arg: str | None, env, preset: str) -> PPOController:
         raise ValueError("the PPO agent corrects the turn planner, which needs a turn map: "
                          + missing_turn_map_message(tmap_file, preset))
     limits = ResidualLimits(**agent.meta.get("limits", {}))
-    ctrl = PPOController.for_env(env, TurnMap.load(tmap_file), limits=limits)
+    cls = AdaptivePPOController if agent.meta.get("planner", "rule") == "adaptive" else PPOController
+    ctrl = cls.for_env(env, TurnMap.load(tmap_file), limits=limits)
     ctrl.agent = agent
     ctrl.policy = lambda f: agent.act(f, ctrl._deterministic)
     return ctrl

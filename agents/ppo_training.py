@@ -101,7 +101,9 @@ def agent_env(config: TrainConfig) -> tuple[str, dict[str, Any]]:
     env_id = {"fast": TURN_FAST_ENV_ID, "coarse": TURN_COARSE_ENV_ID}.get(config.preset, TURN_ENV_ID)
     return env_id, {"preset": config.preset, "turn_map": config.turn_map, "env_kwargs": dict(config.env_kwargs),
                     "limits": dataclasses.asdict(ResidualLimits(**config.limits)), "action_cost": config.action_cost,
-                    "random_path": dict(config.curriculum[-1].random_path)}
+                    "random_path": dict(config.curriculum[-1].random_path),
+                    # the rule planner's agents from before the choice existed store no "planner" (its default)
+                    **({"planner": config.planner} if config.planner != "rule" else {})}
 
 
 def _make_env(config: TrainConfig, rank: int, paths=None):
@@ -122,7 +124,7 @@ def _make_env(config: TrainConfig, rank: int, paths=None):
             kwargs.pop("randomize", None)
         env = TurnDecisionEnv(preset=config.preset, turn_map=config.turn_map, env_kwargs=kwargs,
                               paths=paths, random_path=None if paths else config.curriculum[0].random_path,
-                              limits=config.limits, action_cost=config.action_cost)
+                              limits=config.limits, action_cost=config.action_cost, planner=config.planner)
         env.reset(seed=config.seed + rank)
         return env
     return factory
@@ -144,7 +146,9 @@ def run_identity(config: TrainConfig) -> dict[str, Any]:
         "name": config.name, "preset": config.preset, "turn_map": config.turn_map, "limits": dict(config.limits),
         "action_cost": config.action_cost, "env_kwargs": dict(config.env_kwargs), "policy": config.policy,
         "policy_kwargs": dict(config.ppo.get("policy_kwargs") or {}), "n_envs": config.n_envs,
-        "normalize": dict(config.normalize), "seed": config.seed, "init_from": config.init_from}, default=str))
+        "normalize": dict(config.normalize), "seed": config.seed, "init_from": config.init_from,
+        # the rule planner's runs from before the choice existed have no "planner"
+        **({"planner": config.planner} if config.planner != "rule" else {})}, default=str))
 
 
 def _check_same_run(out: Path, meta: dict[str, Any], config: TrainConfig) -> None:
@@ -399,6 +403,7 @@ class _Bookkeeping(BaseCallback):
         env_id, make_kwargs = agent_env(self.config)
         self.meta.update({
             "name": self.config.name, "mode": MODE, "preset": self.config.preset, "turn_map": self.config.turn_map,
+            "planner": self.config.planner,
             "config": self.config.source, "n_envs": self.config.n_envs,
             "limits": dict(self.config.limits), "action_cost": self.config.action_cost,
             "env_kwargs": dict(self.config.env_kwargs), "env_id": env_id, "make_kwargs": make_kwargs,

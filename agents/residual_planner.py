@@ -55,6 +55,8 @@ N_FEATURES = 14
 #: the adaptive planner sees (``turn_features`` then ``map_features``).
 N_MAP_FEATURES = 6
 N_ADAPTIVE_FEATURES = N_FEATURES + N_MAP_FEATURES
+#: The planners a residual policy may correct, and the length of the feature vector it then sees.
+BASE_PLANNERS = {"rule": N_FEATURES, "adaptive": N_ADAPTIVE_FEATURES}
 #: Distances in the features are in units of this, m (about a path segment).
 FEATURE_LENGTH_M = 0.1
 

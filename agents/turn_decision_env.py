@@ -52,7 +52,7 @@ DEFAULT_ENV_KWARGS: dict[str, Any] = {"reward": {"cross_track_per_cm_s": 0.05}}
 DEFAULT_RANDOM_PATH: dict[str, Any] = {"n_waypoints": 3, "segment_length_m": [0.12, 0.2], "min_turn_deg": 30.0,
                                        "max_turn_deg": 150.0, "planar": [True, False]}
 RESET_OPTIONS = ("path",)
-#: The planners a residual policy may correct (``planner=``).
+#: The planners a residual policy may correct (``planner=``; ``residual_planner.BASE_PLANNERS``).
 PLANNERS = {"rule": ResidualPlanner, "adaptive": AdaptiveResidualPlanner}
 INFO_KEYS = ("path", "is_success", "waypoints_reached", "mean_cross_track_m", "time_s", "energy_J",
              "buckling_events", "turns")

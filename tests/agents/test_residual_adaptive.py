@@ -118,3 +118,37 @@ def test_turn_env_with_the_adaptive_planner():
     env.close()
     with pytest.raises(ValueError, match="planner='best'"):
         gym.make("FlagellumTurn-v0", planner="best")
+
+
+SHORT_TURN = {"n_waypoints": 1, "segment_length_m": [0.03, 0.04], "min_turn_deg": 70.0, "max_turn_deg": 90.0}
+TINY_ADAPTIVE = {"tiny_adaptive": {
+    "n_envs": 1, "n_timesteps": 3, "seed": 0, "checkpoint_every": 3, "n_steps": 3, "batch_size": 3, "n_epochs": 1,
+    "policy_kwargs": {"net_arch": [8], "log_std_init": -1.0},
+    "task": {"preset": "faithful", "planner": "adaptive",
+             "curriculum": [{"name": "one", "until": 3, "random_path": SHORT_TURN}],
+             "validation": {"seeds": [5], "every": 3, "random_path": SHORT_TURN}}}}
+
+
+def test_an_agent_trained_on_the_adaptive_planner_drives_it(tmp_path):
+    import json
+
+    from agents.path_following import make_controller
+    from agents.ppo_config import TrainConfig
+    from agents.ppo_policy import AdaptivePPOController, load_agent
+    from agents.ppo_training import train
+
+    out = tmp_path / "run"
+    result = train(TrainConfig.from_dict(TINY_ADAPTIVE), out, progress=False)
+    assert result.decisions == 3
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["planner"] == "adaptive" and meta["make_kwargs"]["planner"] == "adaptive"
+    agent = load_agent(str(out))
+    assert agent.act(np.zeros(N_ADAPTIVE_FEATURES, np.float32)).shape == (2,)
+    env = FlagellumSteerEnv(path=ONE_TURN, control_dt=0.1, reach_radius_m=0.015)
+    ctrl = make_controller(f"ppo:{out}", env, "faithful")
+    assert isinstance(ctrl, AdaptivePPOController)
+    env.close()
+    bad = json.loads(json.dumps(TINY_ADAPTIVE))
+    bad["tiny_adaptive"]["task"]["planner"] = "horizon"
+    with pytest.raises(ValueError, match="planner='horizon' is not allowed"):
+        TrainConfig.from_dict(bad)
