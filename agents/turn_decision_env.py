@@ -189,6 +189,7 @@ class TurnDecisionEnv(gym.Env):
         self._path_name = path.name
         self._obs, _ = self.base.reset(seed=seed, options={"path": path})
         self.planner.reset()
+        self.planner.reach_radius_m = self.base.tracker.reach_radius_m  # this path's (random_path may draw it)
         self._start, self._done = True, False
         self._cross, self._turns = [], 0
         self._pending_reward = 0.0

@@ -101,20 +101,32 @@ class RandomPathConfig:
     previous heading (+x for the first segment) by an angle drawn uniformly from
     [-max_turn_deg, max_turn_deg] (with ``min_turn_deg`` > 0: its size from [min_turn_deg,
     max_turn_deg] and its sign at random): about +z when ``planar`` (the path stays in the x-y plane),
-    otherwise about a uniformly drawn axis perpendicular to the heading.
+    otherwise about a uniformly drawn axis perpendicular to the heading. ``n_waypoints`` is a number or
+    a range (lo, hi), the number then drawn uniformly from lo..hi before the segments;
+    ``reach_radius_m`` (m) is None (the environment's radius) or a range (lo, hi) drawn uniformly after
+    them. A config without ranges draws exactly what it drew before they existed.
     """
 
-    n_waypoints: int = 3
+    n_waypoints: int | tuple[int, int] = 3
     segment_length_m: tuple[float, float] = (0.03, 0.08)
     max_turn_deg: float = 90.0
     planar: bool = True
     min_turn_deg: float = 0.0
+    reach_radius_m: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         n = self.n_waypoints
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= 1000:
-            raise ValueError(f"random_path.n_waypoints={n!r} must be an integer from 1 to 1000")
-        object.__setattr__(self, "n_waypoints", int(n))
+        if isinstance(n, (list, tuple)):
+            ok = (len(n) == 2 and all(not isinstance(k, bool) and isinstance(k, (int, np.integer)) for k in n)
+                  and 1 <= n[0] <= n[1] <= 1000)
+            if not ok:
+                raise ValueError(f"random_path.n_waypoints={n!r} must be an integer or a range (lo, hi) of integers "
+                                 f"with 1 <= lo <= hi <= 1000")
+            object.__setattr__(self, "n_waypoints", (int(n[0]), int(n[1])))
+        elif isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= 1000:
+            raise ValueError(f"random_path.n_waypoints={n!r} must be an integer from 1 to 1000 or a range (lo, hi)")
+        else:
+            object.__setattr__(self, "n_waypoints", int(n))
         lo, hi = _pair(self.segment_length_m, "random_path.segment_length_m")
         if not 0.0 < lo <= hi:
             raise ValueError(f"random_path.segment_length_m={self.segment_length_m!r} must be (lo, hi) metres "
@@ -128,6 +140,12 @@ class RandomPathConfig:
         if not isinstance(self.planar, (bool, np.bool_)):
             raise ValueError(f"random_path.planar={self.planar!r} must be True or False")
         object.__setattr__(self, "planar", bool(self.planar))
+        if self.reach_radius_m is not None:
+            r_lo, r_hi = _pair(self.reach_radius_m, "random_path.reach_radius_m")
+            if not 0.0 < r_lo <= r_hi:
+                raise ValueError(f"random_path.reach_radius_m={self.reach_radius_m!r} must be None or (lo, hi) "
+                                 f"metres with 0 < lo <= hi")
+            object.__setattr__(self, "reach_radius_m", (r_lo, r_hi))
 
 
 def square_path(side_m: float = PAPER_SQUARE_SIDE_M) -> WaypointPath:
@@ -145,7 +163,10 @@ def random_path(rng: np.random.Generator, config: RandomPathConfig | None = None
     heading = np.array([1.0, 0.0, 0.0])
     point = np.zeros(3)
     pts = []
-    for _ in range(cfg.n_waypoints):
+    n = cfg.n_waypoints
+    if isinstance(n, tuple):
+        n = int(rng.integers(n[0], n[1] + 1))
+    for _ in range(n):
         length = float(rng.uniform(lo, hi))
         if cfg.min_turn_deg > 0.0:  # |angle| in [min, max], either sign
             angle = float(rng.uniform(math.radians(cfg.min_turn_deg), max_turn)) * (1.0 if rng.random() < 0.5 else -1.0)
@@ -159,7 +180,8 @@ def random_path(rng: np.random.Generator, config: RandomPathConfig | None = None
         heading /= np.linalg.norm(heading)
         point = point + length * heading
         pts.append(point)
-    return WaypointPath(name="random", waypoints=np.array(pts))
+    reach = None if cfg.reach_radius_m is None else float(rng.uniform(*cfg.reach_radius_m))
+    return WaypointPath(name="random", waypoints=np.array(pts), reach_radius_m=reach)
 
 
 def path_from_waypoints(waypoints: Sequence[Sequence[float]] | np.ndarray, name: str = "custom",

@@ -152,3 +152,16 @@ def test_an_agent_trained_on_the_adaptive_planner_drives_it(tmp_path):
     bad["tiny_adaptive"]["task"]["planner"] = "horizon"
     with pytest.raises(ValueError, match="planner='horizon' is not allowed"):
         TrainConfig.from_dict(bad)
+
+
+def test_the_planner_aims_at_each_drawn_paths_reach_radius():
+    from agents.turn_decision_env import TurnDecisionEnv
+
+    env = TurnDecisionEnv(planner="adaptive", random_path={**SHORT_TURN, "reach_radius_m": [0.02, 0.03]})
+    radii = []
+    for seed in (0, 1):
+        env.reset(seed=seed)
+        radii.append(env.base.tracker.reach_radius_m)
+        assert env.planner.reach_radius_m == radii[-1] and 0.02 <= radii[-1] <= 0.03
+    assert radii[0] != radii[1]
+    env.close()

@@ -121,6 +121,11 @@ def test_random_path_respects_lengths_turns_and_plane(planar):
     ({"segment_length_m": 0.01}, "segment_length_m"),
     ({"max_turn_deg": 200}, "max_turn_deg"),
     ({"planar": "yes"}, "planar"),
+    ({"n_waypoints": (3, 2)}, r"n_waypoints=\(3, 2\)"),
+    ({"n_waypoints": (0, 2)}, "n_waypoints"),
+    ({"n_waypoints": (1.5, 2)}, "n_waypoints"),
+    ({"reach_radius_m": (0.03, 0.01)}, "reach_radius_m"),
+    ({"reach_radius_m": 0.01}, "reach_radius_m"),
 ])
 def test_random_path_config_rejects_bad_values(kwargs, match):
     with pytest.raises(ValueError, match=match):
@@ -136,3 +141,33 @@ def test_waypoints_out_of_reach_are_refused_by_every_loader(tmp_path, waypoints)
     f.write_text(json.dumps({"waypoints": waypoints}))
     with pytest.raises(ValueError, match=r"far.json: waypoint .* out of reach"):
         load_path(f)
+
+
+def test_ranges_of_corners_and_reach_radius_are_drawn_within_them():
+    cfg = RandomPathConfig(n_waypoints=(2, 5), segment_length_m=(0.05, 0.4), min_turn_deg=20.0, max_turn_deg=175.0,
+                           reach_radius_m=(0.01, 0.03))
+    drawn = [random_path(np.random.default_rng(s), cfg) for s in range(40)]
+    assert {p.n_waypoints for p in drawn} == {2, 3, 4, 5}
+    assert all(0.01 <= p.reach_radius_m <= 0.03 for p in drawn)
+    assert random_path(np.random.default_rng(3), cfg) == drawn[3]
+
+
+def test_a_config_without_ranges_draws_the_committed_eval_paths():
+    """The held-out paths (scripts/make_eval_paths.py) come out of the generator as they were committed."""
+    import importlib.util
+    from pathlib import Path
+
+    from agents.assets import eval_paths_dir
+    from flagellum_env.paths import load_path
+
+    spec = importlib.util.spec_from_file_location(
+        "make_eval_paths", Path(__file__).resolve().parents[2] / "scripts" / "make_eval_paths.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    for kind, planar in (("planar", True), ("3d", False)):
+        cfg = RandomPathConfig(**{**mod.EVAL_PATHS.__dict__, "planar": planar})
+        for seed in (1000, 1007):
+            p = random_path(np.random.default_rng(seed), cfg)
+            committed = load_path(eval_paths_dir() / f"{kind}_{seed}.json")
+            # the same draws (the files were written by an older, ULP-different rotation: 6e-17 m)
+            assert np.allclose(p.waypoints, committed.waypoints, rtol=0.0, atol=1e-12) and p.reach_radius_m is None
