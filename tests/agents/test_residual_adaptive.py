@@ -165,3 +165,12 @@ def test_the_planner_aims_at_each_drawn_paths_reach_radius():
         assert env.planner.reach_radius_m == radii[-1] and 0.02 <= radii[-1] <= 0.03
     assert radii[0] != radii[1]
     env.close()
+
+
+def test_the_adaptive_agents_training_config_loads():
+    from agents.assets import package_file
+    from agents.ppo_config import TrainConfig
+
+    cfg = TrainConfig.from_yaml(package_file("configs", "ppo_residual_adaptive.yml"))
+    assert cfg.planner == "adaptive" and cfg.preset == "faithful" and cfg.max_wall_time_s <= 7200
+    assert cfg.curriculum[-1].random_path["n_waypoints"] == [2, 5]
