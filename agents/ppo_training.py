@@ -311,23 +311,35 @@ def train(config: TrainConfig, out_dir: str | Path, resume: bool = False, progre
     return result
 
 
+def stop_vec_workers(vec) -> bool:
+    """Stop the worker processes under the vector env ``vec`` at once, whatever step they are in (SIGTERM, then
+    SIGKILL after 2 s for a worker that ignores it or is inside a long compiled kernel), and mark it closed.
+    False when ``vec`` has no worker processes (a ``DummyVecEnv``: nothing to stop)."""
+    inner = vec
+    while hasattr(inner, "venv"):
+        inner = inner.venv
+    procs = list(getattr(inner, "processes", []))
+    if not hasattr(inner, "processes"):
+        return False
+    for proc in procs:
+        if proc.is_alive():
+            proc.terminate()
+    for proc in procs:
+        proc.join(timeout=2)
+        if proc.is_alive():
+            proc.kill()
+            proc.join(timeout=5)
+    inner.closed = True  # nothing left to close
+    return True
+
+
 def _close(venv, eval_env, at_once: bool) -> None:
     """Close the envs; ``at_once`` (after an interrupt): stop the worker processes instead of waiting for the
     step they are in."""
     if at_once:
         for vec in (venv, eval_env):
-            inner = vec
-            while hasattr(inner, "venv"):
-                inner = inner.venv
-            for proc in getattr(inner, "processes", []):
-                if proc.is_alive():
-                    proc.terminate()
-            for proc in getattr(inner, "processes", []):
-                proc.join(timeout=5)
-            if hasattr(inner, "processes"):
-                inner.closed = True  # nothing left to close
-                continue
-            vec.close()
+            if not stop_vec_workers(vec):
+                vec.close()
         return
     venv.close()
     eval_env.close()

@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 
 from agents.ppo_config import HELD_OUT_SEED0, PPO_KEYS
-from agents.ppo_training import CHECKPOINT_PREFIX, latest_checkpoint
+from agents.ppo_training import CHECKPOINT_PREFIX, latest_checkpoint, stop_vec_workers
 from batch.provenance import git_commit
 from physics.presets import DEFAULT_PRESET, preset_names
 
@@ -501,10 +501,14 @@ def train_raw_ppo(run: RawRun, stdout: bool = True, prog: str = "raw_ppo", t0: f
             signal.signal(s, h)
         cpu_children = children_cpu_s(venv) if venv is not None else 0.0
         if venv is not None:
-            try:
+            if status.startswith("finished") or status.startswith("stopped"):
+                try:
+                    venv.close()
+                except (EOFError, OSError, BrokenPipeError) as exc:
+                    print(f"{prog}: closing the env workers: {exc}", file=sys.stderr)
+                    stop_vec_workers(venv)
+            elif not stop_vec_workers(venv):  # aborted or failed: a worker may be inside a long step
                 venv.close()
-            except (EOFError, OSError, BrokenPipeError) as exc:
-                print(f"{prog}: closing the env workers: {exc}", file=sys.stderr)
         session.update(ended=_now(), loadavg_end=_loadavg(), status=status, steps_to=int(state["env_steps"]),
                        wall_s=round(time.perf_counter() - t0, 1),
                        cpu_s=round(time.process_time() - cpu0 + cpu_children, 1))
