@@ -63,9 +63,9 @@ from physics.params import NumericsConfig, SwimmerParams
 from physics.step_context import StepContext, SystemDescription
 from physics.step_solvers import BandedNewtonSolver, DenseChordSolver
 from physics.threads import one_blas_thread
-from physics.time_integrator import (EXTRAPOLATION_POINTS, SAFETY, SHRINK_MIN, ContractionRate, History, StepBase,
-                                     error_norm, extrapolate, next_step, split_remaining, step_base, step_spans,
-                                     velocity_of)
+from physics.time_integrator import (COLLAPSED_STEPS, EXTRAPOLATION_POINTS, MAX_STEPS_PER_SPAN, SAFETY,
+                                     SCHEME_ORDER, SHRINK_MIN, ContractionRate, History, StepBase, error_norm,
+                                     extrapolate, next_step, split_remaining, step_base, step_spans, velocity_of)
 
 
 @dataclass
@@ -82,6 +82,7 @@ class StepStats:
     halvings: int = 0
     substeps: int = 0  # accepted integration steps (= steps with fixed steps and no halving)
     rejected_steps: int = 0  # adaptive steps retried smaller (error too large or Newton failure)
+    order_reductions: int = 0  # times the order was held at 2 after its steps collapsed (``time_integrator``)
     # wall seconds spent in each part of the step; the first three only on the Python paths (the compiled chord
     # and Newton-Krylov iterations are not split into parts)
     time_elastic: float = 0.0  # frames + elastic and contact gradients
@@ -190,6 +191,8 @@ class Simulator:
         # error estimate, restarted at every kink of the motion (a start or a motor-speed change)
         self._history = History()
         self._restart = True
+        self._order_capped = False  # BDF2 until the next restart (``COLLAPSED_STEPS``)
+        self._cap_next_restart = False
         # the flagellum's node forces at the last accepted points since the restart (t s, (n, 3) N), oldest first, at
         # most EXTRAPOLATION_POINTS: the Newton-Krylov step starts its force unknowns from their extrapolation
         self._force_points: list[tuple[float, np.ndarray]] = []
@@ -496,7 +499,12 @@ class Simulator:
         if self._restart:
             self._history.restart(self.time, self.q, self.v)
             self._restart = False
-        return step_base(self._history, h, self.numerics.integrator)
+            self._order_capped = self._cap_next_restart
+            self._cap_next_restart = False
+        scheme = self.numerics.integrator
+        if self._order_capped and SCHEME_ORDER[scheme] > 2:
+            scheme = "bdf2"
+        return step_base(self._history, h, scheme)
 
     def _advance(self, h: float, level: int) -> None:
         """Fixed steps: one step of h, halved (recursively) on failure."""
@@ -519,6 +527,7 @@ class Simulator:
         nm = self.numerics
         t_end = self.time + dt
         rejected = False
+        accepted = 0
         while t_end - self.time > 1e-9 * dt:
             if self._restart:
                 self._h = min(nm.h_start, dt)
@@ -539,6 +548,18 @@ class Simulator:
                 continue
             rejected = False
             self._commit(q, base, grad, f, t, d1, rt, t_new=t_end if last else None)
+            accepted += 1
+            if accepted == COLLAPSED_STEPS and base.order > 2:
+                # BDF3/4 are not A-stable: a lightly damped fast mode (contact, a buckled coil) or the lagged
+                # resistance's kinks hold them at microsecond steps; BDF2 is (until the next restart)
+                # ... from a restart: implicit Euler's first step at h_start damps what the collapse excited
+                self._cap_next_restart = self._restart = True
+                self._h = nm.h_start
+                self._force_points = []
+                self.stats.order_reductions += 1
+            elif accepted >= MAX_STEPS_PER_SPAN:
+                raise SimulationError(f"too much work: {accepted} steps in {self.time - (t_end - dt):.3g} s of a "
+                                      f"{dt:g} s span (last step {h:.3g} s)", self.step_count, self.time, "step size")
             proposal = next_step(h, err, base.order, keep=not self._solver.krylov)
             if h < self._h and proposal >= h:  # a step shortened to land on t_end says nothing against h
                 proposal = max(proposal, self._h)

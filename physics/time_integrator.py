@@ -83,6 +83,17 @@ class History:
 #: the largest order of each scheme (``NumericsConfig.integrator``)
 SCHEME_ORDER = {"euler": 1, "bdf2": 2, "bdf3": 3, "bdf4": 4}
 
+#: Collapsed steps: BDF3 and BDF4 are only A(alpha)-stable (alpha 86 and 73 deg; Hairer & Wanner II, Sec. V.2),
+#: so a lightly damped fast mode near the imaginary axis, or the kinks of a resistance rebuilt in jumps, can hold
+#: their error-controlled steps at microseconds (BDF3 at step_tol 1e-7 from rest: 3324 steps of ~3 us in 0.05 s,
+#: BDF2 124; a random-policy env episode at faithful sat at 1-2.5 us steps at 150 rpm with contact active, for more
+#: than 15 minutes). After this many accepted steps within one span of ``Simulator._adaptive`` (dt, 0.1 s by default;
+#: normal runs take at most ~200) the order is held at 2, A-stable, until the next restart, as CVODE's stability
+#: limit detection lowers the order (Hindmarsh et al., ACM TOMS 31, 2005, Sec. 2.3).
+COLLAPSED_STEPS = 1000
+#: ... and after this many the span fails with ``SimulationError`` (too much work, as CVODE's mxstep).
+MAX_STEPS_PER_SPAN = 50_000
+
 
 @njit(cache=True)
 def bdf_coefficients(t_new: float, times: np.ndarray) -> np.ndarray:

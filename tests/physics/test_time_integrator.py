@@ -404,3 +404,37 @@ def test_error_norm_is_numpys_weighted_max():
     assert weighted_max_abs_diff(a, b, w) == float(np.max(np.abs(a - b) * w))
     a[100] = np.nan
     assert math.isnan(weighted_max_abs_diff(a, b, w))
+
+
+def _collapsing_start(monkeypatch=None, **patch):
+    """BDF3 at step_tol 1e-7 from rest at 10 rpm: its steps collapse to microseconds (docs/time_integration.md)."""
+    import physics.simulator as simulator_module
+    from physics import Simulator, advance, configure
+    from physics.params import RPM_TO_RAD_S
+
+    for name, value in patch.items():
+        monkeypatch.setattr(simulator_module, name, value)
+    p, n = configure("faithful", {"step_tol": 1e-7})
+    sim = Simulator(p, n)
+    sim.set_motor_speed(10 * RPM_TO_RAD_S)
+    advance(sim, 0.05)
+    return sim
+
+
+def test_collapsed_bdf3_steps_continue_at_order_two_from_a_restart(monkeypatch):
+    held = _collapsing_start()
+    assert held.stats.order_reductions == 1 and held._order_capped
+    assert held.stats.substeps < 1100 and held._h > 1e-4  # 1000 collapsed steps, then BDF2 at ~0.5 ms
+    free = _collapsing_start(monkeypatch, COLLAPSED_STEPS=10**9)
+    assert free.stats.order_reductions == 0 and free.stats.substeps > 3000 and free._h < 1e-5
+    held.set_motor_speed(held.omega * 1.01)  # a restart lifts the hold
+    held.step(0.001)
+    assert not held._order_capped
+
+
+def test_too_much_work_in_a_span_raises_simulation_error(monkeypatch):
+    from physics.errors import SimulationError
+
+    with pytest.raises(SimulationError, match="too much work: 50 steps") as info:
+        _collapsing_start(monkeypatch, COLLAPSED_STEPS=10**9, MAX_STEPS_PER_SPAN=50)
+    assert info.value.quantity == "step size" and info.value.step == 0 and info.value.time_s > 0.0  # the first control step
