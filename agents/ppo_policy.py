@@ -54,7 +54,7 @@ class PPOAgent:
     folder: Path
 
     def act(self, features: np.ndarray, deterministic: bool = True) -> np.ndarray:
-        """Residual action (2,) in [-1, 1] for one feature vector (``BASE_PLANNERS[planner]``,)."""
+        """Residual action (2,) in [-1, 1] for one feature vector (``BASE_PLANNERS[planner].n_features``,)."""
         f = np.asarray(features, dtype=np.float64)
         if self.obs_rms is not None:
             f = np.clip((f - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon), -self.clip_obs,
@@ -89,7 +89,7 @@ def load_agent(arg: str | None = None) -> PPOAgent:
         raise ValueError(f"the agent in {str(folder)!r} corrects the planner {planner!r}; this version has "
                          f"{list(BASE_PLANNERS)}")
     model = PPO.load(str(folder / "model.zip"), device="cpu")
-    n = BASE_PLANNERS[planner]
+    n = BASE_PLANNERS[planner].n_features
     if model.observation_space.shape != (n,):
         raise ValueError(f"the agent in {str(folder)!r} expects {model.observation_space.shape} observations, "
                          f"this version's turn features of the {planner} planner are ({n},): retrain it")

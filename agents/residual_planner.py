@@ -55,8 +55,6 @@ N_FEATURES = 14
 #: the adaptive planner sees (``turn_features`` then ``map_features``).
 N_MAP_FEATURES = 6
 N_ADAPTIVE_FEATURES = N_FEATURES + N_MAP_FEATURES
-#: The planners a residual policy may correct, and the length of the feature vector it then sees.
-BASE_PLANNERS = {"rule": N_FEATURES, "adaptive": N_ADAPTIVE_FEATURES}
 #: Distances in the features are in units of this, m (about a path segment).
 FEATURE_LENGTH_M = 0.1
 
@@ -121,6 +119,11 @@ def turn_features(plan: dict, targets: np.ndarray, reach_radius_m: float, end_to
         ratio,
         az_err,
     ])
+    return _bounded(f)
+
+
+def _bounded(f: np.ndarray) -> np.ndarray:
+    """Features as the policy sees them: NaN -> 0, clipped to [-10, 10], float32."""
     return np.clip(np.nan_to_num(f, nan=0.0, posinf=10.0, neginf=-10.0), -10.0, 10.0).astype(np.float32)
 
 
@@ -149,7 +152,7 @@ def map_features(online: OnlineTurnMap) -> np.ndarray:
     swimmer still follows the map (``OnlineTurnMap.follows_model``) and 1 if turns have confirmed the map."""
     f = np.array([online.shift_s, online.shift_std_s, online.bias_s, math.degrees(online.psi_offset_rad) / 90.0,
                   float(online.follows_model), float(online.map_confirmed)])
-    return np.clip(np.nan_to_num(f, nan=0.0, posinf=10.0, neginf=-10.0), -10.0, 10.0).astype(np.float32)
+    return _bounded(f)
 
 
 def corrected_adaptive_plan(plan: dict, action: np.ndarray, online: OnlineTurnMap, turn_map: TurnMap,
@@ -276,3 +279,7 @@ class AdaptiveResidualPlanner(ResidualDecisions, AdaptivePlanner):
 
     def _corrected(self, ep, plan: dict, action: np.ndarray) -> dict:
         return corrected_adaptive_plan(plan, action, ep.online, self.turn_map, self.limits)
+
+
+#: The planners a residual policy may correct, by name (``n_features``: the length of the feature vector it sees).
+BASE_PLANNERS: dict[str, type[ResidualDecisions]] = {"rule": ResidualPlanner, "adaptive": AdaptiveResidualPlanner}

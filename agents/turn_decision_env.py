@@ -2,7 +2,8 @@
 
 ``TurnDecisionEnv`` (``FlagellumTurn-v0``; ``-fast`` and ``-coarse`` variants, all registered by
 ``import flagellum_env``) runs ``FlagellumSteer-v0`` under a ``ResidualPlanner`` (0.1 s control steps,
-the rule planner's; ``planner="adaptive"``: an ``AdaptiveResidualPlanner``, the adaptive planner's). Whenever the planner plans a turn it stops and hands the turn's features to the
+the rule planner's; ``planner="adaptive"``: an ``AdaptiveResidualPlanner``, the adaptive planner's). Whenever
+the planner plans a turn it stops and hands the turn's features to the
 agent (the observation); the agent's action corrects the turn (``ResidualLimits``); the env then
 runs on until the next planned turn or the end of the episode. The reward of a step is the sum of
 ``FlagellumSteer-v0``'s rewards over the control steps it covered (progress, cross-track error,
@@ -34,7 +35,7 @@ from gymnasium import spaces
 
 from agents.assets import default_turn_map, missing_turn_map_message
 from agents.path_following import CONTROLLER_ENV_DEFAULTS
-from agents.residual_planner import AdaptiveResidualPlanner, ResidualLimits, ResidualPlanner
+from agents.residual_planner import BASE_PLANNERS, ResidualLimits
 from agents.turn_map import TurnMap
 from flagellum_env.config import resolve_path
 from flagellum_env.paths import RandomPathConfig, WaypointPath
@@ -52,8 +53,6 @@ DEFAULT_ENV_KWARGS: dict[str, Any] = {"reward": {"cross_track_per_cm_s": 0.05}}
 DEFAULT_RANDOM_PATH: dict[str, Any] = {"n_waypoints": 3, "segment_length_m": [0.12, 0.2], "min_turn_deg": 30.0,
                                        "max_turn_deg": 150.0, "planar": [True, False]}
 RESET_OPTIONS = ("path",)
-#: The planners a residual policy may correct (``planner=``; ``residual_planner.BASE_PLANNERS``).
-PLANNERS = {"rule": ResidualPlanner, "adaptive": AdaptiveResidualPlanner}
 INFO_KEYS = ("path", "is_success", "waypoints_reached", "mean_cross_track_m", "time_s", "energy_J",
              "buckling_events", "turns")
 
@@ -126,8 +125,8 @@ class TurnDecisionEnv(gym.Env):
             raise ValueError(f"unknown argument(s) {sorted(unknown)} for {self.env_id}; known arguments: "
                              "preset, turn_map, env_kwargs, paths, random_path, limits, action_cost, render_mode, "
                              "planner")
-        if planner not in PLANNERS:
-            raise ValueError(f"planner={planner!r} is not allowed; choose one of {list(PLANNERS)}")
+        if planner not in BASE_PLANNERS:
+            raise ValueError(f"planner={planner!r} is not allowed; choose one of {list(BASE_PLANNERS)}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode={render_mode!r} is not allowed; choose one of "
                              f"{[None] + self.metadata['render_modes']}")
@@ -152,7 +151,7 @@ class TurnDecisionEnv(gym.Env):
             raise ValueError(f"turn_map={str(tmap_file)!r}: " + missing_turn_map_message(tmap_file, preset,
                                                                                            given=turn_map is not None))
         tmap = TurnMap.load(tmap_file)
-        self.planner = PLANNERS[planner].for_env(self.base, tmap, limits=_limits(limits))
+        self.planner = BASE_PLANNERS[planner].for_env(self.base, tmap, limits=_limits(limits))
         self.action_cost = require_finite("action_cost", action_cost, 0.0)
         self.paths = _fixed_paths(paths)
         self.set_random_path(DEFAULT_RANDOM_PATH if random_path is None else random_path)

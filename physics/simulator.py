@@ -191,8 +191,7 @@ class Simulator:
         # error estimate, restarted at every kink of the motion (a start or a motor-speed change)
         self._history = History()
         self._restart = True
-        self._order_capped = False  # BDF2 until the next restart (``COLLAPSED_STEPS``)
-        self._cap_next_restart = False
+        self._order_capped = False  # BDF2 until the next motor-speed change (``COLLAPSED_STEPS``)
         # the flagellum's node forces at the last accepted points since the restart (t s, (n, 3) N), oldest first, at
         # most EXTRAPOLATION_POINTS: the Newton-Krylov step starts its force unknowns from their extrapolation
         self._force_points: list[tuple[float, np.ndarray]] = []
@@ -234,6 +233,7 @@ class Simulator:
                              f"<= {MAX_RPM * RPM_TO_RAD_S:.6g} rad/s ({MAX_RPM:g} rpm)")
         if float(omega_rad_s) != self.omega:
             self._restart = True  # the motion has a kink here: no multistep formula may cross it
+            self._order_capped = False
             self._force_points = []  # nor may the forces' extrapolation
         self.omega = float(omega_rad_s)
 
@@ -290,6 +290,7 @@ class Simulator:
         self._v_prev = None
         self._h_prev = -1.0
         self._restart = True
+        self._order_capped = False
         self._force_points = []
         self._h = self.numerics.h_start
 
@@ -499,8 +500,6 @@ class Simulator:
         if self._restart:
             self._history.restart(self.time, self.q, self.v)
             self._restart = False
-            self._order_capped = self._cap_next_restart
-            self._cap_next_restart = False
         scheme = self.numerics.integrator
         if self._order_capped and SCHEME_ORDER[scheme] > 2:
             scheme = "bdf2"
@@ -550,10 +549,9 @@ class Simulator:
             self._commit(q, base, grad, f, t, d1, rt, t_new=t_end if last else None)
             accepted += 1
             if accepted == COLLAPSED_STEPS and base.order > 2:
-                # BDF3/4 are not A-stable: a lightly damped fast mode (contact, a buckled coil) or the lagged
-                # resistance's kinks hold them at microsecond steps; BDF2 is (until the next restart)
-                # ... from a restart: implicit Euler's first step at h_start damps what the collapse excited
-                self._cap_next_restart = self._restart = True
+                # BDF3/4 are not A-stable (``COLLAPSED_STEPS``): restart (implicit Euler at h_start damps what the
+                # collapse excited) and go on with BDF2, A-stable, until the motor speed changes
+                self._order_capped = self._restart = True
                 self._h = nm.h_start
                 self._force_points = []
                 self.stats.order_reductions += 1

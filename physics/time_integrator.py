@@ -88,7 +88,8 @@ SCHEME_ORDER = {"euler": 1, "bdf2": 2, "bdf3": 3, "bdf4": 4}
 #: their error-controlled steps at microseconds (BDF3 at step_tol 1e-7 from rest: 3324 steps of ~3 us in 0.05 s,
 #: BDF2 124; a random-policy env episode at faithful sat at 1-2.5 us steps at 150 rpm with contact active, for more
 #: than 15 minutes). After this many accepted steps within one span of ``Simulator._adaptive`` (dt, 0.1 s by default;
-#: normal runs take at most ~200) the order is held at 2, A-stable, until the next restart, as CVODE's stability
+#: normal runs take at most ~200) the step restarts and the order is held at 2, A-stable, until the motor speed
+#: changes (or ``set_state``), as CVODE's stability
 #: limit detection lowers the order (Hindmarsh et al., ACM TOMS 31, 2005, Sec. 2.3).
 COLLAPSED_STEPS = 1000
 #: ... and after this many the span fails with ``SimulationError`` (too much work, as CVODE's mxstep).
