@@ -52,6 +52,21 @@ def aggregate_table(results: dict[str, Any], controllers: Sequence[str] | None =
     return out
 
 
+def best_planner(results: dict[str, Any], planners: Sequence[str] = ("rule", "adaptive")) -> str:
+    """The planner of ``planners`` with the higher success rate in ``results``; on a tie the lower mean
+    cross-track error (a missing one counts as infinite). ValueError if none of them ran."""
+    agg = results.get("aggregate", {})
+    ran = [p for p in planners if p in agg]
+    if not ran:
+        raise ValueError(f"none of the planners {list(planners)} ran here; controllers: {list(agg)}")
+
+    def key(p: str) -> tuple[float, float]:
+        x = agg[p].get("mean_cross_track_m")
+        return -agg[p]["success_rate"], float("inf") if x is None else x
+
+    return min(ran, key=key)
+
+
 def _cell(r: dict[str, Any] | None) -> str:
     if r is None:
         return "-"

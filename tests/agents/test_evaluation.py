@@ -168,3 +168,17 @@ def test_follow_randomize_draws_the_swimmer_from_the_seed_and_records_it(tmp_pat
     rule = [r["controllers"]["rule"] for r in (runs["nominal"], runs["a"], runs["b"])]
     assert all(rule[1][k] == rule[2][k] for k in ("time_s", "mean_cross_track_m", "energy_J"))
     assert rule[1]["energy_J"] != rule[0]["energy_J"]
+
+
+def test_best_planner_is_the_higher_success_then_the_lower_cross_track():
+    from agents.evaluation_report import best_planner
+
+    def res(**agg):
+        return {"aggregate": {k: {"success_rate": s, "mean_cross_track_m": x} for k, (s, x) in agg.items()}}
+
+    assert best_planner(res(rule=(0.5, 0.01), adaptive=(0.8, 0.02), ppo=(1.0, 0.001))) == "adaptive"
+    assert best_planner(res(rule=(1.0, 0.007), adaptive=(1.0, 0.008))) == "rule"
+    assert best_planner(res(rule=(1.0, None), adaptive=(1.0, 0.008))) == "adaptive"
+    assert best_planner(res(adaptive=(0.2, 0.03))) == "adaptive"
+    with pytest.raises(ValueError, match="none of the planners"):
+        best_planner(res(ppo=(1.0, 0.001)))
