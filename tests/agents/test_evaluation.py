@@ -75,6 +75,13 @@ def test_seed0_draws_each_paths_swimmer_from_its_own_seed_and_the_report_pairs_t
     assert "| other (8) | " in text and "| short (7) | yes (1/1)" in text
     assert "env seeds 7-8" in text
     assert (tmp_path / "figures" / "short_paths.png").is_file()
+    # the cross-track budget reads the same traces: its mean is the episodes' mean cross-track
+    from agents.cross_track_budget import budget_table, folder_budgets
+
+    b = folder_budgets(out)["rule"]
+    assert b["episodes"] == 2
+    assert b["mean_m"] == pytest.approx(res["aggregate"]["rule"]["mean_cross_track_m"], rel=0.05)
+    assert "| `rule` | 2 |" in "\n".join(budget_table({"eval": folder_budgets(out)}))
 
 
 def test_episode_metrics_from_a_trace():
