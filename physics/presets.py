@@ -1,7 +1,8 @@
 """Named speed/accuracy presets, selectable everywhere (CLI ``--preset``, API, environment).
 
 ``paper`` is the paper's discretisation (N = 122, edges 2 delta, LSBT + Higdon head) and scheme
-(implicit Euler, eqn 6) at the paper's h = 1 ms, Newton tolerance 1e-6, with the resistance
+(implicit Euler, eqn 6) at the paper's h = 1 ms, Newton tolerance 1e-6 (the chord iteration compiled, without
+Anderson mixing), with the resistance
 refreshed whenever the shape has changed by more than 0.03 r0 (first order in h: 2 % off the
 converged turn angle, docs/bench_quick.md); its steps with a rebuilt resistance are solved by
 Newton-Krylov (the same solution to the Newton tolerance, 1.4x faster in a burst).
@@ -43,9 +44,11 @@ PRESETS: dict[str, dict[str, dict[str, Any]]] = {
     "reference": {"params": {"n_nodes": 122},
                   "numerics": {**_ADAPTIVE, "integrator": "bdf2", "step_tol": 1e-7, "hydro_refresh_tol": 0.003,
                                "newton_tol": 1e-8}},
+    # paper: the chord iteration without Anderson mixing runs compiled (chord_iteration.chord_loop): 1.25x steady,
+    # 1.18x burst, the end state of a 1.5 s burst 2.7e-10 m from the mixed iteration's (2026-12-04)
     "paper": {"params": {"n_nodes": 122},
               "numerics": {"dt": 1e-3, "hydro_model": "lsbt", "head_model": "higdon",
-                           "hydro_refresh_tol": 0.03, "newton_tol": 1e-6, "newton_krylov": True}},
+                           "hydro_refresh_tol": 0.03, "newton_tol": 1e-6, "newton_krylov": True, "anderson_depth": 0}},
     "faithful": {"params": {"n_nodes": 122},
                  "numerics": {**_ADAPTIVE, "integrator": "bdf3", "step_tol": 1e-4, "hydro_refresh_tol": 0.03,
                               "newton_tol": 1e-5}},
