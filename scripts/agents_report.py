@@ -65,7 +65,7 @@ def logs_dir(agent: Path) -> Path:
 
 
 def training_section(agent: Path, lines: list[str], heading: str = "## Training",
-                     figure: str = "ppo_training.png") -> None:
+                     figure: str = "ppo_training.png", dirty: str = "result files being written, not code") -> None:
     meta_file = agent / "meta.json"
     if not meta_file.is_file():
         lines += [heading, "", f"Not measured: no trained agent in `{agent}`.", ""]
@@ -92,7 +92,7 @@ def training_section(agent: Path, lines: list[str], heading: str = "## Training"
               f"{config_text}: **{meta['decisions']} decisions (planned turns) in "
               f"{meta['wall_time_s'] / 60:.0f} min** of wall time on this 2-core machine ({meta.get('n_envs')} env "
               f"workers, PyTorch on the CPU), {len(ep['decisions'])} training episodes.{budget} Trained from commit "
-              f"`{meta['commit']}` (`-dirty`: result files being written, not code) with stable-baselines3 "
+              f"`{meta['commit']}` (`-dirty`: {dirty}) with stable-baselines3 "
               f"{meta['versions']['stable_baselines3']}, torch {meta['versions']['torch']}; its files are in "
               f"`{agent}`" + (f" (training logs in `{logs}`)" if logs != agent else "") + ".", "",
               f"![PPO training curve](figures/{fig.name})", "",
@@ -432,14 +432,16 @@ def map_probe(agent: Path) -> list[str]:
     if a.obs_rms is None or a.obs_rms.mean.size <= N_FEATURES:
         return []
     lim = ResidualLimits(**a.meta.get("limits", {}))
-    rows = ["As the online map's estimate of the swimmer's buckling-time shift varies (map confirmed, other "
+    rows = ["As the online map's estimate of the swimmer's buckling-time shift varies (a swimmer off the model, map "
+            "confirmed, other "
             f"features at their training means; a₀ scales the burst by 1 + {lim.max_dtc_fraction:g} a₀, a₁ shifts "
             f"the phase by {lim.max_dphase_deg:g}° a₁):", "",
             "| buckling-time shift (s) | a₀ (burst) | a₁ (phase) |", "|---|---|---|"]
     for shift in (-2.0, -1.0, 0.0, 1.0, 2.0):
         f = a.obs_rms.mean.copy()
         f[N_FEATURES] = shift
-        f[N_FEATURES + 5] = 1.0
+        f[N_FEATURES + 4] = 0.0  # the cruise did not follow the model
+        f[N_FEATURES + 5] = 1.0  # turns have confirmed the map
         act = a.act(f)
         rows.append(f"| {shift:+.0f} | {act[0]:+.3f} | {act[1]:+.3f} |")
     return rows + [""]
@@ -453,7 +455,9 @@ def adaptive_agent_section(lines: list[str]) -> None:
     if not (ADAPTIVE_AGENT / "meta.json").is_file():
         lines += [f"Not trained: no agent in `{ADAPTIVE_AGENT}`.", ""]
         return
-    training_section(ADAPTIVE_AGENT, lines, "### Its training", "ppo_training_adaptive.png")
+    training_section(ADAPTIVE_AGENT, lines, "### Its training", "ppo_training_adaptive.png",
+                     dirty="the config's worker count, 2 -> 4, committed right after the start in 89bfe53; the config "
+                     "as trained is kept with the agent")
     lines += map_probe(ADAPTIVE_AGENT)
     lines += ["### Held-out paths and swimmers", "", ADAPTIVE_EVAL_TEXT, "", "```"]
     lines += [f"flagellum evaluate --paths {EVAL_ADAPTIVE}/paths --controller rule --controller adaptive "
@@ -472,6 +476,37 @@ def adaptive_agent_section(lines: list[str]) -> None:
         if ppo is not None:
             lines += [*paired_lines(res, ppo, base=best_planner(res)), ""]
     adaptive_verdict(found, lines)
+    budget_section(found, lines)
+
+
+def budget_section(found: dict[str, dict[str, Any]], lines: list[str]) -> None:
+    """Where the held-out episodes' cross-track error is made (agents.cross_track_budget) and what exact turns
+    would leave: the limit of a per-turn correction."""
+    from agents.cross_track_budget import budget_table, folder_budgets
+    from agents.evaluation_report import best_planner
+
+    if not found:
+        return
+    budgets = {level: folder_budgets(EVAL_ADAPTIVE / level) for level in found}
+    lines += ["### Where the cross-track error is made", "",
+              f"`python scripts/cross_track_budget.py {' '.join(str(EVAL_ADAPTIVE / lv) for lv in found)}` "
+              "(agents/cross_track_budget.py): the episode-mean cross-track error (cm) split into the cruise before "
+              "a segment's first turn, the turns (burst and relaxation), the cruise between a turn and a corrective "
+              "one and after the last; and the estimate with every segment's first turn exact (its own error until "
+              "it has relaxed, then straight at the waypoint, no corrective turn), which bounds what correcting each "
+              "planned turn can gain.", "", *budget_table(budgets), ""]
+    nominal = found.get("nominal")
+    if nominal is not None:
+        best = best_planner(nominal)
+        b = budgets["nominal"].get(best)
+        if b is not None:
+            lines += [f"On the nominal swimmer the best planner (`{best}`) averages {100 * b['mean_m']:.2f} cm; with "
+                      f"every first turn exact it would average {100 * b['ideal_first_turn_m']:.2f} cm "
+                      f"({b['ideal_first_turn_m'] / b['mean_m']:.2f} of it), while the issue asks for "
+                      f"{80 * b['mean_m']:.2f} cm (0.8 of it). The error is made where a per-turn correction cannot "
+                      "act: the segment starts off its line (a waypoint counts as reached a reach radius away), the "
+                      "buckled flagellum moves the head sideways while it turns, and from where the turn ends the "
+                      "best single heading falls linearly to the waypoint.", ""]
 
 
 def adaptive_verdict(found: dict[str, dict[str, Any]], lines: list[str]) -> None:
