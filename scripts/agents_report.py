@@ -19,8 +19,9 @@ Inputs (each made by a committed command):
           --max-wall-min 50
 - results/agents/ppo_residual_adaptive_20261204/ (the residual on the adaptive planner at faithful, issue #26)
       flagellum train --config agents/configs/ppo_residual_adaptive.yml --out results/agents/ppo_residual_adaptive_20261204
-  and its held-out evaluation results/eval_ppo_adaptive/<level>/results.json (level nominal, rand05, rand10; the
-  commands are printed in the report)
+  and its held-out evaluation results/eval_ppo_adaptive/<level>/results.json and (a second held-out set)
+  results/eval_ppo_adaptive_confirm/<level>/results.json (level nominal, rand05, rand10; the commands are printed
+  in the report)
 - results/agents/raw_ppo_faithful_20261203/learning_curve.png (the raw baseline again at the new speed)
 Missing inputs are reported as not measured.
 """
@@ -413,8 +414,10 @@ def raw_ppo_section(lines: list[str]) -> None:
 
 #: the residual on the adaptive planner, trained at the default preset (issue #26), and its held-out evaluation
 ADAPTIVE_AGENT = RESULT_AGENTS / "ppo_residual_adaptive_20261204"
-EVAL_ADAPTIVE = Path("results/eval_ppo_adaptive")
-#: (folder under EVAL_ADAPTIVE, evaluate options, issue #26's success floor for PPO)
+#: the held-out sets, each (folder, seed of its paths and swimmers, paths of each kind): the first set, then a second
+#: one run to confirm it (neither seed range was used before)
+EVAL_SETS = ((Path("results/eval_ppo_adaptive"), 7800, 5), (Path("results/eval_ppo_adaptive_confirm"), 8100, 8))
+#: (folder under each set, evaluate options, issue #26's success floor for PPO)
 LEVELS = (("nominal", "", None), ("rand05", " --randomize 0.05", 0.90), ("rand10", " --randomize 0.1", 0.75))
 
 
@@ -459,27 +462,48 @@ def adaptive_agent_section(lines: list[str]) -> None:
                      dirty="the config's worker count, 2 -> 4, committed right after the start in 89bfe53; the config "
                      "as trained is kept with the agent")
     lines += map_probe(ADAPTIVE_AGENT)
-    lines += ["### Held-out paths and swimmers", "", ADAPTIVE_EVAL_TEXT, "", "```"]
-    lines += [f"flagellum evaluate --paths {EVAL_ADAPTIVE}/paths --controller rule --controller adaptive "
-              f"--controller ppo:{ADAPTIVE_AGENT}{opt} --seed0 7800 --workers 2 --out {EVAL_ADAPTIVE}/{level}"
-              for level, opt, _ in LEVELS] + ["```", ""]
-    found: dict[str, dict[str, Any]] = {}
-    for level, _, _ in LEVELS:
-        folder = EVAL_ADAPTIVE / level
-        if not (folder / "results.json").is_file():
-            lines += [f"#### {level}", "", "Not measured.", ""]
-            continue
-        res = found[level] = load_results(folder)
-        body = folder_report(folder, DOCS / "figures", f"ppo_adaptive_{level}", link_from=DOCS)
-        lines += ["#" + body[0], *body[1:]]
-        ppo = _ppo_key(res)
-        if ppo is not None:
-            lines += [*paired_lines(res, ppo, base=best_planner(res)), ""]
+    found: dict[tuple[Path, str], dict[str, Any]] = {}
+    for number, (folder, seed0, count) in enumerate(EVAL_SETS, 1):
+        lines += [f"### Held-out set {number}: paths and swimmers from seed {seed0}", "",
+                  eval_set_text(seed0, count), "", "```"]
+        lines += [f"python scripts/make_eval_paths.py --count {count} --seed0 {seed0} --out {folder}/paths"]
+        lines += [f"flagellum evaluate --paths {folder}/paths --controller rule --controller adaptive "
+                  f"--controller ppo:{ADAPTIVE_AGENT}{opt} --seed0 {seed0} --workers 2 --out {folder}/{level}"
+                  for level, opt, _ in LEVELS] + ["```", ""]
+        for level, _, _ in LEVELS:
+            if not (folder / level / "results.json").is_file():
+                lines += [f"#### {level}", "", "Not measured.", ""]
+                continue
+            res = found[(folder, level)] = load_results(folder / level)
+            prefix = folder.name.removeprefix("eval_")
+            body = folder_report(folder / level, DOCS / "figures", f"{prefix}_{level}", link_from=DOCS)
+            lines += ["#" + body[0], *body[1:]]
+            ppo = _ppo_key(res)
+            if ppo is not None:
+                lines += [*paired_lines(res, ppo, base=best_planner(res)), ""]
+    lines += [WALL_TIME_NOTE, ""]
     adaptive_verdict(found, lines)
     budget_section(found, lines)
 
 
-def budget_section(found: dict[str, dict[str, Any]], lines: list[str]) -> None:
+def eval_set_text(seed0: int, count: int) -> str:
+    """How a held-out set was drawn."""
+    return (f"{2 * count} paths no training or tuning used (`scripts/make_eval_paths.py`: {count} planar and {count} "
+            f"3-D, three segments of 12-20 cm, turns of 30-150°, seeds from {seed0}), and swimmers drawn from env "
+            f"seeds {seed0}-{seed0 + 2 * count - 1} (the k-th path's swimmer from seed {seed0} + k); every controller "
+            "flies the same path with the same swimmer. Levels: the nominal swimmer; E, μ, b within ±5 % and helix "
+            "±2 %; E, μ, b within ±10 % and helix ±4 %. Both planners keep the nominal turn map; `adaptive` and PPO "
+            "correct it online. Commands (faithful preset):")
+
+
+def pooled(results: list[dict[str, Any]]) -> dict[str, Any]:
+    """The episodes of several result files summarised as one (their controllers in common)."""
+    common = set.intersection(*(set(r["aggregate"]) for r in results))
+    controllers = [c for c in results[0]["aggregate"] if c in common]
+    return summarise([row for r in results for row in r["per_path"] if row["controller"] in common], controllers)
+
+
+def budget_section(found: dict[tuple[Path, str], dict[str, Any]], lines: list[str]) -> None:
     """Where the held-out episodes' cross-track error is made (agents.cross_track_budget) and what exact turns
     would leave: the limit of a per-turn correction."""
     from agents.cross_track_budget import budget_table, folder_budgets
@@ -487,30 +511,31 @@ def budget_section(found: dict[str, dict[str, Any]], lines: list[str]) -> None:
 
     if not found:
         return
-    budgets = {level: folder_budgets(EVAL_ADAPTIVE / level) for level in found}
+    budgets = {f"{folder.name}/{level}": folder_budgets(folder / level) for folder, level in found}
     lines += ["### Where the cross-track error is made", "",
-              f"`python scripts/cross_track_budget.py {' '.join(str(EVAL_ADAPTIVE / lv) for lv in found)}` "
+              f"`python scripts/cross_track_budget.py {' '.join(str(f / lv) for f, lv in found)}` "
               "(agents/cross_track_budget.py): the episode-mean cross-track error (cm) split into the cruise before "
               "a segment's first turn, the turns (burst and relaxation), the cruise between a turn and a corrective "
               "one and after the last; and the estimate with every segment's first turn exact (its own error until "
               "it has relaxed, then straight at the waypoint, no corrective turn), which bounds what correcting each "
               "planned turn can gain.", "", *budget_table(budgets), ""]
-    nominal = found.get("nominal")
-    if nominal is not None:
-        best = best_planner(nominal)
-        b = budgets["nominal"].get(best)
+    for folder, level in found:
+        if level != "nominal":
+            continue
+        best = best_planner(found[(folder, level)])
+        b = budgets[f"{folder.name}/{level}"].get(best)
         if b is not None:
-            lines += [f"On the nominal swimmer the best planner (`{best}`) averages {100 * b['mean_m']:.2f} cm; with "
-                      f"every first turn exact it would average {100 * b['ideal_first_turn_m']:.2f} cm "
-                      f"({b['ideal_first_turn_m'] / b['mean_m']:.2f} of it), while the issue asks for "
-                      f"{80 * b['mean_m']:.2f} cm (0.8 of it). The error is made where a per-turn correction cannot "
-                      "act: the segment starts off its line (a waypoint counts as reached a reach radius away), the "
-                      "buckled flagellum moves the head sideways while it turns, and from where the turn ends the "
-                      "best single heading falls linearly to the waypoint.", ""]
+            lines += [f"`{folder.name}`, nominal swimmer: the best planner (`{best}`) averages "
+                      f"{100 * b['mean_m']:.2f} cm; with every first turn exact it would average "
+                      f"{100 * b['ideal_first_turn_m']:.2f} cm ({b['ideal_first_turn_m'] / b['mean_m']:.2f} of it), "
+                      f"while the issue asks for {80 * b['mean_m']:.2f} cm (0.8 of it).", ""]
+    lines += ["The error is made where a per-turn correction cannot act: the segment starts off its line (a waypoint "
+              "counts as reached a reach radius away), the buckled flagellum moves the head sideways while it turns, "
+              "and from where the turn ends the best single heading falls linearly to the waypoint.", ""]
 
 
-def adaptive_verdict(found: dict[str, dict[str, Any]], lines: list[str]) -> None:
-    """Issue #26's targets checked against the measured files."""
+def adaptive_verdict(found: dict[tuple[Path, str], dict[str, Any]], lines: list[str]) -> None:
+    """Issue #26's targets checked against the measured files: each held-out set, and both pooled."""
     from agents.evaluation_report import best_planner
 
     lines += ["### Against the targets of issue #26", ""]
@@ -520,24 +545,31 @@ def adaptive_verdict(found: dict[str, dict[str, Any]], lines: list[str]) -> None
                  f"({'met' if minutes <= 120 else 'not met'}: ≤ 120 min).")
     errors = 0
     for level, _, floor in LEVELS:
-        res = found.get(level)
-        ppo = _ppo_key(res) if res else None
-        if ppo is None:
+        sets = [(folder.name, found[(folder, level)]) for folder, _, _ in EVAL_SETS if (folder, level) in found]
+        sets = [(name, res) for name, res in sets if _ppo_key(res) is not None]
+        if not sets:
             lines.append(f"- {level}: not measured.")
             continue
-        best = best_planner(res)
-        p, b = res["aggregate"][ppo], res["aggregate"][best]
-        errors += int(p.get("failed_runs") or 0)
-        ok_s = p["success_rate"] >= b["success_rate"]
-        text = (f"- {level}: success {100 * p['success_rate']:.0f} % vs the best planner's ({best}) "
-                f"{100 * b['success_rate']:.0f} % ({'met' if ok_s else 'not met'})")
-        if floor is None:
-            ratio = p["mean_cross_track_m"] / b["mean_cross_track_m"]
-            text += (f"; mean cross-track {100 * p['mean_cross_track_m']:.2f} vs {100 * b['mean_cross_track_m']:.2f} "
-                     f"cm, ratio {ratio:.2f} ({'met' if ratio <= 0.8 else 'not met'}: ≤ 0.8)")
-        else:
-            text += (f"; ≥ {100 * floor:.0f} %: {'met' if p['success_rate'] >= floor else 'not met'}")
-        lines.append(text + ".")
+        if len(sets) > 1:
+            sets.append(("both sets pooled", pooled([res for _, res in sets])))
+        for name, res in sets:
+            ppo = _ppo_key(res)
+            best = best_planner(res)
+            p, b = res["aggregate"][ppo], res["aggregate"][best]
+            if not name.startswith("both"):
+                errors += int(p.get("failed_runs") or 0)
+            ok_s = p["success_rate"] >= b["success_rate"]
+            text = (f"- {level}, {name} ({p['episodes']} episodes): success {100 * p['success_rate']:.0f} % vs the "
+                    f"best planner's ({best}) {100 * b['success_rate']:.0f} % ({'met' if ok_s else 'not met'})")
+            if floor is None:
+                ratio = p["mean_cross_track_m"] / b["mean_cross_track_m"]
+                text += (f"; mean cross-track {100 * p['mean_cross_track_m']:.2f} vs "
+                         f"{100 * b['mean_cross_track_m']:.2f} cm, ratio {ratio:.2f} "
+                         f"({'met' if ratio <= 0.8 else 'not met'}: ≤ 0.8)")
+            else:
+                text += (f"; ≥ {100 * floor:.0f} %: {'met' if p['success_rate'] >= floor else 'not met'}; mean "
+                         f"cross-track {100 * p['mean_cross_track_m']:.2f} vs {100 * b['mean_cross_track_m']:.2f} cm")
+            lines.append(text + ".")
     lines += [f"- Episodes of PPO ending in an error (`SimulationError` or other): {errors}.", ""]
 
 
@@ -632,11 +664,8 @@ ADAPTIVE_DESIGN = """What changed against the agent trained on `coarse` (below),
   and a decision costs 1-20 CPU s: with 2 workers the cores were busy 62 % of the time)."""
 
 
-ADAPTIVE_EVAL_TEXT = """Ten paths no training or tuning used (`python scripts/make_eval_paths.py --count 5 --seed0 7800`:
-five planar and five 3-D, three segments of 12-20 cm, turns of 30-150°), and swimmers drawn from env seeds
-7800-7809 (the k-th path's swimmer from seed 7800 + k); every controller flies the same path with the same
-swimmer. Levels: the nominal swimmer; E, μ, b within ±5 % and helix ±2 %; E, μ, b within ±10 % and helix ±4 %.
-Both planners keep the nominal turn map; `adaptive` and PPO correct it online. Commands (faithful preset):"""
+WALL_TIME_NOTE = """Wall times are not comparable between controllers here: the planners' episodes of set 1 ran beside
+the training run (load 4-5), the agent's alone or beside CI; CPU cost per decision is in docs/env.md."""
 
 
 COARSE_AGENT_TEXT = """## The agent trained on `coarse` (2026-12-01)
