@@ -5,9 +5,11 @@ Shipped (``pyproject.toml``, ``[tool.setuptools.package-data]``):
 
 - ``agents/turn_maps/<preset>.json``: the turn map of each preset (``flagellum calibrate-turns``);
 - ``agents/eval_paths/*.json``: the 20 evaluation paths (``flagellum evaluate --paths eval``);
-- ``agents/pretrained/ppo_residual_coarse/``: the PPO agent of ``--controller ppo`` (``model.zip``,
-  ``vecnormalize.pkl``, ``config.yml``, ``meta.json``). Its training logs and the earlier agents
-  are results, in the repository's ``results/agents/`` (docs/agents.md).
+- ``agents/pretrained/ppo_residual_adaptive/``: the PPO agent of ``--controller ppo`` (``model.zip``,
+  ``vecnormalize.pkl``, ``config.yml``, ``meta.json``; its training curve ``episodes.csv`` and
+  ``training_curve.png``): the residual on the adaptive planner trained at ``faithful``. Its validation and
+  checkpoints and the earlier agents (the one trained on ``coarse`` among them) are results, in the
+  repository's ``results/agents/`` (docs/agents.md).
 
 Turn maps you measure yourself go to ``user_turn_map_dir()`` (``$FLAGELLUM_TURN_MAPS``, else
 ``$XDG_DATA_HOME/flagellum/turn_maps``, else ``~/.local/share/flagellum/turn_maps``): that is where
@@ -22,7 +24,7 @@ from importlib import resources
 from pathlib import Path
 
 #: The agent ``--controller ppo`` loads.
-SHIPPED_AGENT = "ppo_residual_coarse"
+SHIPPED_AGENT = "ppo_residual_adaptive"
 #: Environment variable naming the folder of the user's turn maps.
 TURN_MAPS_ENV = "FLAGELLUM_TURN_MAPS"
 

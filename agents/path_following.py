@@ -4,7 +4,7 @@ Controllers are named by a spec string (``make_controller``): ``rule`` (the turn
 the preset's turn map, ``agents.assets.default_turn_map``), ``rule:MAP.json`` (another
 map), ``adaptive`` / ``adaptive:MAP.json`` (the turn planner correcting its map online from the
 turns it observes, ``agents.adaptive_planner``), ``horizon`` / ``horizon:MAP.json`` (a receding-horizon
-search of two moves -- cruise, then burst -- over that corrected map, ``agents.horizon_planner``), ``ppo`` (the PPO agent shipped in ``agents/pretrained/``) and ``ppo:DIR`` (an agent folder
+search of two moves -- cruise, then burst -- over that corrected map, ``agents.horizon_planner``), ``ppo`` (the PPO agent shipped in ``agents/pretrained/``: the adaptive planner corrected by a policy trained at ``faithful``) and ``ppo:DIR`` (an agent folder
 written by ``flagellum train``, or its ``model.zip``). Each has the stable-baselines3
 ``predict(obs, state, episode_start, deterministic)`` call, so the loop does not care which.
 

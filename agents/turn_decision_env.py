@@ -45,9 +45,10 @@ from flagellum_env.steer_env import FlagellumSteerEnv
 from physics.presets import DEFAULT_PRESET, preset_names
 from physics.validation import require_finite
 
-#: The shipped agent's env settings (agents/pretrained/ppo_residual_coarse/config.yml: its task and last
-#: curriculum stage) are the defaults of every ``FlagellumTurn`` id; ``FlagellumTurn-coarse-v0`` is that
-#: agent's env with no argument at all. The correction limits are ``ResidualLimits()``'s defaults.
+#: The first agent's env settings (agents/configs/ppo_residual_coarse.yml: its task and last curriculum stage;
+#: the agent is in results/agents/ppo_residual_coarse) are the defaults of every ``FlagellumTurn`` id;
+#: ``FlagellumTurn-coarse-v0`` is that agent's env with no argument at all. The shipped agent
+#: (agents/pretrained/ppo_residual_adaptive) stores its own env in its ``meta.json`` (``env_id``, ``make_kwargs``). The correction limits are ``ResidualLimits()``'s defaults.
 DEFAULT_ACTION_COST = 5.0
 DEFAULT_ENV_KWARGS: dict[str, Any] = {"reward": {"cross_track_per_cm_s": 0.05}}
 DEFAULT_RANDOM_PATH: dict[str, Any] = {"n_waypoints": 3, "segment_length_m": [0.12, 0.2], "min_turn_deg": 30.0,
@@ -93,23 +94,24 @@ class TurnDecisionEnv(gym.Env):
     | planner     | "rule"                           | the planner corrected: "rule" (``ResidualPlanner``) or "adaptive" (``AdaptiveResidualPlanner``) |
     | render_mode | None                             | None or "rgb_array" (the base env's frame after the step) |
 
-    The defaults are the shipped agent's settings (agents/pretrained/ppo_residual_coarse), so
-    ``FlagellumTurn-coarse-v0`` with no argument is that agent's env, and ``PPO.load`` plus
-    ``VecNormalize.load`` of its files on that id reproduce it (its ``meta.json`` also stores
-    ``env_id`` and ``env_kwargs``). Invalid values raise ``ValueError`` naming the argument and the
+    The defaults are the settings of the first agent (trained on ``coarse``; results/agents/ppo_residual_coarse),
+    so ``FlagellumTurn-coarse-v0`` with no argument is that agent's env. Every agent's ``meta.json`` stores its
+    env as ``env_id`` and ``make_kwargs``: the shipped agent (agents/pretrained/ppo_residual_adaptive, trained at
+    ``faithful`` on the adaptive planner with randomised swimmers) is ``gym.make(meta["env_id"],
+    **meta["make_kwargs"])``, and ``PPO.load`` plus ``VecNormalize.load`` of its files on that env reproduce it. Invalid values raise ``ValueError`` naming the argument and the
     value, at construction. ``reset(options={"path": ...})`` replaces the path for one episode.
 
     ## Variants
 
     ``FlagellumTurn-fast-v0`` (``TurnDecisionFastEnv``) and ``FlagellumTurn-coarse-v0``
     (``TurnDecisionCoarseEnv``): preset "fast" and "coarse". The coarse swimmer turns differently
-    (``FlagellumSteerCoarseEnv``), with its own turn map; at the default preset a decision costs
-    minutes of wall time, at coarse seconds.
+    (``FlagellumSteerCoarseEnv``), with its own turn map; a decision costs a few CPU seconds at
+    each preset (docs/env.md, Speed).
 
     ## Version History
 
     - v0: initial version; ``render_mode``, ``info`` on every step, validation at construction, the
-      shipped agent's settings as defaults and the ``-fast`` / ``-coarse`` variants added.
+      first agent's settings as defaults and the ``-fast`` / ``-coarse`` variants added.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 2}
@@ -275,10 +277,10 @@ class TurnDecisionFastEnv(TurnDecisionEnv):
 
 class TurnDecisionCoarseEnv(TurnDecisionEnv):
     """``FlagellumTurn-coarse-v0``: ``FlagellumTurn-v0`` (``TurnDecisionEnv``, whose docstring is the manual)
-    at the ``coarse`` preset: the shipped PPO agent's env, as it was trained (agents/pretrained/
+    at the ``coarse`` preset: the first PPO agent's env, as it was trained (results/agents/
     ppo_residual_coarse). The coarse swimmer (N = 45, 10 ms steps) buckles later and **turns differently**
-    from the default preset's (``FlagellumSteerCoarseEnv``) and has its own turn map; a decision costs
-    seconds of wall time instead of minutes. Every other argument and default is ``FlagellumTurn-v0``'s."""
+    from the default preset's (``FlagellumSteerCoarseEnv``) and has its own turn map (it is not cheaper:
+    docs/env.md, Speed). Every other argument and default is ``FlagellumTurn-v0``'s."""
 
     env_id: ClassVar[str] = TURN_COARSE_ENV_ID
     default_preset: ClassVar[str] = "coarse"

@@ -1,9 +1,9 @@
 """docs/agents.md and docs/figures/ppo_training.png: the PPO agent against the rule planner.
 
-    python scripts/agents_report.py [--agent agents/pretrained/ppo_residual_coarse]
+    python scripts/agents_report.py [--agent results/agents/ppo_residual_coarse]
 
 Inputs (each made by a committed command):
-- AGENT/meta.json, config.yml, and episodes.csv, eval/evaluations.npz in AGENT or (for the shipped agent)
+- AGENT/meta.json, config.yml, and episodes.csv, eval/evaluations.npz in AGENT or (for an agent moved out of the package)
   in results/agents/<name>/
       flagellum train --config agents/configs/ppo_residual_coarse.yml --out AGENT
 - results/eval/<folder>/results.json for the presets coarse (folder fast: run when coarse was called fast,
@@ -39,7 +39,7 @@ from agents.ppo_config import TrainConfig
 from agents.training_plots import read_episodes, training_figure
 
 DOCS = Path("docs")
-#: training logs of the shipped agent and the earlier agents (moved out of the package)
+#: training logs of the agents (and the files of those moved out of the package)
 RESULT_AGENTS = Path("results/agents")
 PRESETS = ("coarse", "paper")
 #: preset -> the folder of its runs under results/eval/ and docs/square/ (the runs at ``coarse`` were made
@@ -175,7 +175,7 @@ def _validation_every(agent: Path) -> int | None:
         return None
 
 
-#: the fine-tuned agents (``init_from`` the shipped one, on the retired `balanced` preset): (folder, label,
+#: the fine-tuned agents (``init_from`` the coarse agent, on the retired `balanced` preset): (folder, label,
 #: training figure)
 FINE_TUNES = ((Path("results/agents/ppo_residual_balanced_ft"), "PPO, fine-tuned on the retired balanced preset",
                "ppo_training_balanced_ft.png"),
@@ -188,7 +188,7 @@ FT_KEYS = tuple(f"ppo:agents/pretrained/{agent.name}" for agent, _, _ in FINE_TU
 #: the same agents' controller specs today
 CURRENT_SPEC = {key: f"ppo:{agent}" for key, (agent, _, _) in zip(FT_KEYS, FINE_TUNES)}
 #: the PPO controllers an evaluation folder may hold: (results key, label)
-PPO_CONTROLLERS = (("ppo", "PPO, trained on coarse (shipped default)"),
+PPO_CONTROLLERS = (("ppo", "PPO, trained on coarse (`ppo` until 2026-12-04)"),
                    *((key, label) for key, (_, label, _) in zip(FT_KEYS, FINE_TUNES)))
 
 
@@ -230,7 +230,7 @@ def first_design_section(lines: list[str]) -> None:
 
 
 def fine_tune_section(lines: list[str]) -> None:
-    """The shipped agent fine-tuned on the retired balanced preset (``init_from``)."""
+    """The coarse agent fine-tuned on the retired balanced preset (``init_from``)."""
     if not (FT_AGENT / "meta.json").is_file():
         return
     lines += ["## Fine-tuning on the paper's grid at h = 20 ms (the retired `balanced` preset)", "",
@@ -239,7 +239,7 @@ def fine_tune_section(lines: list[str]) -> None:
               "against it are its own; the `balanced` preset of the time (N = 122, h = 20 ms implicit Euler, "
               "retired on 2026-12-02 for `faithful` and `fast`) followed paper's "
               "turns to within ~10 % (docs/fidelity.md, docs/planner.md) at about a fifth of paper's cost. "
-              f"The fine-tune (config `{FT_AGENT}/config.yml`) starts from the shipped agent's policy and "
+              f"The fine-tune (config `{FT_AGENT}/config.yml`) starts from the coarse agent's policy and "
               "VecNormalize statistics (`init_from`), with the same task, reward and limits, the three-corner "
               "stage only, and the planner on the balanced turn map (`results/turn_maps/balanced_2026-12-01.json`); "
               "it stopped at its 30-min budget.", ""]
@@ -297,7 +297,7 @@ def verdict_section(found: dict[str, Any], agent: Path, lines: list[str]) -> Non
         if ft.is_file():
             meta = json.loads(ft.read_text(encoding="utf-8"))
             m = meta["wall_time_s"] / 60
-            lines.append(f"- {label} ({meta['decisions']} decisions in {m:.0f} min, from the shipped agent): "
+            lines.append(f"- {label} ({meta['decisions']} decisions in {m:.0f} min, from the coarse agent): "
                          f"its own chain (coarse agent + fine-tuning) {minutes[0] + m:.0f} min (target ≤ 120 min).")
     for preset in PRESETS:
         res = found.get(RUN_FOLDER[preset])
@@ -484,6 +484,7 @@ def adaptive_agent_section(lines: list[str]) -> None:
     lines += [WALL_TIME_NOTE, ""]
     adaptive_verdict(found, lines)
     budget_section(found, lines)
+    lines += [ADAPTIVE_LIMITS_TEXT, ""]
 
 
 def eval_set_text(seed0: int, count: int) -> str:
@@ -575,8 +576,9 @@ def adaptive_verdict(found: dict[tuple[Path, str], dict[str, Any]], lines: list[
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--agent", type=Path, default=Path("agents/pretrained/ppo_residual_coarse"),
-                    help="agent folder (default: the pretrained one)")
+    ap.add_argument("--agent", type=Path, default=Path("results/agents/ppo_residual_coarse"),
+                    help="folder of the agent trained on coarse (default: where it moved when the adaptive one "
+                    "was shipped)")
     args = ap.parse_args()
     lines = ["# PPO agents: learned corrections of the turn planner", "",
              "Produced by `python scripts/agents_report.py` from the files listed in its docstring. Design and "
@@ -631,7 +633,7 @@ a swimmer whose turn map is accurate, the residual corrections that a few hundre
 teach do not beat the planner.
 
 **Where the planner's cross-track error comes from** (from the `paper` evaluation traces, which
-are not committed: 17 of the rule planner's 20 were on this machine; the shipped agent's give the same). A
+are not committed: 17 of the rule planner's 20 were on this machine; the coarse agent's give the same). A
 corner counts as reached 1.5 cm (the reach radius) before its waypoint, so each new segment starts
 1.35 cm off its line on average, and the error peaks at 1.95 cm in the segment's first fifth
 while the turn is flown, then falls roughly linearly to 0.3-0.4 cm at its end. Most of that error
@@ -664,6 +666,30 @@ ADAPTIVE_DESIGN = """What changed against the agent trained on `coarse` (below),
   and a decision costs 1-20 CPU s: with 2 workers the cores were busy 62 % of the time)."""
 
 
+ADAPTIVE_LIMITS_TEXT = """### What limits it, and what ships
+
+- **The nominal target is out of this action space's reach, whatever the samples.** On the nominal swimmer the
+  planner's map is the swimmer's own, so a correction can only make a turn more exact, and exact first turns would
+  leave 0.85-0.90 of the planner's cross-track error (table above), not 0.8. The agent does not even get that: with no
+  model error to correct, its small corrections (|a| < 0.15) add 0.5-0.6 buckling events per path. The lever left is
+  *when and where* to turn (e.g. before the waypoint, so that the next segment starts nearer its line), which the
+  action (burst length, phase) does not have: the next design to try, not tried here.
+- **The curve does not say how many samples would help.** 2660 decisions are ~21 PPO updates of 128 decisions;
+  within each curriculum stage the success of the training episodes does not trend (the table under "Its
+  training"), and the validation (nominal swimmer) was 100 % at every check. What it learned shows in the probes
+  above: its burst correction falls as the online map's buckling-time shift rises (+0.07 at -2 s, -0.22 at +2 s:
+  it tempers the planner's own correction of the map), and it shortens the burst after a turn that went too far:
+  corrections of model error, which is where it beats the planner (±10 %), and where it is about even at ±5 %
+  (lower mean cross-track on set 1, one path more lost on set 2).
+- **Shipped as `ppo`** (agents/pretrained/ppo_residual_adaptive: model, VecNormalize statistics, config, meta with
+  its env, training curve `episodes.csv` and `training_curve.png`): it is the only agent trained on the default
+  preset, and it is better than the best planner on swimmers 10 % off the model. The agent trained on `coarse`
+  moved to results/agents/ppo_residual_coarse. It is not in `make demo` (the nominal square): there
+  (`flagellum follow --path square --controller ppo --controller adaptive`, results/square_ppo_shipped) it made
+  every corner at 0.57 cm mean cross-track against the planner's 0.75 cm, but with 6 bursts instead of 3 and an
+  out-of-plane drift Δz/ΔL of 6.8 % against 5.04 % (the paper's bound is 5 %): not a clear win."""
+
+
 WALL_TIME_NOTE = """Wall times are not comparable between controllers here: the planners' episodes of set 1 ran beside
 the training run (load 4-5), the agent's alone or beside CI; CPU cost per decision is in docs/env.md."""
 
@@ -671,7 +697,9 @@ the training run (load 4-5), the agent's alone or beside CI; CPU cost per decisi
 COARSE_AGENT_TEXT = """## The agent trained on `coarse` (2026-12-01)
 
 The first residual agent, on the rule planner, trained on `coarse` (N = 45) and evaluated there and at
-`paper`."""
+`paper`. It was the shipped `ppo` until 2026-12-04; its files are now in results/agents/ppo_residual_coarse
+(`--controller ppo:results/agents/ppo_residual_coarse`), and below "the shipped agent" and `ppo` in the tables
+mean this agent."""
 
 
 RAW_RERUN_TEXT = """### Again at the new speed (2026-12-03)
@@ -702,7 +730,7 @@ DESIGN = """## The agent
   planner plans (residual policy learning: Silver et al. 2018; Johannink et al. 2019). When the
   planner has chosen a turn (a burst length t_c from the turn map, and the flagellum phase at
   which to burst), the agent returns a ∈ [-1, 1]², and the turn flown is a burst of
-  t_c (1 + 0.05 a₀) at phase + 15° a₁ (the shipped agent's limits; `task.limits`). Hovering, the
+  t_c (1 + 0.05 a₀) at phase + 15° a₁ (the coarse agent's limits; `task.limits`). Hovering, the
   150 rpm burst, the wait for a steady heading and the re-planning stay the planner's; a = 0 is
   the planner. The burst length is scaled because a parameter error rescales time (the viscous
   time μL⁴/EI sets when the flagellum buckles).
@@ -721,7 +749,7 @@ DESIGN = """## The agent
   (progress +1/cm, waypoints +10, off-path/failure −20, energy), with the cross-track weight raised
   tenfold to 0.05 per cm per second, less 5 |a|² per decision (a correction must pay for itself).
 - **Curriculum**: paths with one corner first, then three-corner paths of the evaluation
-  distribution (other seeds); planar and 3-D alternate. The shipped agent trains on the nominal
+  distribution (other seeds); planar and 3-D alternate. The coarse agent trains on the nominal
   swimmer; the first design (below) trained on randomised swimmers.
 - **Sensitivity that shapes all of this.** θ(t_c) is steep: on the coarse preset's map a 7 % longer
   burst (t_c 9.7 → 10.4 s) takes a 62° turn to 91°, so a correction of a few per cent of the burst

@@ -52,7 +52,7 @@ SHORTENED: dict[str, tuple[tuple[str, str], ...]] = {
         (r"--paths eval\b", "--paths {scratch}/one_turn.json"),
     ),
     "tiny config, one-turn path": (
-        (r"--config agents/configs/ppo_residual_coarse\.yml", "--config {scratch}/tiny.yml"),
+        (r"--config agents/configs/ppo_residual_adaptive\.yml", "--config {scratch}/tiny.yml"),
         (r"--path square\b", "--path {scratch}/one_turn.json"),
     ),
     "sweep only": ((r"(?m)^flagellum bench .*$", ""),),

@@ -10,7 +10,7 @@ from flagellum.commands.common import UsageError, ensure_dir
 
 NAME = "train"
 HELP = "train the PPO agent that corrects the turn planner (stable-baselines3, CPU); resumable"
-DESCRIPTION = ("Train PPO from --config (rl-zoo3-style YAML, default agents/configs/ppo_residual_coarse.yml) into "
+DESCRIPTION = ("Train PPO from --config (rl-zoo3-style YAML, default agents/configs/ppo_residual_adaptive.yml, the shipped agent's) into "
                "--out: model.zip, vecnormalize.pkl, meta.json, config.yml, episodes.csv, eval/, checkpoints/, tb/ "
                "(tensorboard). --resume continues from the newest checkpoint. Use the result with "
                "--controller ppo:DIR.")
@@ -21,8 +21,8 @@ PRESET = (None, "the config's task.preset (an other value is refused)")
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     from agents.assets import package_file
 
-    parser.add_argument("--config", metavar="FILE", type=Path, default=package_file("configs", "ppo_residual_coarse.yml"),
-                        help="training config (YAML; default agents/configs/ppo_residual_coarse.yml)")
+    parser.add_argument("--config", metavar="FILE", type=Path, default=package_file("configs", "ppo_residual_adaptive.yml"),
+                        help="training config (YAML; default agents/configs/ppo_residual_adaptive.yml: the shipped agent's)")
     parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/train"), help="default out/train")
     parser.add_argument("--resume", action="store_true", help="continue the run in DIR from its newest checkpoint")
     parser.add_argument("--no-progress", action="store_true", help="do not show the progress bar")

@@ -47,7 +47,7 @@ def test_paths_eval_is_the_twenty_shipped_evaluation_paths():
 
 def test_the_wheel_ships_every_asset_file():
     """Each file under agents/turn_maps, agents/eval_paths and the shipped agent matches a package-data glob
-    of pyproject.toml, and nothing else is left in agents/pretrained (training logs live in results/)."""
+    of pyproject.toml, and nothing else is left in agents/pretrained (validation, checkpoints and earlier agents live in results/)."""
     tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
     globs = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]["agents"]
     agents = ROOT / "agents"
@@ -55,6 +55,6 @@ def test_the_wheel_ships_every_asset_file():
              if f.is_file() and "__pycache__" not in f.parts]
     unshipped = [str(f) for f in files if not any(fnmatch.fnmatch(f.relative_to(agents).as_posix(), g) for g in globs)]
     assert not unshipped, unshipped
-    assert sorted(f.name for f in pretrained_dir().iterdir()) == ["config.yml", "meta.json", "model.zip",
-                                                                  "vecnormalize.pkl"]
+    assert sorted(f.name for f in pretrained_dir().iterdir()) == ["config.yml", "episodes.csv", "meta.json", "model.zip",
+                                                                  "training_curve.png", "vecnormalize.pkl"]
     assert [d.name for d in (agents / "pretrained").iterdir()] == [pretrained_dir().name]

@@ -177,11 +177,11 @@ def test_fine_tuning_starts_from_a_trained_agent(tiny_run, tmp_path):
 def test_pretrained_agent_completes_a_short_path_deterministically():
     assert (PRETRAINED_DIR / "model.zip").is_file(), "the pretrained agent is committed with the package"
     meta = json.loads((PRETRAINED_DIR / "meta.json").read_text())
-    assert meta["preset"] == "coarse" and meta["commit"]
+    assert meta["preset"] == "faithful" and meta["planner"] == "adaptive" and meta["commit"]
     runs = []
     for _ in range(2):
-        env = FlagellumSteerEnv(path=ONE_TURN, **env_settings("ppo", "coarse"))
-        ctrl = make_controller("ppo", env, "coarse")
+        env = FlagellumSteerEnv(path=ONE_TURN, **env_settings("ppo", "faithful"))
+        ctrl = make_controller("ppo", env, "faithful")
         metrics, trace = run_episode(env, ctrl, ONE_TURN)
         runs.append((metrics, trace, ctrl.turns))
     (m, trace, turns), (m2, trace2, turns2) = runs

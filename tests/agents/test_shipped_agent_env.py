@@ -9,11 +9,12 @@ import json
 import gymnasium as gym
 import numpy as np
 import pytest
+import yaml
 
 import flagellum_env  # noqa: F401  (registers the ids)
 from agents.assets import pretrained_dir
 from agents.ppo_config import TrainConfig
-from agents.residual_planner import ResidualLimits
+from agents.residual_planner import N_ADAPTIVE_FEATURES, ResidualLimits
 from flagellum_env.paths import path_from_waypoints
 
 ONE_TURN = path_from_waypoints([[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]], name="one_turn", reach_radius_m=0.015)
@@ -32,16 +33,21 @@ def test_the_stored_env_is_the_one_its_config_trains_on():
     assert (env_id, json.loads(json.dumps(kwargs))) == (meta["env_id"], meta["make_kwargs"])
 
 
-def test_the_registered_id_with_no_argument_is_the_shipped_agents_env():
+def test_the_stored_arguments_build_the_env_the_agent_was_trained_on():
+    """Its preset, planner, limits, price of an action, randomised swimmers and the last stage's paths."""
     meta = _meta()
-    plain = gym.make(meta["env_id"]).unwrapped
-    stored = gym.make(meta["env_id"], **meta["make_kwargs"]).unwrapped
-    for env in (plain, stored):
-        assert env.preset == meta["preset"]
-        assert dataclasses.asdict(env.planner.limits) == meta["limits"]
-        assert env.action_cost == meta["action_cost"]
-        assert env.base.config == plain.base.config
-        assert env._path_configs == plain._path_configs
+    doc = yaml.safe_load((pretrained_dir() / "config.yml").read_text())
+    (task,) = [v["task"] for v in doc.values()]
+    env = gym.make(meta["env_id"], **meta["make_kwargs"]).unwrapped
+    assert env.preset == meta["preset"] == task["preset"] == "faithful"
+    assert type(env.planner).__name__ == "AdaptiveResidualPlanner" and meta["planner"] == task["planner"]
+    assert dataclasses.asdict(env.planner.limits) == meta["limits"] == task["limits"]
+    assert env.action_cost == meta["action_cost"] == task["action_cost"]
+    assert env.observation_space.shape == (N_ADAPTIVE_FEATURES,)
+    r = task["env_kwargs"]["randomize"]
+    assert env.base.config.randomize.youngs_modulus == r["youngs_modulus"] > 0
+    assert meta["make_kwargs"]["random_path"] == task["curriculum"][-1]["random_path"]
+    assert [c.planar for c in env._path_configs] == [True, False]
 
 
 def test_plain_stable_baselines3_loads_the_agent_on_its_env():

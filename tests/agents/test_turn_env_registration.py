@@ -81,13 +81,14 @@ def test_without_a_prior_import_the_module_prefixed_id_works(module):
     assert r.stdout.strip() == "TurnDecisionEnv"
 
 
-def test_the_defaults_are_the_shipped_agents_settings():
+def test_the_defaults_are_the_first_agents_settings():
+    """The agent trained on coarse (results/agents/ppo_residual_coarse) with its config."""
     import yaml
 
-    from agents.assets import pretrained_dir
+    from agents.assets import package_file
     from agents.turn_decision_env import DEFAULT_ACTION_COST, DEFAULT_ENV_KWARGS, DEFAULT_RANDOM_PATH
 
-    doc = yaml.safe_load((pretrained_dir() / "config.yml").read_text())
+    doc = yaml.safe_load(package_file("configs", "ppo_residual_coarse.yml").read_text())
     (task,) = [v["task"] for v in doc.values()]
     env = gym.make("FlagellumTurn-coarse-v0").unwrapped
     assert env.preset == task["preset"] == "coarse"
