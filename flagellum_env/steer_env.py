@@ -460,7 +460,7 @@ class FlagellumSteerEnv(gym.Env):
             "cross_track_error_m": tracker.cross_track_error(head),
             "distance_to_waypoint_m": tracker.distance_to_target(head),
             "path_progress_m": self._progress,
-            "path_length_m": tracker.path.length_m,
+            "path_length_m": tracker.path_length_m,
             "energy_j": float(energy_j),
             "energy_used_j": float(self.energy_used_j),
             "buckled": bool(self.buckling.buckled),

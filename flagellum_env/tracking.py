@@ -7,9 +7,17 @@ All positions are in the start frame, metres.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from flagellum_env.paths import WaypointPath
+
+
+def _norm(v: np.ndarray) -> float:
+    """Euclidean length of a vector (3,): what ``np.linalg.norm`` computes (sqrt of the dot product), without its
+    overhead (called several times per env step)."""
+    return math.sqrt(float(v @ v))
 
 
 class PathTracker:
@@ -24,6 +32,7 @@ class PathTracker:
         self._vertices = path.vertices
         self._lengths = path.segment_lengths
         self._cumulative = np.concatenate([[0.0], np.cumsum(self._lengths)])
+        self.path_length_m = path.length_m  # m (``WaypointPath.length_m`` computes it on every call)
         self.index = 0  # current target waypoint; == n_waypoints when the path is complete
 
     @property
@@ -38,7 +47,7 @@ class PathTracker:
     def update(self, position: np.ndarray) -> int:
         """Advance past every waypoint now within the reach radius; returns how many, (3,) m input."""
         reached = 0
-        while not self.done and np.linalg.norm(position - self.path.waypoints[self.index]) <= self.reach_radius_m:
+        while not self.done and _norm(position - self.path.waypoints[self.index]) <= self.reach_radius_m:
             self.index += 1
             reached += 1
         return reached
@@ -65,11 +74,11 @@ class PathTracker:
     def cross_track_error(self, position: np.ndarray) -> float:
         """Distance from the head to the current segment, m (to the last one once complete)."""
         _, closest = self._projection(position)
-        return float(np.linalg.norm(position - closest))
+        return _norm(position - closest)
 
     def distance_to_target(self, position: np.ndarray) -> float:
         """Distance from the head to the current target waypoint (the last one once complete), m."""
-        return float(np.linalg.norm(position - self.path.waypoints[self._segment()]))
+        return _norm(position - self.path.waypoints[self._segment()])
 
     def targets(self, count: int) -> np.ndarray:
         """The next ``count`` waypoints from the current target on, the last repeated, (count, 3) m."""

@@ -24,7 +24,7 @@ import numpy as np
 def unit(v: np.ndarray) -> np.ndarray:
     """v / |v| for a non-zero 3-vector; ValueError for a zero or non-finite one."""
     v = np.asarray(v, dtype=np.float64)
-    n = float(np.linalg.norm(v))
+    n = math.sqrt(float(v @ v))  # np.linalg.norm of a vector, without its overhead
     if not math.isfinite(n) or n == 0.0:
         raise ValueError(f"cannot normalise the vector {v.tolist()} (zero or not finite)")
     return v / n

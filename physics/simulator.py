@@ -222,6 +222,7 @@ class Simulator:
         #: steady steps by the compiled chord iteration where it applies (False: always the Python reference)
         self.compiled_chord = True
         self._initial_nodes = nodes_of(q0)
+        self._initial_span = float(np.linalg.norm(self._initial_nodes[-1] - self._initial_nodes[0]))  # L, m
 
     # --- public API -----------------------------------------------------------------
     def set_motor_speed(self, omega_rad_s: float) -> None:
@@ -315,9 +316,10 @@ class Simulator:
         return self.body_frame.copy()
 
     def end_to_end_ratio(self) -> float:
-        """L'/L: first-to-last node distance over its undeformed value (Sec. 2.5)."""
-        x, x0 = self.nodes, self._initial_nodes
-        return float(np.linalg.norm(x[-1] - x[0]) / np.linalg.norm(x0[-1] - x0[0]))
+        """L'/L: first-to-last node distance over its undeformed value (Sec. 2.5). The end nodes are q's first and
+        last three entries; sqrt of the dot product is what ``np.linalg.norm`` computes for a vector."""
+        d = self.q[-3:] - self.q[0:3]
+        return math.sqrt(float(d @ d)) / self._initial_span
 
     def displacement(self) -> float:
         """||s||: distance of the head (base node) from its initial position, m."""

@@ -21,6 +21,7 @@ from typing import Any, TypeVar
 BLAS_THREADS: int | None = 1
 
 _controller: Any = None
+_blas_libraries: list[Any] | None = None
 _depth = threading.local()  # blocks entered in this thread: only the outermost one sets and restores
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -38,10 +39,20 @@ def _blas_controller() -> Any:
     return _controller
 
 
+def _blas_libs() -> list[Any]:
+    """The BLAS libraries' threadpoolctl controllers (``LibController``: ``num_threads``, ``set_num_threads``)."""
+    global _blas_libraries
+    if _blas_libraries is None:
+        _blas_libraries = list(_blas_controller().select(user_api="blas").lib_controllers)
+    return _blas_libraries
+
+
 @contextmanager
 def simulation_threads() -> Iterator[None]:
     """Within the block, BLAS uses ``BLAS_THREADS`` threads; afterwards, what it used before. Nested blocks
-    cost nothing (the outermost one holds the limit)."""
+    cost nothing (the outermost one holds the limit). The outermost block reads each BLAS library's thread
+    count and sets only those that differ (what ``ThreadpoolController.limit`` does, without building the info
+    of every library on each entry: ~2 us instead of ~19 us per block, paid at every env step)."""
     depth = getattr(_depth, "n", 0)
     if BLAS_THREADS is None or depth:
         _depth.n = depth + 1
@@ -50,12 +61,19 @@ def simulation_threads() -> Iterator[None]:
         finally:
             _depth.n = depth
         return
-    with _blas_controller().limit(limits=BLAS_THREADS, user_api="blas"):
-        _depth.n = 1
-        try:
-            yield
-        finally:
-            _depth.n = 0
+    libs = _blas_libs()
+    before = [lib.num_threads for lib in libs]
+    for lib, n in zip(libs, before):
+        if n != BLAS_THREADS:
+            lib.set_num_threads(BLAS_THREADS)
+    _depth.n = 1
+    try:
+        yield
+    finally:
+        _depth.n = 0
+        for lib, n in zip(libs, before):
+            if n != BLAS_THREADS:
+                lib.set_num_threads(n)
 
 
 def one_blas_thread(func: F) -> F:

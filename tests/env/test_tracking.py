@@ -42,3 +42,14 @@ def test_buckling_events_count_with_hysteresis():
         m.update(r)
     assert m.events == 2
     assert not m.buckled
+
+
+def test_the_trackers_distances_are_numpys_norms_bit_for_bit():
+    rng = np.random.default_rng(3)
+    path = path_from_waypoints(rng.normal(0.0, 0.05, (4, 3)))
+    tracker = PathTracker(path, 0.01)
+    assert tracker.path_length_m == path.length_m
+    for p in rng.normal(0.0, 0.05, (20, 3)):
+        _, closest = tracker._projection(p)
+        assert tracker.cross_track_error(p) == float(np.linalg.norm(p - closest))
+        assert tracker.distance_to_target(p) == float(np.linalg.norm(p - path.waypoints[tracker._segment()]))

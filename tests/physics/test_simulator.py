@@ -138,3 +138,16 @@ def test_single_iteration_mode_swims_like_newton_and_refreshes_its_resistance():
     assert single.stats.newton_iterations == 100
     d_newton, d_single = newton.head_position[0], single.head_position[0]
     assert abs(d_single - d_newton) < 0.05 * abs(d_newton)
+
+
+def test_end_to_end_ratio_is_the_norm_quotient_bit_for_bit():
+    """The shortcut (the end nodes read from q, the undeformed span kept) returns what the definition gives."""
+    from physics import advance, configure
+
+    sim = Simulator(*configure("coarse", {"n_nodes": 25}))
+    sim.set_motor_speed(150 * RPM_TO_RAD_S)
+    x0 = sim.nodes
+    for _ in range(3):
+        advance(sim, steps=5)
+        x = sim.nodes
+        assert sim.end_to_end_ratio() == float(np.linalg.norm(x[-1] - x[0]) / np.linalg.norm(x0[-1] - x0[0]))

@@ -71,3 +71,18 @@ def test_a_direct_step_is_held_at_one_thread_too_and_gives_the_run_loops_numbers
         advance(b, steps=3)
         assert _blas_threads() == {2}
     assert seen == [{1}] and np.array_equal(a.q, b.q)
+
+
+def test_the_outermost_block_sets_only_what_differs_and_restores_it():
+    from physics.threads import simulation_threads
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        with simulation_threads():
+            assert _blas_threads() == {1}
+        assert _blas_threads() == {1}
+    with threadpool_limits(limits=2, user_api="blas"):
+        with simulation_threads():
+            with simulation_threads():  # nested: nothing changes
+                assert _blas_threads() == {1}
+            assert _blas_threads() == {1}
+        assert _blas_threads() == {2}
