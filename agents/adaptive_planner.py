@@ -35,7 +35,7 @@ import numpy as np
 
 from agents.online_turn_map import GAUSS_HERMITE_3, OnlineMapConfig, OnlineTurnMap
 from agents.turn_map import TurnMap
-from agents.turn_planner import PlannerConfig, RulePlanner, _Episode, graded_line_miss
+from agents.turn_planner import PlannerConfig, RulePlanner, _Episode, graded_line_miss, line_distance
 from flagellum_env.turn_geometry import angle_between, azimuth, perpendicular_basis, wrap_angle
 from flagellum_env.turn_measurement import CruiseObservables, cruise_observables, summarise_cruise
 from physics.validation import require_finite
@@ -102,7 +102,6 @@ def segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.nda
 class _AdaptiveEpisode(_Episode):
     online: OnlineTurnMap | None = None
     observed: int = 0                             # turns of ``turns`` already learnt from
-    segment: tuple[np.ndarray, np.ndarray] | None = None  # (start, target) of the current path segment
     swim_until: np.ndarray | None = None          # swimming on (``AdaptiveConfig.swim_on_m``) until past this point
     swim_heading: np.ndarray | None = None
     strains: list[float] = field(default_factory=list)   # L'/L - 1 while cruising before the first turn
@@ -234,10 +233,7 @@ class AdaptivePlanner(RulePlanner):
             seen = summarise_cruise(np.array(ep.strains), np.array(ep.azimuths), self.control_dt)
             ep.cruise_reading = ep.online.observe_cruise(seen, self.reference)
             ep.cruise_used = True
-        if ep.segment is None:
-            ep.segment = (np.zeros(3), target.copy())  # the path starts at the head's start
-        elif float(np.linalg.norm(target - ep.segment[1])) > 1e-3:
-            ep.segment = (ep.segment[1].copy(), target.copy())  # the target switched: the old one starts the segment
+        self._track_segment(ep, target)  # (done by _decide already; here for a direct call)
         if ep.swim_until is not None:
             if float((ep.swim_until - head) @ ep.swim_heading) > 0.0:
                 return None  # swimming on, as decided
@@ -285,11 +281,23 @@ class AdaptivePlanner(RulePlanner):
         def line_miss(starts, directions, tgt):
             return saturating_miss(self._line_miss(starts, directions, tgt), scale_m)
 
-        score = expected_misses(head, d, target, out, beta, line_miss, ep.segment,
-                                a.corridor_soft * a.corridor_m, a.corridor_hard * a.corridor_m)
-        i, j = np.unravel_index(int(np.argmin(score)), score.shape)
-        if score[i, j] > float(saturating_miss(miss0, scale_m)) - self.config.improvement_m:
-            return None
+        miss = expected_misses(head, d, target, out, beta, line_miss, ep.segment,
+                               a.corridor_soft * a.corridor_m, a.corridor_hard * a.corridor_m)
+        miss_straight = float(saturating_miss(miss0, scale_m))
+        w, imp = self.config.line_weight, self.config.improvement_m
+        if w > 0.0 and ep.segment is not None:
+            # the rule planner's line term (PlannerConfig.line_weight), in expectation over the timing outcomes
+            ends = turn_ends(head, d, out.offset, beta)                                   # (T, K, B, 3)
+            score = miss + w * np.einsum("k,tkb->tb", out.weights, line_distance(ends, *ep.segment))
+            straight = miss_straight + w * float(line_distance(head, *ep.segment))
+            i, j = np.unravel_index(int(np.argmin(score)), score.shape)
+            if miss[i, j] > miss_straight - imp and score[i, j] > straight - imp:
+                return None
+        else:
+            score = miss
+            i, j = np.unravel_index(int(np.argmin(score)), score.shape)
+            if score[i, j] > miss_straight - imp:
+                return None
         theta, psi = ep.online.turn_at(float(out.map_t[i]))
         return {"t_c": float(max(out.t_fly[i], self.control_dt)), "theta_deg": math.degrees(theta),
                 "burst_phase": wrap_angle(beta[j]), "predicted_azimuth": wrap_angle(beta[j] + psi),
@@ -333,6 +341,17 @@ class AdaptivePlanner(RulePlanner):
                     shift_after_s=rec["shift_s"], shift_std_after_s=rec["shift_std_s"])
 
 
+def turn_ends(head: np.ndarray, d: np.ndarray, offset: np.ndarray, beta: np.ndarray) -> np.ndarray:
+    """Where the head is after each turn (m, shape offset.shape[:-1] + (B, 3)): ``offset`` (..., 3) is the map's
+    displacement (along the heading ``d``, along the flagellum's reference direction at the burst, across both)
+    and ``beta`` (B,) rad the reference direction's azimuth about ``d`` (``perpendicular_basis``)."""
+    e1, e2 = perpendicular_basis(d)
+    e_ref = np.cos(beta)[:, None] * e1 + np.sin(beta)[:, None] * e2                       # (B, 3)
+    e_perp = np.cross(d, e_ref)
+    return (head + offset[..., 0, None, None] * d + offset[..., 1, None, None] * e_ref
+            + offset[..., 2, None, None] * e_perp)
+
+
 def expected_misses(head: np.ndarray, d: np.ndarray, target: np.ndarray, out, beta: np.ndarray, line_miss,
                     segment: tuple[np.ndarray, np.ndarray] | None, soft_m: float, hard_m: float,
                     uniform_nodes: int = 8) -> np.ndarray:
@@ -353,15 +372,12 @@ def expected_misses(head: np.ndarray, d: np.ndarray, target: np.ndarray, out, be
     wj = np.concatenate([(1.0 - q) * w, np.broadcast_to(q / uniform_nodes, q.shape[:2] + (uniform_nodes,))],
                         axis=-1)                                                            # (T, K, J)
     e1, e2 = perpendicular_basis(d)
-    e_ref = np.cos(beta)[:, None] * e1 + np.sin(beta)[:, None] * e2                       # (B, 3)
-    e_perp = np.cross(d, e_ref)
     az = beta + (out.psi[..., None] + dpsi)[..., None]                                      # (T, K, J, B)
     across = np.cos(az)[..., None] * e1 + np.sin(az)[..., None] * e2
     theta = out.theta[:, :, None, None, None]
     heading = np.cos(theta) * d + np.sin(theta) * across                                    # (T, K, J, B, 3)
     off = out.offset
-    after = (head + off[..., 0, None, None] * d + off[..., 1, None, None] * e_ref
-             + off[..., 2, None, None] * e_perp)                                           # (T, K, B, 3)
+    after = turn_ends(head, d, off, beta)                                                   # (T, K, B, 3)
     starts = np.broadcast_to(after[:, :, None], heading.shape)
     miss = line_miss(starts.reshape(-1, 3), heading.reshape(-1, 3), target).reshape(heading.shape[:4])
     if segment is not None:

@@ -4,7 +4,9 @@ Controllers are named by a spec string (``make_controller``): ``rule`` (the turn
 the preset's turn map, ``agents.assets.default_turn_map``), ``rule:MAP.json`` (another
 map), ``adaptive`` / ``adaptive:MAP.json`` (the turn planner correcting its map online from the
 turns it observes, ``agents.adaptive_planner``), ``horizon`` / ``horizon:MAP.json`` (a receding-horizon
-search of two moves -- cruise, then burst -- over that corrected map, ``agents.horizon_planner``), ``ppo`` (the PPO agent shipped in ``agents/pretrained/``: the adaptive planner corrected by a policy trained at ``faithful``) and ``ppo:DIR`` (an agent folder
+search of two moves -- cruise, then burst -- over that corrected map, ``agents.horizon_planner``), ``rule@line=W`` /
+``adaptive@line=W`` (either planner also scoring a turn by how far its end lies from the path's line, W m per m:
+``PlannerConfig.line_weight``; ``:MAP.json`` may follow), ``ppo`` (the PPO agent shipped in ``agents/pretrained/``: the adaptive planner corrected by a policy trained at ``faithful``) and ``ppo:DIR`` (an agent folder
 written by ``flagellum train``, or its ``model.zip``). Each has the stable-baselines3
 ``predict(obs, state, episode_start, deterministic)`` call, so the loop does not care which.
 
@@ -27,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import math
 import time
 from dataclasses import dataclass
 from collections.abc import Sequence
@@ -50,19 +53,51 @@ CONTROLLER_ENV_DEFAULTS: dict[str, dict[str, Any]] = {"rule": {"control_dt": 0.1
 
 
 _ALLOWED_SPECS = ("'rule', 'rule:TURN_MAP.json', 'adaptive', 'adaptive:TURN_MAP.json', 'horizon', "
-                  "'horizon:TURN_MAP.json', 'ppo', 'ppo:AGENT_DIR'")
+                  "'horizon:TURN_MAP.json', 'ppo', 'ppo:AGENT_DIR'; 'rule@line=W' and 'adaptive@line=W' (W >= 0, "
+                  "also before ':TURN_MAP.json') score turns by the path's line too")
+#: Options a planner spec may carry after ``@`` (``KIND@line=W``), by kind.
+_SPEC_OPTIONS = {"rule": ("line",), "adaptive": ("line",)}
 
 
 def controller_kind(spec: str) -> str:
-    """``"rule"``, ``"adaptive"``, ``"horizon"`` or ``"ppo"`` from ``KIND`` or ``KIND:FILE``; ValueError otherwise (also for
-    ``KIND:`` with nothing after the colon, which would silently mean the default map or agent)."""
-    kind, sep, arg = spec.partition(":") if isinstance(spec, str) else ("", "", "")
+    """``"rule"``, ``"adaptive"``, ``"horizon"`` or ``"ppo"`` from ``KIND``, ``KIND:FILE``, ``KIND@line=W`` or
+    ``KIND@line=W:FILE``; ValueError otherwise (also for ``KIND:`` with nothing after the colon, which would
+    silently mean the default map or agent, and for an option the kind does not take)."""
+    head, sep, arg = spec.partition(":") if isinstance(spec, str) else ("", "", "")
+    kind = head.partition("@")[0]
     if kind not in CONTROLLER_ENV_DEFAULTS:
         raise ValueError(f"controller {spec!r} is not allowed; allowed: {_ALLOWED_SPECS}")
     if sep and not arg.strip():
-        raise ValueError(f"controller {spec!r} is not allowed: nothing follows {kind + ':'!r}; allowed: {kind!r} "
-                         f"for the default, or {kind}:FILE ({_ALLOWED_SPECS})")
+        raise ValueError(f"controller {spec!r} is not allowed: nothing follows {head + ':'!r}; allowed: {head!r} "
+                         f"for the default, or {head}:FILE ({_ALLOWED_SPECS})")
+    controller_options(spec)
     return kind
+
+
+def controller_options(spec: str) -> dict[str, float]:
+    """The options after ``@`` in a controller spec (``adaptive@line=2`` -> {"line": 2.0}); ValueError for an
+    option the kind does not take, a value that is not a finite number >= 0, or an option given twice."""
+    head = spec.partition(":")[0]
+    kind, at, opts = head.partition("@")
+    if not at:
+        return {}
+    allowed = _SPEC_OPTIONS.get(kind, ())
+    out: dict[str, float] = {}
+    for item in opts.split(","):
+        name, eq, value = item.partition("=")
+        if name not in allowed or not eq:
+            raise ValueError(f"controller {spec!r}: option {item!r} is not allowed; allowed: "
+                             + (", ".join(f"{n}=W (W >= 0)" for n in allowed) + f" for {kind!r}" if allowed
+                                else f"none for {kind!r}") + f" ({_ALLOWED_SPECS})")
+        try:
+            w = float(value)
+        except ValueError:
+            w = math.nan
+        if not (math.isfinite(w) and w >= 0.0) or name in out:
+            raise ValueError(f"controller {spec!r}: {name}={value!r} is not allowed; allowed: {name}=W once, "
+                             "W a number >= 0")
+        out[name] = w
+    return out
 
 
 def check_unique_controllers(specs: Sequence[str]) -> None:
@@ -82,13 +117,15 @@ def make_controller(spec: str, env, preset: str):
         from agents.adaptive_planner import AdaptivePlanner
         from agents.horizon_planner import HorizonPlanner
         from agents.turn_map import TurnMap
-        from agents.turn_planner import RulePlanner
+        from agents.turn_planner import PlannerConfig, RulePlanner
 
         path = Path(arg) if arg else default_turn_map(preset)
         if not path.is_file():
             raise ValueError(missing_turn_map_message(path, preset, given=arg is not None))
         planner = {"rule": RulePlanner, "adaptive": AdaptivePlanner, "horizon": HorizonPlanner}[kind]
-        return planner.for_env(env, TurnMap.load(path))
+        options = controller_options(spec)
+        config = PlannerConfig(line_weight=options["line"]) if "line" in options else None
+        return planner.for_env(env, TurnMap.load(path), config)
     from agents.ppo_policy import load_ppo_controller
 
     return load_ppo_controller(arg, env, preset)

@@ -36,7 +36,14 @@ from physics.validation import require_finite
 
 @dataclass(frozen=True)
 class PlannerConfig:
-    """Tuning of the closed loop (angles in degrees, lengths in m)."""
+    """Tuning of the closed loop (angles in degrees, lengths in m).
+
+    line_weight: 0 (default) chooses a turn by its miss of the target alone, the paper's rule. Above 0, a
+    candidate also costs ``line_weight`` x the distance of its predicted end (the head after the turn) from the
+    line of the segment being followed (previous waypoint, or the start, to the target; ``line_distance``), and
+    swimming on the head's distance from it now; a turn is made when it lowers the miss or this score by
+    ``improvement_m``, so the swimmer also turns back towards the path's line, not only towards the waypoint.
+    """
 
     min_turn_deg: float = 5.0        # heading errors below this never trigger a turn
     hit_fraction: float = 0.6        # no correction while the predicted miss is below this x reach radius
@@ -44,11 +51,13 @@ class PlannerConfig:
     max_relax_factor: float = 3.0    # give up waiting for a steady heading after this x the map's relax time
     improvement_m: float = 0.005     # a turn must bring the predicted miss down by at least this
     phase_step_deg: float = 5.0      # resolution of the burst phases searched
+    line_weight: float = 0.0         # m per m of the turn's end from the segment's line (0: the paper's rule)
 
     def __post_init__(self) -> None:
         for name in ("min_turn_deg", "hit_fraction", "settle_tol_deg", "max_relax_factor", "improvement_m",
                      "phase_step_deg"):
             require_finite(f"PlannerConfig.{name}", getattr(self, name), 0.0, lo_open=True)
+        require_finite("PlannerConfig.line_weight", self.line_weight, 0.0)
 
 
 @dataclass(frozen=True)
@@ -96,6 +105,7 @@ class _Episode:
     hover_restarts: int = 0                     # hovers given up for this turn (``hover_phase_stuck``)
     plan: dict = field(default_factory=dict)
     turns: list[dict] = field(default_factory=list)
+    segment: tuple[np.ndarray, np.ndarray] | None = None  # (start, target) of the current path segment
 
 
 def burst_phase_reached(prev_phase: float, phase: float, target: float) -> bool:
@@ -278,6 +288,7 @@ class RulePlanner:
         if ep.step - ep.low_since < self.period_steps + 1:
             return wl
         d = self._heading(ep)
+        self._track_segment(ep, target)
         plan = self._plan_turn(ep.head, d, target, node, ep)
         if plan is not None:
             plan = self._review_plan(ep, plan, obs)
@@ -292,6 +303,14 @@ class RulePlanner:
     def _new_episode(self) -> _Episode:
         """The memory of a new episode (subclasses may remember more)."""
         return _Episode()
+
+    @staticmethod
+    def _track_segment(ep: _Episode, target: np.ndarray) -> None:
+        """Keep ``ep.segment`` the (start, target) of the path segment being followed (start frame, m)."""
+        if ep.segment is None:
+            ep.segment = (np.zeros(3), target.copy())  # the path starts at the head's start
+        elif float(np.linalg.norm(target - ep.segment[1])) > 1e-3:
+            ep.segment = (ep.segment[1].copy(), target.copy())  # the target switched: the old one starts the segment
 
     def _continue_burst(self, ep: _Episode, obs: np.ndarray) -> bool:
         """During a burst: True to stay at omega_h for the next control step. The rule planner
@@ -337,7 +356,9 @@ class RulePlanner:
         swims along the new heading. The candidate whose straight line passes closest to the
         target is chosen if it beats swimming on by ``improvement_m``; the miss of a line is the
         target's distance from it, or the distance to the target plus a penalty when the target
-        is behind (``line_miss(starts, directions, target)``, m).
+        is behind (``line_miss(starts, directions, target)``, m). With ``PlannerConfig.line_weight`` > 0
+        (and ``ep.segment`` known) the candidates are scored by miss + line_weight x the distance of the
+        turn's end from the segment's line, and a turn is made if it improves the miss or the score.
         """
         cfg = self.config
         miss0 = self._miss_if_off_course(head, d, target, line_miss)
@@ -354,13 +375,23 @@ class RulePlanner:
         after = (head + off[:, 0, None, None] * d + off[:, 1, None, None] * e_ref[None]
                  + off[:, 2, None, None] * e_perp[None])
         miss = line_miss(after.reshape(-1, 3), heading.reshape(-1, 3), target).reshape(after.shape[:2])
-        i, j = np.unravel_index(int(np.argmin(miss)), miss.shape)
-        if miss[i, j] > miss0 - cfg.improvement_m:
-            return None
+        segment = ep.segment if ep is not None else None
+        if cfg.line_weight > 0.0 and segment is not None:
+            score = miss + cfg.line_weight * line_distance(after, *segment)
+            score0 = miss0 + cfg.line_weight * float(line_distance(head, *segment))
+            i, j = np.unravel_index(int(np.argmin(score)), score.shape)
+            if miss[i, j] > miss0 - cfg.improvement_m and score[i, j] > score0 - cfg.improvement_m:
+                return None
+            extra = {"line_score_m": float(score[i, j]), "line_score_straight_m": score0}
+        else:
+            i, j = np.unravel_index(int(np.argmin(miss)), miss.shape)
+            if miss[i, j] > miss0 - cfg.improvement_m:
+                return None
+            extra = {}
         return {"t_c": float(t_c[i]), "theta_deg": math.degrees(theta[i]), "burst_phase": wrap_angle(beta[j]),
                 "predicted_azimuth": wrap_angle(beta[j] + psi[i]),
                 "predicted_miss_m": float(miss[i, j]), "miss_straight_m": float(miss0),
-                "heading": d.tolist(), "head": head.tolist()}
+                "heading": d.tolist(), "head": head.tolist(), **extra}
 
     def _miss_if_off_course(self, head: np.ndarray, d: np.ndarray, target: np.ndarray,
                             line_miss=None) -> float | None:
@@ -394,6 +425,18 @@ class RulePlanner:
         psi = np.radians([tm.psi_for(t) for t in t_c])
         off = np.array([tm.offset_for(t) for t in t_c])
         return t_c, theta, psi, off
+
+
+def line_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance (m) of points (..., 3) from the infinite line through a and b (from a if they coincide),
+    shape (...)."""
+    u = b - a
+    n = math.sqrt(float(u @ u))
+    rel = points - a
+    if n < 1e-12:
+        return np.linalg.norm(rel, axis=-1)
+    u = u / n
+    return np.linalg.norm(rel - (rel @ u)[..., None] * u, axis=-1)
 
 
 def graded_line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray, behind_penalty: float = 0.2

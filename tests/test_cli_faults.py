@@ -314,7 +314,9 @@ def test_calibrate_turns_refuses_a_folder_as_out_before_measuring(usage_error, t
 
 @pytest.mark.parametrize("controllers, fragment", [(["rule:"], "nothing follows 'rule:'"),
                                                    (["adaptive:"], "nothing follows 'adaptive:'"),
-                                                   (["rule", "rule"], "'rule' is given twice")])
+                                                   (["rule", "rule"], "'rule' is given twice"),
+                                                   (["adaptive@line=-1"], "line='-1' is not allowed"),
+                                                   (["ppo@line=2"], "allowed: none for 'ppo'")])
 @pytest.mark.parametrize("command", ["follow", "evaluate"])
 def test_empty_and_repeated_controllers_are_refused_before_any_output(usage_error, tmp_path, one_turn, command,
                                                                       controllers, fragment, monkeypatch):

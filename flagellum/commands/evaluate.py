@@ -24,7 +24,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="'square', 'eval' (the 20 evaluation paths shipped with the package), path files (JSON) "
                              "or folders of them")
     parser.add_argument("--controller", action="append", required=True,
-                        help="rule | rule:MAP.json | adaptive | adaptive:MAP.json | horizon | horizon:MAP.json | ppo | ppo:AGENT_DIR (repeatable)")
+                        help="rule | rule:MAP.json | adaptive | adaptive:MAP.json | rule@line=W | adaptive@line=W (also weighing "
+                             "how far a turn ends from the path's line, W m per m) | horizon | horizon:MAP.json | ppo "
+                             "| ppo:AGENT_DIR (repeatable)")
     parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/evaluate"), help="default out/evaluate")
     parser.add_argument("--workers", metavar="N", help="local worker processes (default: one per core)")
     parser.add_argument("--scheduler", metavar="ADDR", help=SCHEDULER_HELP)
