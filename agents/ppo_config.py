@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from agents.residual_planner import BASE_PLANNERS, ResidualLimits
+from agents.residual_planner import ResidualLimits, base_planner
 from flagellum_env.paths import RandomPathConfig, WaypointPath, random_path
 from physics.presets import DEFAULT_PRESET, preset_names
 from physics.validation import require_finite
@@ -174,9 +174,10 @@ class TrainConfig:
         if preset not in preset_names():
             raise ValueError(f"{where}: {name}.task.preset={preset!r} is not allowed; choose one of {preset_names()}")
         planner = task.get("planner", "rule")
-        if planner not in BASE_PLANNERS:
-            raise ValueError(f"{where}: {name}.task.planner={planner!r} is not allowed; choose one of "
-                             f"{list(BASE_PLANNERS)}")
+        try:
+            base_planner(planner)
+        except ValueError as exc:
+            raise ValueError(f"{where}: {name}.task.{exc}") from None
         limits = dict(task.get("limits") or {})
         try:
             ResidualLimits(**limits)

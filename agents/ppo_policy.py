@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from agents.assets import default_turn_map, missing_turn_map_message, pretrained_dir
-from agents.residual_planner import BASE_PLANNERS, AdaptiveResidualPlanner, ResidualLimits, ResidualPlanner
+from agents.residual_planner import AdaptiveResidualPlanner, ResidualLimits, ResidualPlanner, base_planner
 from agents.turn_map import TurnMap
 
 #: The pretrained agent shipped with the package (package data, ``agents.assets``).
@@ -85,11 +85,13 @@ def load_agent(arg: str | None = None) -> PPOAgent:
         raise ValueError(f"the agent in {str(folder)!r} has mode {meta.get('mode')!r}; this version drives "
                          "'residual' agents")
     planner = meta.get("planner", "rule")
-    if planner not in BASE_PLANNERS:
-        raise ValueError(f"the agent in {str(folder)!r} corrects the planner {planner!r}; this version has "
-                         f"{list(BASE_PLANNERS)}")
+    try:
+        _, planner_cls, _ = base_planner(planner)
+    except ValueError as exc:
+        raise ValueError(f"the agent in {str(folder)!r} corrects a planner this version does not have: {exc}") \
+            from None
     model = PPO.load(str(folder / "model.zip"), device="cpu")
-    n = BASE_PLANNERS[planner].n_features
+    n = planner_cls.n_features
     if model.observation_space.shape != (n,):
         raise ValueError(f"the agent in {str(folder)!r} expects {model.observation_space.shape} observations, "
                          f"this version's turn features of the {planner} planner are ({n},): retrain it")
@@ -130,8 +132,9 @@ def load_ppo_controller(arg: str | None, env, preset: str) -> PPOController | Ad
         raise ValueError("the PPO agent corrects the turn planner, which needs a turn map: "
                          + missing_turn_map_message(tmap_file, preset))
     limits = ResidualLimits(**agent.meta.get("limits", {}))
-    cls = AdaptivePPOController if agent.meta.get("planner", "rule") == "adaptive" else PPOController
-    ctrl = cls.for_env(env, TurnMap.load(tmap_file), limits=limits)
+    kind, _, config = base_planner(agent.meta.get("planner", "rule"))
+    cls = AdaptivePPOController if kind == "adaptive" else PPOController
+    ctrl = cls.for_env(env, TurnMap.load(tmap_file), config, limits=limits)
     ctrl.agent = agent
     ctrl.policy = lambda f: agent.act(f, ctrl._deterministic)
     return ctrl

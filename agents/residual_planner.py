@@ -283,3 +283,20 @@ class AdaptiveResidualPlanner(ResidualDecisions, AdaptivePlanner):
 
 #: The planners a residual policy may correct, by name (``n_features``: the length of the feature vector it sees).
 BASE_PLANNERS: dict[str, type[ResidualDecisions]] = {"rule": ResidualPlanner, "adaptive": AdaptiveResidualPlanner}
+
+
+def base_planner(spec: str) -> tuple[str, type[ResidualDecisions], PlannerConfig | None]:
+    """(kind, class, config) of the planner a residual policy corrects: ``rule`` or ``adaptive``, either optionally
+    with ``@line=W`` (``PlannerConfig.line_weight``, as in the controller specs of ``agents.path_following``);
+    ValueError naming anything else."""
+    from agents.path_following import controller_kind, controller_options
+
+    allowed = f"{list(BASE_PLANNERS)}, either optionally with '@line=W' (W >= 0)"
+    try:
+        kind = controller_kind(spec)
+        options = controller_options(spec)
+    except ValueError:
+        raise ValueError(f"planner={spec!r} is not allowed; choose one of {allowed}") from None
+    if kind not in BASE_PLANNERS or ":" in spec:
+        raise ValueError(f"planner={spec!r} is not allowed; choose one of {allowed}")
+    return kind, BASE_PLANNERS[kind], PlannerConfig(line_weight=options["line"]) if "line" in options else None

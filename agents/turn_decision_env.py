@@ -35,7 +35,7 @@ from gymnasium import spaces
 
 from agents.assets import default_turn_map, missing_turn_map_message
 from agents.path_following import CONTROLLER_ENV_DEFAULTS
-from agents.residual_planner import BASE_PLANNERS, ResidualLimits
+from agents.residual_planner import ResidualLimits, base_planner
 from agents.turn_map import TurnMap
 from flagellum_env.config import resolve_path
 from flagellum_env.paths import RandomPathConfig, WaypointPath
@@ -91,7 +91,7 @@ class TurnDecisionEnv(gym.Env):
     | random_path | 3 waypoints, 12-20 cm, turns 30-150 deg, planar and 3-D alternating | ``RandomPathConfig`` fields of the drawn paths; ``planar`` may be a list |
     | limits      | 0.05, 15 deg (``ResidualLimits()``) | ``ResidualLimits`` or a dict of its fields          |
     | action_cost | 5.0                              | c >= 0: a decision's reward is lowered by c |a|^2     |
-    | planner     | "rule"                           | the planner corrected: "rule" (``ResidualPlanner``) or "adaptive" (``AdaptiveResidualPlanner``) |
+    | planner     | "rule"                           | the planner corrected: "rule" (``ResidualPlanner``) or "adaptive" (``AdaptiveResidualPlanner``), either optionally with "@line=W" (``PlannerConfig.line_weight``) |
     | render_mode | None                             | None or "rgb_array" (the base env's frame after the step) |
 
     The defaults are the settings of the first agent (trained on ``coarse``; results/agents/ppo_residual_coarse),
@@ -127,8 +127,7 @@ class TurnDecisionEnv(gym.Env):
             raise ValueError(f"unknown argument(s) {sorted(unknown)} for {self.env_id}; known arguments: "
                              "preset, turn_map, env_kwargs, paths, random_path, limits, action_cost, render_mode, "
                              "planner")
-        if planner not in BASE_PLANNERS:
-            raise ValueError(f"planner={planner!r} is not allowed; choose one of {list(BASE_PLANNERS)}")
+        kind, planner_cls, planner_config = base_planner(planner)  # ValueError for a planner not allowed
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode={render_mode!r} is not allowed; choose one of "
                              f"{[None] + self.metadata['render_modes']}")
@@ -143,7 +142,7 @@ class TurnDecisionEnv(gym.Env):
         for name, why in (("path", "give paths= or random_path="), ("render_mode", "give render_mode=")):
             if name in env_kwargs:
                 raise ValueError(f"env_kwargs must not hold {name!r}; {why}")
-        kwargs = {**CONTROLLER_ENV_DEFAULTS[planner], "preset": preset, **dict(env_kwargs)}
+        kwargs = {**CONTROLLER_ENV_DEFAULTS[kind], "preset": preset, **dict(env_kwargs)}
         try:
             self.base = FlagellumSteerEnv(path="random", render_mode=render_mode, **kwargs)
         except ValueError as exc:
@@ -153,7 +152,7 @@ class TurnDecisionEnv(gym.Env):
             raise ValueError(f"turn_map={str(tmap_file)!r}: " + missing_turn_map_message(tmap_file, preset,
                                                                                            given=turn_map is not None))
         tmap = TurnMap.load(tmap_file)
-        self.planner = BASE_PLANNERS[planner].for_env(self.base, tmap, limits=_limits(limits))
+        self.planner = planner_cls.for_env(self.base, tmap, planner_config, limits=_limits(limits))
         self.action_cost = require_finite("action_cost", action_cost, 0.0)
         self.paths = _fixed_paths(paths)
         self.set_random_path(DEFAULT_RANDOM_PATH if random_path is None else random_path)

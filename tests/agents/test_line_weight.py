@@ -119,3 +119,19 @@ def test_controller_spec_carries_the_line_weight():
                           ("adaptive@bend=1", "option 'bend=1'")]:
         with pytest.raises(ValueError, match=fragment):
             controller_kind(bad)
+
+
+def test_a_residual_agent_may_correct_a_planner_with_a_line_weight():
+    from agents.residual_planner import AdaptiveResidualPlanner, base_planner
+    from agents.turn_decision_env import TurnDecisionEnv
+
+    kind, cls, config = base_planner("adaptive@line=2")
+    assert (kind, cls, config.line_weight) == ("adaptive", AdaptiveResidualPlanner, 2.0)
+    assert base_planner("rule")[2] is None
+    for bad in ("horizon", "adaptive:map.json", "rule@line=-2", "ppo"):
+        with pytest.raises(ValueError, match=f"planner={bad!r} is not allowed"):
+            base_planner(bad)
+    env = TurnDecisionEnv(preset="coarse", planner="adaptive@line=2")
+    assert isinstance(env.planner, AdaptiveResidualPlanner) and env.planner.config.line_weight == 2.0
+    with pytest.raises(ValueError, match="planner='rule@bend=1' is not allowed"):
+        TurnDecisionEnv(preset="coarse", planner="rule@bend=1")
