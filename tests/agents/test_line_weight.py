@@ -135,3 +135,16 @@ def test_a_residual_agent_may_correct_a_planner_with_a_line_weight():
     assert isinstance(env.planner, AdaptiveResidualPlanner) and env.planner.config.line_weight == 2.0
     with pytest.raises(ValueError, match="planner='rule@bend=1' is not allowed"):
         TurnDecisionEnv(preset="coarse", planner="rule@bend=1")
+
+
+def test_the_line_agents_config_differs_from_the_shipped_agents_in_the_planner_alone():
+    import dataclasses
+
+    from agents.assets import package_file
+    from agents.ppo_config import TrainConfig
+
+    line = TrainConfig.from_yaml(package_file("configs", "ppo_residual_line.yml"))
+    shipped = TrainConfig.from_yaml(package_file("configs", "ppo_residual_adaptive.yml"))
+    assert line.planner == "adaptive@line=2" and line.max_wall_time_s <= 7200
+    differ = [f.name for f in dataclasses.fields(TrainConfig) if getattr(line, f.name) != getattr(shipped, f.name)]
+    assert differ == ["name", "source", "planner"]  # source: the file it came from
