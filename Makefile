@@ -26,12 +26,12 @@ $(STAMP): pyproject.toml
 test: install
 	OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -q -n 2 --durations=10
 
-# The rule-based planner and the adaptive planner (the same planner correcting its turn map online from
-# what the swimmer does) steer the swimmer around the paper's 0.25 m square (the default preset,
-# faithful), side by side (one worker process each): out/demo/summary.json, path.png (target vs achieved) and
-# omega.png (the control signal).
+# The paper's rule-based planner and the adaptive planner with the line weight (the same planner correcting its
+# turn map online from what the swimmer does and choosing turns that end near the path's line) steer the swimmer
+# around the paper's 0.25 m square (the default preset, faithful), side by side (one worker process each):
+# out/demo/summary.json, path.png (target vs achieved) and omega.png (the control signal).
 demo: install
-	OPENBLAS_NUM_THREADS=1 $(BIN)/flagellum follow --path square --controller rule --controller adaptive --out out/demo
+	OPENBLAS_NUM_THREADS=1 $(BIN)/flagellum follow --path square --controller rule --controller adaptive@line=2 --out out/demo
 
 clean:
 	rm -rf $(VENV) out build *.egg-info .pytest_cache
