@@ -20,8 +20,8 @@ Inputs (each made by a committed command):
 - results/agents/ppo_residual_adaptive_20261204/ (the residual on the adaptive planner at faithful, issue #26)
       flagellum train --config agents/configs/ppo_residual_adaptive.yml --out results/agents/ppo_residual_adaptive_20261204
   and its held-out evaluation results/eval_ppo_adaptive/<level>/results.json and (a second held-out set)
-  results/eval_ppo_adaptive_confirm/<level>/results.json (level nominal, rand05, rand10; the commands are printed
-  in the report)
+  results/eval_ppo_adaptive_confirm/<level>/results.json and (a third, beside the line weight's planner)
+  results/eval_line/<level>/results.json (level nominal, rand05, rand10; the commands are printed in the report)
 - results/agents/raw_ppo_faithful_20261203/learning_curve.png (the raw baseline again at the new speed)
 Missing inputs are reported as not measured.
 """
@@ -596,7 +596,7 @@ def adaptive_verdict(found: dict[tuple[Path, str], dict[str, Any]], lines: list[
             lines.append(f"- {level}: not measured.")
             continue
         if len(sets) > 1:
-            sets.append(("all sets pooled", pooled([res for _, res in sets])))
+            sets.append(("all sets pooled (rule and adaptive: the line weight ran on set 3 only)", pooled([res for _, res in sets])))
         for name, res in sets:
             ppo = _ppo_key(res)
             best = best_planner(res, planners_of(res))
@@ -716,8 +716,13 @@ ADAPTIVE_LIMITS_TEXT = """### What limits it, and what ships
   planner's map is the swimmer's own, so a correction can only make a turn more exact, and exact first turns would
   leave 0.85-0.90 of the planner's cross-track error (table above), not 0.8. The agent does not even get that: with no
   model error to correct, its small corrections (|a| < 0.15) add 0.5-0.6 buckling events per path. The lever left is
-  *when and where* to turn (e.g. before the waypoint, so that the next segment starts nearer its line), which the
-  action (burst length, phase) does not have: the next design to try, not tried here.
+  *where a turn ends*: among the turns that reach the next waypoint, one that lands on the path's line. It was
+  tried on the planner first (`PlannerConfig.line_weight`, controller `adaptive@line=2`, docs/robust_steering.md):
+  on held-out set 3 it took the nominal cross-track from 0.73 to 0.59 cm (0.82x; the agent: 0.81 cm) and
+  finished 13/16 against 11/16 within ±10 % (the agent 15/16), 15/16 against 16/16 within ±5 %. It is a planner
+  option, open to every controller, so it raises the best planner the agent is measured against: on set 3 the
+  agent's nominal ratio is 1.38. An agent trained on that planner (agents/configs/ppo_residual_line.yml, the
+  shipped agent's config with `planner: adaptive@line=2`) is the next step.
 - **The curve does not say how many samples would help.** 2660 decisions are ~21 PPO updates of 128 decisions;
   within each curriculum stage the training episodes show no trend (the slopes above: in the broad stage success
   +0.04 per 1000 decisions, interval -0.06 to +0.13; taken at face value, ten more points of success would take
