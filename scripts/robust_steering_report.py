@@ -775,7 +775,11 @@ and finishes more paths within ±10 %, but lost one path within ±5 %. Nominal s
 5 % (R10)** where the rule planner's 5.04 % is not. Within ±5 % (helix ±2 %): 15/16 (adaptive 16/16, rule 2/16),
 1.11 cm against 1.39 cm; the lost path, planar_10305, left the 10 cm corridor after 264 s and 5 bursts. Within
 ±10 % (helix ±4 %): 13/16 against the adaptive planner's 11/16 (rule 1/16), 1.86 cm against 2.34 cm, in 501 s
-against 763 s simulated with 6.3 bursts against 8.4. With the development set (10 paths per level) pooled, 26 paths:
+against 763 s simulated with 6.3 bursts against 8.4. Not better: the out-of-plane drift on the planar held-out
+paths (nominal swimmer), max Δz/ΔL 9.0 % on average against the rule planner's 8.0 %, worst 16.5 % against 10.3 %
+(planar_10307, where the line weight flew 5 bursts against 3 and ended at 0.85 against 0.58 cm; planar_10302
+11.0 % against 7.4 %): the term counts the distance from the line in 3-D, and each extra burst lifts the head out
+of the plane by its own amount. With the development set (10 paths per level) pooled, 26 paths:
 ±5 % 24 against 25, ±10 % 20 against 17. No episode ended in a `SimulationError`. The shipped agent `ppo` (trained on
 the plain adaptive planner) made 16/16, 16/16 and 15/16 at 0.81, 1.24 and 1.90 cm: behind the line weight on the
 nominal swimmer, ahead of every planner in success within ±10 % (docs/agents.md pools this set with its other
