@@ -22,6 +22,9 @@ Inputs (each made by a committed command):
   and its held-out evaluation results/eval_ppo_adaptive/<level>/results.json and (a second held-out set)
   results/eval_ppo_adaptive_confirm/<level>/results.json and (a third, beside the line weight's planner)
   results/eval_line/<level>/results.json (level nominal, rand05, rand10; the commands are printed in the report)
+- results/agents/ppo_residual_line_20261204/ (the residual on the adaptive planner with the line weight)
+      flagellum train --config agents/configs/ppo_residual_line.yml --out results/agents/ppo_residual_line_20261204
+  and its first look on held-out set 3, results/eval_line_agent/<level>/results.json
 - results/agents/raw_ppo_faithful_20261203/learning_curve.png (the raw baseline again at the new speed)
 Missing inputs are reported as not measured.
 """
@@ -523,6 +526,43 @@ def adaptive_agent_section(lines: list[str]) -> None:
     adaptive_verdict(found, lines)
     budget_section(found, lines)
     lines += [ADAPTIVE_LIMITS_TEXT, ""]
+    line_agent_section(lines)
+
+
+#: the residual on the adaptive planner with the line weight (agents/configs/ppo_residual_line.yml), and its
+#: evaluation on held-out set 3's paths and swimmers (beside the planners' episodes in results/eval_line)
+LINE_AGENT = RESULT_AGENTS / "ppo_residual_line_20261204"
+LINE_AGENT_EVAL = Path("results/eval_line_agent")
+
+
+def line_agent_section(lines: list[str]) -> None:
+    """The agent trained on the line-weight planner: its training so far and its episodes on set 3, with the
+    planners' episodes of the same paths and swimmers."""
+    from agents.evaluation_report import load_results
+
+    lines += ["### A residual on the planner with the line weight (training started 2026-12-04)", "", LINE_AGENT_TEXT,
+              ""]
+    if not (LINE_AGENT / "model.zip").is_file():
+        lines += [f"Not trained yet: no model in `{LINE_AGENT}` (a run writes it when it stops).", ""]
+        return
+    training_section(LINE_AGENT, lines, "#### Its training so far", "ppo_training_line.png")
+    lines += trend_lines(LINE_AGENT / "episodes.csv")
+    rows = []
+    for level, opt, _ in LEVELS:
+        planners, agent = EVAL_SETS[2][0] / level, LINE_AGENT_EVAL / level
+        if not ((planners / "results.json").is_file() and (agent / "results.json").is_file()):
+            rows.append(f"| {level} | not measured |")
+            continue
+        a, b = load_results(planners), load_results(agent)
+        both = summarise(a["per_path"] + b["per_path"], [*a["aggregate"], *b["aggregate"]])["aggregate"]
+        rows.append(f"| {level} | " + " | ".join(
+            f"`{c}` {round(g['episodes'] * g['success_rate'])}/{g['episodes']}, {100 * g['mean_cross_track_m']:.2f} cm, "
+            f"{g['buckling_events']:.1f}" for c, g in both.items()) + " |")
+    lines += ["On held-out set 3's paths and swimmers (seeds 10300-10315), beside the planners' and the shipped "
+              "agent's episodes of results/eval_line (success, mean cross-track, bursts per path):", "", "```",
+              *[f"flagellum evaluate --paths results/eval_line/paths --controller ppo:{LINE_AGENT}{opt} --seed0 10300 "
+                f"--workers 2 --out {LINE_AGENT_EVAL}/{level}" for level, opt, _ in LEVELS], "```", "",
+              "| level | controllers |", "|---|---|", *rows, ""]
 
 
 def eval_set_text(seed0: int, count: int) -> str:
@@ -739,6 +779,16 @@ ADAPTIVE_LIMITS_TEXT = """### What limits it, and what ships
   (`flagellum follow --path square --controller ppo --controller adaptive`, results/square_ppo_shipped) it made
   every corner at 0.57 cm mean cross-track against the planner's 0.75 cm, but with 6 bursts instead of 3 and an
   out-of-plane drift Δz/ΔL of 6.8 % against 5.04 % (the paper's bound is 5 %): not a clear win."""
+
+
+LINE_AGENT_TEXT = """The shipped agent's config with one change, the planner it corrects: `adaptive@line=2`
+(agents/configs/ppo_residual_line.yml; the same 2-hour budget, curriculum, randomisation and seed). The question:
+does a learned correction still add to a planner whose turns already land on the path's line? The run was stopped
+by SIGTERM (its checkpoint kept) to free the cores at the end of a session and resumes with `flagellum train
+--config agents/configs/ppo_residual_line.yml --out results/agents/ppo_residual_line_20261204 --resume` until the
+budget is spent; the numbers below are of the policy at that stop, evaluated on held-out set 3 (not seen in its
+training; the planners' results on it were seen when the line weight was evaluated, so set 3 is a first look, not
+the agent's final held-out test, which needs paths and swimmers from new seeds)."""
 
 
 WALL_TIME_NOTE = """Wall times are not comparable between controllers here: the planners' episodes of set 1 ran beside
