@@ -547,7 +547,7 @@ def line_agent_section(lines: list[str]) -> None:
         return
     training_section(LINE_AGENT, lines, "#### Its training so far", "ppo_training_line.png")
     lines += trend_lines(LINE_AGENT / "episodes.csv")
-    rows = []
+    rows, header = [], None
     for level, opt, _ in LEVELS:
         planners, agent = EVAL_SETS[2][0] / level, LINE_AGENT_EVAL / level
         if not ((planners / "results.json").is_file() and (agent / "results.json").is_file()):
@@ -555,14 +555,15 @@ def line_agent_section(lines: list[str]) -> None:
             continue
         a, b = load_results(planners), load_results(agent)
         both = summarise(a["per_path"] + b["per_path"], [*a["aggregate"], *b["aggregate"]])["aggregate"]
+        header = header or ["| level | " + " | ".join(f"`{c}`" for c in both) + " |", "|---" * (len(both) + 1) + "|"]
         rows.append(f"| {level} | " + " | ".join(
-            f"`{c}` {round(g['episodes'] * g['success_rate'])}/{g['episodes']}, {100 * g['mean_cross_track_m']:.2f} cm, "
-            f"{g['buckling_events']:.1f}" for c, g in both.items()) + " |")
+            f"{round(g['episodes'] * g['success_rate'])}/{g['episodes']}, {100 * g['mean_cross_track_m']:.2f} cm, "
+            f"{g['buckling_events']:.1f}" for g in both.values()) + " |")
     lines += ["On held-out set 3's paths and swimmers (seeds 10300-10315), beside the planners' and the shipped "
               "agent's episodes of results/eval_line (success, mean cross-track, bursts per path):", "", "```",
               *[f"flagellum evaluate --paths results/eval_line/paths --controller ppo:{LINE_AGENT}{opt} --seed0 10300 "
                 f"--workers 2 --out {LINE_AGENT_EVAL}/{level}" for level, opt, _ in LEVELS], "```", "",
-              "| level | controllers |", "|---|---|", *rows, ""]
+              *(header or ["| level | |", "|---|---|"]), *rows, "", LINE_AGENT_FINDINGS, ""]
 
 
 def eval_set_text(seed0: int, count: int) -> str:
@@ -789,6 +790,16 @@ by SIGTERM (its checkpoint kept) to free the cores at the end of a session and r
 budget is spent; the numbers below are of the policy at that stop, evaluated on held-out set 3 (not seen in its
 training; the planners' results on it were seen when the line weight was evaluated, so set 3 is a first look, not
 the agent's final held-out test, which needs paths and swimmers from new seeds)."""
+
+LINE_AGENT_FINDINGS = """**At the stop (2860 decisions, 67 min of the 2-hour budget; 2026-12-04 09:45-10:53 UTC):** on the
+nominal swimmer 16/16 at 0.67 cm, between its planner's 0.59 cm and the shipped agent's 0.81 cm, with 5.1 bursts
+per path against the planner's 3.3: its corrections still cost turns where the map is exact, so the nominal target
+(≤ 0.8 × the best planner's, 0.47 cm) stays out of reach. Within ±5 % 16/16 at 1.04 cm: every path, where its
+planner lost one, and the lowest cross-track of any controller on this set (adaptive 1.39 cm, shipped agent 1.24
+cm). Within ±10 % 13/16 at 1.80 cm, like its planner (13/16, 1.86 cm), behind the shipped agent's 15/16. One set of
+16 paths per level (one path is 6 %); the run resumes to its full budget and is then judged on new seeds. Unlike
+the shipped agent's run (no trend in any stage), the broad stage's training episodes improve measurably so far:
+success +0.14 per 1000 decisions (interval +0.05 to +0.23), mean cross-track -0.64 cm per 1000 (-1.00 to -0.28)."""
 
 
 WALL_TIME_NOTE = """Wall times are not comparable between controllers here: the planners' episodes of set 1 ran beside
