@@ -44,6 +44,7 @@ import numpy as np
 
 from flagellum_env.turn_geometry import angle_between, azimuth, wrap_angle
 from agents.adaptive_planner import AdaptiveConfig, AdaptivePlanner
+from agents.controller_spec import controller_kind, controller_options
 from agents.online_turn_map import OnlineMapConfig, OnlineTurnMap
 from agents.turn_map import TurnMap
 from agents.turn_planner import PlannerConfig, RulePlanner, _Episode
@@ -287,10 +288,8 @@ BASE_PLANNERS: dict[str, type[ResidualDecisions]] = {"rule": ResidualPlanner, "a
 
 def base_planner(spec: str) -> tuple[str, type[ResidualDecisions], PlannerConfig | None]:
     """(kind, class, config) of the planner a residual policy corrects: ``rule`` or ``adaptive``, either optionally
-    with ``@line=W`` (``PlannerConfig.line_weight``, as in the controller specs of ``agents.path_following``);
+    with ``@line=W`` (``PlannerConfig.line_weight``, as in the controller specs, ``agents.controller_spec``);
     ValueError naming anything else."""
-    from agents.path_following import controller_kind, controller_options
-
     allowed = f"{list(BASE_PLANNERS)}, either optionally with '@line=W' (W >= 0)"
     try:
         kind = controller_kind(spec)

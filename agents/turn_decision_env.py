@@ -34,7 +34,7 @@ import numpy as np
 from gymnasium import spaces
 
 from agents.assets import default_turn_map, missing_turn_map_message
-from agents.path_following import CONTROLLER_ENV_DEFAULTS
+from agents.controller_spec import CONTROLLER_ENV_DEFAULTS
 from agents.residual_planner import ResidualLimits, base_planner
 from agents.turn_map import TurnMap
 from flagellum_env.config import resolve_path

@@ -1,0 +1,63 @@
+"""Controller specs (``KIND``, ``KIND:FILE``, ``KIND@line=W[:FILE]``): which controller a name means and the
+environment settings its kind needs, kept apart from the controllers themselves so that the planners and the
+agents can parse a spec without importing each other (``agents.path_following`` builds the controller)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+#: Environment settings each controller kind needs (merged under the caller's settings).
+#: The rule planner times its bursts to the flagellum's phase (~40 deg/s at 10 rpm) and its turns
+#: grow by up to ~100 deg per second of burst (paper preset), so it steps every 0.1 s.
+#: The PPO agent corrects the planner's turns (agents.residual_planner), so it steps like the planner.
+CONTROLLER_ENV_DEFAULTS: dict[str, dict[str, Any]] = {"rule": {"control_dt": 0.1}, "adaptive": {"control_dt": 0.1},
+                                                      "horizon": {"control_dt": 0.1}, "ppo": {"control_dt": 0.1}}
+
+
+_ALLOWED_SPECS = ("'rule', 'rule:TURN_MAP.json', 'adaptive', 'adaptive:TURN_MAP.json', 'horizon', "
+                  "'horizon:TURN_MAP.json', 'ppo', 'ppo:AGENT_DIR'; 'rule@line=W' and 'adaptive@line=W' (W >= 0, "
+                  "also before ':TURN_MAP.json') score turns by the path's line too")
+#: Options a planner spec may carry after ``@`` (``KIND@line=W``), by kind.
+_SPEC_OPTIONS = {"rule": ("line",), "adaptive": ("line",)}
+
+
+def controller_kind(spec: str) -> str:
+    """``"rule"``, ``"adaptive"``, ``"horizon"`` or ``"ppo"`` from ``KIND``, ``KIND:FILE``, ``KIND@line=W`` or
+    ``KIND@line=W:FILE``; ValueError otherwise (also for ``KIND:`` with nothing after the colon, which would
+    silently mean the default map or agent, and for an option the kind does not take)."""
+    head, sep, arg = spec.partition(":") if isinstance(spec, str) else ("", "", "")
+    kind = head.partition("@")[0]
+    if kind not in CONTROLLER_ENV_DEFAULTS:
+        raise ValueError(f"controller {spec!r} is not allowed; allowed: {_ALLOWED_SPECS}")
+    if sep and not arg.strip():
+        raise ValueError(f"controller {spec!r} is not allowed: nothing follows {head + ':'!r}; allowed: {head!r} "
+                         f"for the default, or {head}:FILE ({_ALLOWED_SPECS})")
+    controller_options(spec)
+    return kind
+
+
+def controller_options(spec: str) -> dict[str, float]:
+    """The options after ``@`` in a controller spec (``adaptive@line=2`` -> {"line": 2.0}); ValueError for an
+    option the kind does not take, a value that is not a finite number >= 0, or an option given twice."""
+    head = spec.partition(":")[0]
+    kind, at, opts = head.partition("@")
+    if not at:
+        return {}
+    allowed = _SPEC_OPTIONS.get(kind, ())
+    out: dict[str, float] = {}
+    for item in opts.split(","):
+        name, eq, value = item.partition("=")
+        if name not in allowed or not eq:
+            raise ValueError(f"controller {spec!r}: option {item!r} is not allowed; allowed: "
+                             + (", ".join(f"{n}=W (W >= 0)" for n in allowed) + f" for {kind!r}" if allowed
+                                else f"none for {kind!r}") + f" ({_ALLOWED_SPECS})")
+        try:
+            w = float(value)
+        except ValueError:
+            w = math.nan
+        if not (math.isfinite(w) and w >= 0.0) or name in out:
+            raise ValueError(f"controller {spec!r}: {name}={value!r} is not allowed; allowed: {name}=W once, "
+                             "W a number >= 0")
+        out[name] = w
+    return out
