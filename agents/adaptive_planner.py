@@ -35,7 +35,8 @@ import numpy as np
 
 from agents.online_turn_map import GAUSS_HERMITE_3, OnlineMapConfig, OnlineTurnMap
 from agents.turn_map import TurnMap
-from agents.turn_planner import PlannerConfig, RulePlanner, _Episode, graded_line_miss, line_distance
+from agents.turn_planner import (PlannerConfig, RulePlanner, _Episode, graded_line_miss, line_distance, pick_turn,
+                                 turn_ends)
 from flagellum_env.turn_geometry import angle_between, azimuth, perpendicular_basis, wrap_angle
 from flagellum_env.turn_measurement import CruiseObservables, cruise_observables, summarise_cruise
 from physics.validation import require_finite
@@ -283,25 +284,20 @@ class AdaptivePlanner(RulePlanner):
 
         miss = expected_misses(head, d, target, out, beta, line_miss, ep.segment,
                                a.corridor_soft * a.corridor_m, a.corridor_hard * a.corridor_m)
-        miss_straight = float(saturating_miss(miss0, scale_m))
-        w, imp = self.config.line_weight, self.config.improvement_m
-        if w > 0.0 and ep.segment is not None:
+        line = None
+        if self.config.line_weight > 0.0 and ep.segment is not None:
             # the rule planner's line term (PlannerConfig.line_weight), in expectation over the timing outcomes
             ends = turn_ends(head, d, out.offset, beta)                                   # (T, K, B, 3)
-            score = miss + w * np.einsum("k,tkb->tb", out.weights, line_distance(ends, *ep.segment))
-            straight = miss_straight + w * float(line_distance(head, *ep.segment))
-            i, j = np.unravel_index(int(np.argmin(score)), score.shape)
-            if miss[i, j] > miss_straight - imp and score[i, j] > straight - imp:
-                return None
-        else:
-            score = miss
-            i, j = np.unravel_index(int(np.argmin(score)), score.shape)
-            if score[i, j] > miss_straight - imp:
-                return None
+            line = (np.einsum("k,tkb->tb", out.weights, line_distance(ends, *ep.segment)),
+                    float(line_distance(head, *ep.segment)))
+        chosen = pick_turn(miss, float(saturating_miss(miss0, scale_m)), self.config, line)
+        if chosen is None:
+            return None
+        i, j, score, _ = chosen
         theta, psi = ep.online.turn_at(float(out.map_t[i]))
         return {"t_c": float(max(out.t_fly[i], self.control_dt)), "theta_deg": math.degrees(theta),
                 "burst_phase": wrap_angle(beta[j]), "predicted_azimuth": wrap_angle(beta[j] + psi),
-                "predicted_miss_m": float(score[i, j]), "miss_straight_m": float(miss0),
+                "predicted_miss_m": score, "miss_straight_m": float(miss0),
                 "heading": d.tolist(), "head": head.tolist()}
 
     def _swim_on_first(self, head, d, target, ep, plan: dict, scale_m: float) -> bool:
@@ -339,17 +335,6 @@ class AdaptivePlanner(RulePlanner):
                                 turn["theta_deg"], turn.get("clock_shift_s"))
         turn.update(observed_theta_deg=theta_obs, azimuth_error_deg=math.degrees(az_err),
                     shift_after_s=rec["shift_s"], shift_std_after_s=rec["shift_std_s"])
-
-
-def turn_ends(head: np.ndarray, d: np.ndarray, offset: np.ndarray, beta: np.ndarray) -> np.ndarray:
-    """Where the head is after each turn (m, shape offset.shape[:-1] + (B, 3)): ``offset`` (..., 3) is the map's
-    displacement (along the heading ``d``, along the flagellum's reference direction at the burst, across both)
-    and ``beta`` (B,) rad the reference direction's azimuth about ``d`` (``perpendicular_basis``)."""
-    e1, e2 = perpendicular_basis(d)
-    e_ref = np.cos(beta)[:, None] * e1 + np.sin(beta)[:, None] * e2                       # (B, 3)
-    e_perp = np.cross(d, e_ref)
-    return (head + offset[..., 0, None, None] * d + offset[..., 1, None, None] * e_ref
-            + offset[..., 2, None, None] * e_perp)
 
 
 def expected_misses(head: np.ndarray, d: np.ndarray, target: np.ndarray, out, beta: np.ndarray, line_miss,

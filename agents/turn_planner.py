@@ -367,27 +367,18 @@ class RulePlanner:
         t_c, theta, psi, off = self._candidate_turns(ep)
         beta = np.radians(np.arange(0.0, 360.0, cfg.phase_step_deg))
         e1, e2 = perpendicular_basis(d)
-        e_ref = np.cos(beta)[:, None] * e1 + np.sin(beta)[:, None] * e2          # (B, 3)
-        e_perp = np.cross(d, e_ref)                                              # (B, 3)
         az = beta[None, :] + psi[:, None]                                        # (T, B)
         across = (np.cos(az)[..., None] * e1 + np.sin(az)[..., None] * e2)       # (T, B, 3)
         heading = np.cos(theta)[:, None, None] * d + np.sin(theta)[:, None, None] * across
-        after = (head + off[:, 0, None, None] * d + off[:, 1, None, None] * e_ref[None]
-                 + off[:, 2, None, None] * e_perp[None])
+        after = turn_ends(head, d, off, beta)                                    # (T, B, 3)
         miss = line_miss(after.reshape(-1, 3), heading.reshape(-1, 3), target).reshape(after.shape[:2])
         segment = ep.segment if ep is not None else None
-        if cfg.line_weight > 0.0 and segment is not None:
-            score = miss + cfg.line_weight * line_distance(after, *segment)
-            score0 = miss0 + cfg.line_weight * float(line_distance(head, *segment))
-            i, j = np.unravel_index(int(np.argmin(score)), score.shape)
-            if miss[i, j] > miss0 - cfg.improvement_m and score[i, j] > score0 - cfg.improvement_m:
-                return None
-            extra = {"line_score_m": float(score[i, j]), "line_score_straight_m": score0}
-        else:
-            i, j = np.unravel_index(int(np.argmin(miss)), miss.shape)
-            if miss[i, j] > miss0 - cfg.improvement_m:
-                return None
-            extra = {}
+        line = None if segment is None else (line_distance(after, *segment), float(line_distance(head, *segment)))
+        chosen = pick_turn(miss, miss0, cfg, line)
+        if chosen is None:
+            return None
+        i, j, score, score0 = chosen
+        extra = {"line_score_m": score, "line_score_straight_m": score0} if cfg.line_weight > 0.0 and line else {}
         return {"t_c": float(t_c[i]), "theta_deg": math.degrees(theta[i]), "burst_phase": wrap_angle(beta[j]),
                 "predicted_azimuth": wrap_angle(beta[j] + psi[i]),
                 "predicted_miss_m": float(miss[i, j]), "miss_straight_m": float(miss0),
@@ -425,6 +416,37 @@ class RulePlanner:
         psi = np.radians([tm.psi_for(t) for t in t_c])
         off = np.array([tm.offset_for(t) for t in t_c])
         return t_c, theta, psi, off
+
+
+def turn_ends(head: np.ndarray, d: np.ndarray, offset: np.ndarray, beta: np.ndarray) -> np.ndarray:
+    """Where the head is after each turn (m, shape offset.shape[:-1] + (B, 3)): ``offset`` (..., 3) is the map's
+    displacement (along the heading ``d``, along the flagellum's reference direction at the burst, across both)
+    and ``beta`` (B,) rad the reference direction's azimuth about ``d`` (``perpendicular_basis``)."""
+    e1, e2 = perpendicular_basis(d)
+    e_ref = np.cos(beta)[:, None] * e1 + np.sin(beta)[:, None] * e2                       # (B, 3)
+    e_perp = np.cross(d, e_ref)
+    return (head + offset[..., 0, None, None] * d + offset[..., 1, None, None] * e_ref
+            + offset[..., 2, None, None] * e_perp)
+
+
+def pick_turn(miss: np.ndarray, miss_straight: float, config: PlannerConfig,
+              line: tuple[np.ndarray, float] | None = None) -> tuple[int, int, float, float] | None:
+    """The candidate to fly, (i, j, its score, swimming on's score), or None to swim on. ``miss`` (T, B) m: each
+    candidate's miss (``miss_straight``: swimming on's); ``line``: (distance of each candidate's end from the
+    segment's line, shape of ``miss``; the head's now), m. Without a line or with ``config.line_weight`` 0 the score
+    is the miss; otherwise miss + line_weight x distance, and a candidate is flown if it improves the miss or the
+    score by ``config.improvement_m`` (``PlannerConfig``)."""
+    w, imp = config.line_weight, config.improvement_m
+    if w > 0.0 and line is not None:
+        score, straight = miss + w * line[0], miss_straight + w * line[1]
+        i, j = np.unravel_index(int(np.argmin(score)), score.shape)
+        if miss[i, j] > miss_straight - imp and score[i, j] > straight - imp:
+            return None
+        return int(i), int(j), float(score[i, j]), float(straight)
+    i, j = np.unravel_index(int(np.argmin(miss)), miss.shape)
+    if miss[i, j] > miss_straight - imp:
+        return None
+    return int(i), int(j), float(miss[i, j]), float(miss_straight)
 
 
 def line_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
