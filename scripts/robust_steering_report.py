@@ -788,7 +788,13 @@ two).
 `make demo` now flies `rule` against `adaptive@line=2` (on the demo's nominal square `adaptive` alone flew the rule
 planner's episode). `adaptive` keeps W = 0: the agents trained on it see its plans, and the ±5 % loss here is one
 path in 16 on one set, too little to tell from chance either way; W is a choice between a tighter path and the
-extra turns it takes, which a user makes with the spec."""
+extra turns it takes, which a user makes with the spec.
+
+**A second held-out set** (paths `--count 8 --seed0 10500`, swimmers 10500-10515, drawn 2026-12-04 around 12:10 UTC after
+all of the above; results/eval_set4, per-path tables in docs/agents.md, held-out set 4): `adaptive@line=2` against
+`adaptive` (= `rule` on the nominal swimmer): nominal 16/16 at 0.55 against 0.68 cm (0.82× again; 3.2 bursts
+against 3.0; planar max Δz/ΔL 7.46 % against 7.55 %), ±5 % 15/16 each at 1.19 against 1.89 cm, ±10 % 12/16 each
+at 2.12 against 2.61 cm; the rule planner 2/16 and 1/16. No `SimulationError`."""
 
 
 def dev_table(root: Path) -> list[str]:
