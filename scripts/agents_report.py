@@ -831,11 +831,12 @@ that checkpoint the broad stage's training episodes were improving (success +0.1
 +0.05 to +0.23); the second half of the budget did not continue it: over the whole broad stage the slope is flat
 (the table above), and the last quarter of its broad episodes succeeded 60 % of the time against 69-70 % in the two
 middle quarters (52 % in the first). Read as a sample count: at the slope's point estimate (+0.008 per 1000
-decisions) ten more points of training success would take ~12 000 decisions (five more budgets), at its upper bound
+decisions) ten more points of training success would take ~12 000 more decisions (two and a half more budgets at this run's
+rate), at its upper bound
 (+0.043) ~2300; the curve cannot say that more samples help at all."""
 
-LINE_AGENT_FINAL_TEXT = """Paths `make_eval_paths --count 8 --seed0 10500` and swimmers 10500-10515, drawn after its training
-ended and never used before (the commands and per-path tables: held-out set 4 above). The rule for shipping it
+LINE_AGENT_FINAL_TEXT = """Paths `make_eval_paths --count 8 --seed0 10500` and swimmers 10500-10515, drawn (at 12:10 UTC) while its
+training was finishing, never used by it or before (the commands and per-path tables: held-out set 4 above). The rule for shipping it
 was written down before set 4 existed: it replaces `ppo` if its success is at least the shipped agent's at every
 level and its mean cross-track is lower at two of the three. It is not shipped: on the nominal swimmer it is
 worse than both its planner and the shipped agent (0.83 cm against 0.55 and 0.68 cm, 4.8 bursts per path against
