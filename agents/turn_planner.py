@@ -373,12 +373,14 @@ class RulePlanner:
         after = turn_ends(head, d, off, beta)                                    # (T, B, 3)
         miss = line_miss(after.reshape(-1, 3), heading.reshape(-1, 3), target).reshape(after.shape[:2])
         segment = ep.segment if ep is not None else None
-        line = None if segment is None else (line_distance(after, *segment), float(line_distance(head, *segment)))
+        line = None  # the line term only where it counts (PlannerConfig.line_weight > 0)
+        if cfg.line_weight > 0.0 and segment is not None:
+            line = (line_distance(after, *segment), float(line_distance(head, *segment)))
         chosen = pick_turn(miss, miss0, cfg, line)
         if chosen is None:
             return None
         i, j, score, score0 = chosen
-        extra = {"line_score_m": score, "line_score_straight_m": score0} if cfg.line_weight > 0.0 and line else {}
+        extra = {"line_score_m": score, "line_score_straight_m": score0} if line is not None else {}
         return {"t_c": float(t_c[i]), "theta_deg": math.degrees(theta[i]), "burst_phase": wrap_angle(beta[j]),
                 "predicted_azimuth": wrap_angle(beta[j] + psi[i]),
                 "predicted_miss_m": float(miss[i, j]), "miss_straight_m": float(miss0),

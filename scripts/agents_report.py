@@ -35,7 +35,7 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from agents.evaluation import summarise
 from agents.follow_plots import save
@@ -651,7 +651,7 @@ def adaptive_verdict(found: dict[tuple[Path, str], dict[str, Any]], lines: list[
 
 
 def target_lines(found: dict[tuple[Path, str], dict[str, Any]], agent: Path, folders: list[Path],
-                 key_of: Any, lines: list[str], pool: str | None = None) -> None:
+                 key_of: Callable[[dict[str, Any]], str | None], lines: list[str], pool: str | None = None) -> None:
     """Issue #26's targets checked against the measured files for the agent trained in ``agent``, whose key in a
     result is ``key_of(result)`` (None where it did not run), on the held-out sets ``folders`` (and, given a
     ``pool`` label, on all of them pooled)."""
