@@ -94,6 +94,22 @@ class ResistanceOperator:
         self.nv = self.m3 + (3 if self.has_head else 0) + (1 if self.spin else 0)
         self._applies = 0
 
+    @classmethod
+    def from_parts(cls, a: np.ndarray, H: np.ndarray, g: np.ndarray, drag_t: float, drag_r: float, spin: bool,
+                   smoothing: float) -> "ResistanceOperator":
+        """The operator ``__init__`` builds with ``factorize_lazily`` for a head with the reciprocal Higdon forms,
+        from its parts computed elsewhere (``krylov_span``): the mobility a (3M, 3M) m/(N s), the head's flow H
+        (3M, 3) and spin flow g (3M,), its drags (N s/m, N m s)."""
+        op = cls.__new__(cls)
+        op.has_head, op.spin, op.printed = True, spin, False
+        op.m3 = a.shape[0]
+        op.a, op._inv, op._chol, op._smoothing = a, None, None, smoothing
+        op.H, op.g, op.K = H, g, -H.T
+        op.drag_t, op.drag_r = drag_t, drag_r
+        op.nv = op.m3 + 3 + (1 if spin else 0)
+        op._applies = 0
+        return op
+
     def _factorize(self) -> None:
         """Cholesky of A_reg (or, for the indefinite plain eqn (8), its explicit inverse)."""
         if self._smoothing > 0.0:

@@ -60,6 +60,7 @@ from physics.force_terms import scene_for
 from physics.hydrodynamics import HydroError
 from physics.implicit_residual import block_max_abs, forces_converged
 from physics.params import NumericsConfig, SwimmerParams
+from physics.krylov_span import SPAN_AFTER_ACCEPT, SPAN_DONE, krylov_span_applies, run_krylov_span
 from physics.step_context import StepContext, SystemDescription
 from physics.step_solvers import BandedNewtonSolver, DenseChordSolver
 from physics.threads import one_blas_thread
@@ -141,7 +142,10 @@ class Simulator:
       RFT, whose banded Jacobian is exact and refactorised at every iteration);
     * when the resistance is rebuilt (the shape changed non-rigidly by more than ``hydro_refresh_tol`` r0:
       buckling, relaxation) and ``newton_krylov`` is on: Newton-Krylov in the mobility form, the flagellum's
-      forces unknowns beside q, GMRES with a banded preconditioner, no dense factorisation (``newton_krylov``).
+      forces unknowns beside q, GMRES with a banded preconditioner, no dense factorisation (``newton_krylov``);
+      a run of such steps is one compiled call (``krylov_span``: base, broad phase, resistance, preconditioner,
+      iteration, error estimate, controller and commit; bit-identical to the Python step, which it hands every
+      other attempt back to).
 
     >>> sim = Simulator(SwimmerParams(), NumericsConfig())
     >>> sim.set_motor_speed(10 * RPM_TO_RAD_S); sim.advance(1.0)
@@ -221,6 +225,8 @@ class Simulator:
         self._solver = solver(self.system, self, self.scene.term("hydrodynamics"))
         #: steady steps by the compiled chord iteration where it applies (False: always the Python reference)
         self.compiled_chord = True
+        #: runs of Newton-Krylov steps in one compiled call where it applies (False: always the Python step)
+        self.compiled_span = True
         self._initial_nodes = nodes_of(q0)
         self._initial_span = float(np.linalg.norm(self._initial_nodes[-1] - self._initial_nodes[0]))  # L, m
 
@@ -524,12 +530,19 @@ class Simulator:
         self._commit(q, base, grad, f, t, d1, rt)
 
     def _adaptive(self, dt: float) -> None:
-        """Error-controlled steps (physics.time_integrator) that end exactly at time + dt."""
+        """Error-controlled steps (physics.time_integrator) that end exactly at time + dt. Runs of Newton-Krylov
+        steps go to one compiled call (``krylov_span``, bit-identical), which hands any other attempt back here."""
         nm = self.numerics
         t_end = self.time + dt
         rejected = False
         accepted = 0
         while t_end - self.time > 1e-9 * dt:
+            if krylov_span_applies(self):
+                code, accepted, rejected, (h, err, order) = run_krylov_span(self, t_end, dt, accepted, rejected)
+                if code == SPAN_AFTER_ACCEPT:
+                    self._after_accept(h, err, order, accepted, dt, t_end)
+                if code in (SPAN_DONE, SPAN_AFTER_ACCEPT):
+                    continue
             if self._restart:
                 self._h = min(nm.h_start, dt)
             h = split_remaining(self._h, t_end - self.time, stretch=not rejected)
@@ -550,20 +563,26 @@ class Simulator:
             rejected = False
             self._commit(q, base, grad, f, t, d1, rt, t_new=t_end if last else None)
             accepted += 1
-            if accepted == COLLAPSED_STEPS and base.order > 2:
-                # BDF3/4 are not A-stable (``COLLAPSED_STEPS``): restart (implicit Euler at h_start damps what the
-                # collapse excited) and go on with BDF2, A-stable, until the motor speed changes
-                self._order_capped = self._restart = True
-                self._h = nm.h_start
-                self._force_points = []
-                self.stats.order_reductions += 1
-            elif accepted >= MAX_STEPS_PER_SPAN:
-                raise SimulationError(f"too much work: {accepted} steps in {self.time - (t_end - dt):.3g} s of a "
-                                      f"{dt:g} s span (last step {h:.3g} s)", self.step_count, self.time, "step size")
-            proposal = next_step(h, err, base.order, keep=not self._solver.krylov)
-            if h < self._h and proposal >= h:  # a step shortened to land on t_end says nothing against h
-                proposal = max(proposal, self._h)
-            self._h = min(proposal, dt)
+            self._after_accept(h, err, base.order, accepted, dt, t_end)
+
+    def _after_accept(self, h: float, err: float, order: int, accepted: int, dt: float, t_end: float) -> None:
+        """After the ``accepted``-th step of the span ending at t_end (s), of length h (s), error ratio err at
+        ``order``: the collapse and work limits, then the next step's length."""
+        nm = self.numerics
+        if accepted == COLLAPSED_STEPS and order > 2:
+            # BDF3/4 are not A-stable (``COLLAPSED_STEPS``): restart (implicit Euler at h_start damps what the
+            # collapse excited) and go on with BDF2, A-stable, until the motor speed changes
+            self._order_capped = self._restart = True
+            self._h = nm.h_start
+            self._force_points = []
+            self.stats.order_reductions += 1
+        elif accepted >= MAX_STEPS_PER_SPAN:
+            raise SimulationError(f"too much work: {accepted} steps in {self.time - (t_end - dt):.3g} s of a "
+                                  f"{dt:g} s span (last step {h:.3g} s)", self.step_count, self.time, "step size")
+        proposal = next_step(h, err, order, keep=not self._solver.krylov)
+        if h < self._h and proposal >= h:  # a step shortened to land on t_end says nothing against h
+            proposal = max(proposal, self._h)
+        self._h = min(proposal, dt)
 
     def _reject(self, h_new: float, quantity: str, why: str) -> None:
         self.stats.rejected_steps += 1

@@ -128,7 +128,12 @@ def scheme_order(scheme: str, npts: int) -> int:
     """The order of the next step with ``npts`` accepted points since the last restart: implicit Euler
     first, then BDF2, and an order above 2 only once the step can be checked by the estimate at that
     order (order + 1 earlier points): the order ramps up by one per step after a restart."""
-    top = SCHEME_ORDER[scheme]
+    return order_after(SCHEME_ORDER[scheme], npts)
+
+
+@njit(cache=True)
+def order_after(top: int, npts: int) -> int:
+    """``scheme_order`` for a scheme of largest order ``top`` (compiled: the Newton-Krylov span calls it)."""
     if npts == 1 or top == 1:
         return 1
     return max(2, min(top, npts - 1))
@@ -145,15 +150,15 @@ def step_base(history: History, h: float, scheme: str) -> StepBase:
     pts = history.points
     order = scheme_order(scheme, len(pts))
     use = pts[-(order + 1):]
-    q_hat, v_hat, h_eff, q_pred, ratio = base_kernel(np.array([p[0] for p in use]), tuple(p[1] for p in use),
-                                                     tuple(p[2] for p in use), h, order)
+    q_hat, v_hat, h_eff, q_pred, ratio = base_kernel(np.array([p[0] for p in use]), np.array([p[1] for p in use]),
+                                                     np.array([p[2] for p in use]), h, order)
     return StepBase(h, h_eff, q_hat, v_hat, q_pred, order, None if ratio < 0.0 else ratio)
 
 
 @njit(cache=True)
-def base_kernel(times: np.ndarray, qs: tuple, vs: tuple, h: float, order: int):
+def base_kernel(times: np.ndarray, qs: np.ndarray, vs: np.ndarray, h: float, order: int):
     """(q^, v^, h_e, predictor, error ratio k or -1 for none) of a step of h (s) at ``order`` from the last m
-    accepted points (times (m,) s, qs and vs m arrays (ndof,), newest last; m = order + 1, or fewer right after
+    accepted points (times (m,) s, qs and vs (m, ndof), newest last; m = order + 1, or fewer right after
     a restart; m >= order for order >= 2).
 
     BDF base over the newest ``order`` points (``step_base``); predictor: the polynomial through the m points at
@@ -220,14 +225,25 @@ def extrapolate(points: list[tuple[float, np.ndarray]], t_new: float) -> np.ndar
     k = len(points)
     if not 1 <= k <= EXTRAPOLATION_POINTS:
         raise ValueError(f"{k} points are not allowed; allowed: 1 to {EXTRAPOLATION_POINTS}")
-    ts = [t for t, _ in points]
-    diff = [np.asarray(y, dtype=np.float64) for _, y in points]  # diff[m] becomes y[t_0, ..., t_m]
+    ys = np.array([np.asarray(y, dtype=np.float64) for _, y in points])
+    return extrapolate_kernel(np.array([t for t, _ in points]), ys.reshape(k, -1), t_new).reshape(ys.shape[1:])
+
+
+@njit(cache=True)
+def extrapolate_kernel(ts: np.ndarray, ys: np.ndarray, t_new: float) -> np.ndarray:
+    """``extrapolate`` compiled: the polynomial through (ts (k,) s, ys (k, n)) at t_new (s), (n,)."""
+    k, n = ys.shape
+    diff = ys.copy()  # row m becomes y[t_0, ..., t_m]
     for level in range(1, k):
         for m in range(k - 1, level - 1, -1):
-            diff[m] = (diff[m] - diff[m - 1]) / (ts[m] - ts[m - level])
+            dt = ts[m] - ts[m - level]
+            for i in range(n):
+                diff[m, i] = (diff[m, i] - diff[m - 1, i]) / dt
     out = diff[k - 1].copy()
     for m in range(k - 2, -1, -1):  # Horner on the Newton form
-        out = diff[m] + (t_new - ts[m]) * out
+        c = t_new - ts[m]
+        for i in range(n):
+            out[i] = diff[m, i] + c * out[i]
     return out
 
 
@@ -253,6 +269,7 @@ def weighted_max_abs_diff(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> float:
     return m
 
 
+@njit(cache=True)
 def next_step(h: float, err: float, order: int, keep: bool = True) -> float:
     """The step (s) after one of length h with error ratio ``err`` (error / tolerance) at ``order``:
     the classic controller h (SAFETY / err)^(1/(p+1)), growth at most GROW_MAX, shrink at least
@@ -321,6 +338,7 @@ class ContractionRate:
         return dz_over_tol * min(1.0, rho) <= NONLINEAR_ERROR_FRACTION
 
 
+@njit(cache=True)
 def split_remaining(h: float, remaining: float, stretch: bool = True) -> float:
     """A step no longer than ``remaining`` (s) that avoids a sliver at the end: the whole rest if it is
     within 30 % of h (within h if not ``stretch``: right after a rejected step), half of it if it is

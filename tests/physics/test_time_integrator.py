@@ -118,6 +118,7 @@ def test_a_schedule_switch_is_a_step_boundary_and_restarts_the_history():
     starts afresh (implicit Euler at h_start)."""
     p, n = configure("faithful", {"n_nodes": 24})
     sim = Simulator(p, n)
+    sim.compiled_span = False  # the Python step, whose commits the spy sees (the span is it, bit for bit)
     ends, orders = [], []
     commit = sim._commit
 
@@ -161,6 +162,7 @@ def test_newton_krylov_starts_the_forces_from_their_extrapolation_and_not_across
     forces; a motor-speed change restarts that history (its first step starts from the last forces)."""
     p, n = configure("faithful", {"n_nodes": 24})
     sim = Simulator(p, n)
+    sim.compiled_span = False  # the Python step, whose solves the spy sees (the span is it, bit for bit)
     sim.set_motor_speed(10 * RPM_TO_RAD_S)
     advance(sim, 0.5)
     sim.set_motor_speed(150 * RPM_TO_RAD_S)
