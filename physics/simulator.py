@@ -59,8 +59,8 @@ from physics.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS, ContactModel
 from physics.force_terms import scene_for
 from physics.hydrodynamics import HydroError
 from physics.implicit_residual import block_max_abs, forces_converged
-from physics.params import NumericsConfig, SwimmerParams
 from physics.krylov_span import SPAN_AFTER_ACCEPT, SPAN_DONE, krylov_span_applies, run_krylov_span
+from physics.params import NumericsConfig, SwimmerParams
 from physics.step_context import StepContext, SystemDescription
 from physics.step_solvers import BandedNewtonSolver, DenseChordSolver
 from physics.threads import one_blas_thread
