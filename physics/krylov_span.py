@@ -42,6 +42,7 @@ from physics.lsbt import lsbt_mobility, node_tangents
 from physics.newton_krylov import CONVERGED, GMRES_MAX_ITER, GMRES_RTOL, newton_krylov_loop, preconditioner_factors
 from physics.rigid_alignment import best_fit_rotation
 from physics.step_context import NO_BLOCKS, NO_NODES
+from physics.step_solvers import H_REUSE, CALM_STEPS_FOR_LU
 from physics.time_integrator import (COLLAPSED_STEPS, EXTRAPOLATION_POINTS, MAX_STEPS_PER_SPAN, SAFETY,
                                      SCHEME_ORDER, SHRINK_MIN, base_kernel, extrapolate_kernel, next_step,
                                      order_after, split_remaining, weighted_max_abs_diff)
@@ -81,7 +82,7 @@ def krylov_span(static: tuple, consts: tuple, placeholders: tuple, work: tuple, 
     q_cur, v_cur, d1, tangent, ref_twist, body_frame, motor_angle = state
     ht, hq, hv, npts = history
     ft, fy, nfp, node_forces = forces
-    x_hyd, since_hydro, rho, age, parts, pre = solver
+    x_hyd, since_hydro, rho, age, parts, pre, calm, lu_h, lu_after_rebuild = solver
     e_last, count_last, e_commit, count_commit = last_contact
     v_before = v_cur
     same_h = False  # the last accepted step had the length of the one before it (Simulator._v_prev)
@@ -92,10 +93,11 @@ def krylov_span(static: tuple, consts: tuple, placeholders: tuple, work: tuple, 
     order = 1
     code = SPAN_DONE
     rebuilt = False  # the resistance was rebuilt in this span (its parts and preconditioner are returned)
-    saved = (rebuilt, x_hyd, since_hydro, rho, age, parts, pre, cstate, e_last, count_last, counters.copy(), rejected)
+    saved = (rebuilt, x_hyd, since_hydro, rho, age, parts, pre, calm, cstate, e_last, count_last, counters.copy(),
+             rejected)
     while t_end - time > 1e-9 * dt:
-        saved = (rebuilt, x_hyd, since_hydro, rho, age, parts, pre, cstate, e_last, count_last, counters.copy(),
-                 rejected)
+        saved = (rebuilt, x_hyd, since_hydro, rho, age, parts, pre, calm, cstate, e_last, count_last,
+                 counters.copy(), rejected)
         h = split_remaining(h_ctl, t_end - time, not rejected)
         rejected = True  # until the step is accepted
         last = h == t_end - time
@@ -115,10 +117,15 @@ def krylov_span(static: tuple, consts: tuple, placeholders: tuple, work: tuple, 
             cstate = (q.copy(), pad, pairs, head, pairs.shape[0] == 0 and head.shape[0] == 0)
         else:
             cstate = (q, 0.0, cstate[2], cstate[3], True)
-        # the resistance: rebuilt where the shape has changed (DenseChordSolver.begin_step), else the chord step
+        # the resistance: rebuilt where the shape has changed, or where a chord step would need a new LU before
+        # the swimmer cruises (DenseChordSolver.begin_step, lu_stale); else the chord step
         x_pred = nodes_array(q)
         dev = best_fit_rotation(x_hyd, x_pred)[1]
-        if not (since_hydro >= refresh_steps or dev > refresh_dev):
+        changed = since_hydro >= refresh_steps or dev > refresh_dev
+        calm = 0 if changed else calm + 1
+        stale = (lu_h < 0.0 or not H_REUSE[0] <= h_eff / lu_h <= H_REUSE[1]
+                 or (since_hydro == 0 and lu_after_rebuild))
+        if not (changed or (calm < CALM_STEPS_FOR_LU and stale)):
             code = SPAN_CHORD
             break
         parts = _mobility_parts(x_pred, mu, delta, b, smoothing, near_radius)
@@ -228,10 +235,10 @@ def krylov_span(static: tuple, consts: tuple, placeholders: tuple, work: tuple, 
             proposal = max(proposal, h_ctl)
         h_ctl = min(proposal, dt)
     if code == SPAN_CHORD or code == SPAN_FAILED:  # the returning attempt is Python's to take
-        rebuilt, x_hyd, since_hydro, rho, age, parts, pre, cstate, e_last, count_last, kept, rejected = saved
+        rebuilt, x_hyd, since_hydro, rho, age, parts, pre, calm, cstate, e_last, count_last, kept, rejected = saved
         counters[:] = kept
     return (code, (time, h_ctl, rejected, accepted, h_prev), (q_cur, v_cur, d1, tangent, ref_twist, body_frame,
-            motor_angle), (npts, nfp, node_forces), (rebuilt, x_hyd, since_hydro, rho, age, parts, pre), cstate,
+            motor_angle), (npts, nfp, node_forces), (rebuilt, x_hyd, since_hydro, rho, age, parts, pre, calm), cstate,
             (e_last, count_last, e_commit, count_commit), (v_before, same_h, motor_torque, head_torque), (h, err, order))
 
 
@@ -273,14 +280,15 @@ def run_krylov_span(sim: Any, t_end: float, dt: float, accepted: int, rejected: 
     counters = np.array([getattr(sim.stats, k) for k in SPAN_COUNTERS], dtype=np.int64)
     rate = mob.contraction
     (code, (time, h_ctl, rejected, accepted, h_prev), (q, v, d1, tangent, ref_twist, body_frame, motor_angle),
-     (npts, nfp, node_forces), (rebuilt, x_hyd, since_hydro, rho, age, parts, pre), cstate, (e_last, c_last, e_commit, c_commit),
+     (npts, nfp, node_forces), (rebuilt, x_hyd, since_hydro, rho, age, parts, pre, calm), cstate, (e_last, c_last, e_commit, c_commit),
      (v_before, same_h, motor_torque, head_torque), last_step) = krylov_span(
         static, consts, (NO_NODES, NO_BLOCKS), mob._workspace(GMRES_MAX_ITER),
         (sim.time, t_end, dt, sim._h, rejected, accepted, sim._h_prev),
         (sim.q, sim.v, sim.d1, sim.tangent, sim.ref_twist, sim.body_frame, sim.motor_angle),
         (ht, hq, hv, len(pts)), (ft, fy, len(sim._force_points), sim.node_forces),
         (solver.x_hyd, solver.since_hydro, rate.rho, rate._age, (hyd.a, hyd.H, hyd.g),
-         (mob.ab, mob.lu, mob.piv, mob.alu, mob.apiv, mob.h)),
+         (mob.ab, mob.lu, mob.piv, mob.alu, mob.apiv, mob.h), solver.calm_steps,
+         solver.lu_h if solver.lu is not None else -1.0, nm.jacobian_refresh == "resistance"),
         _contact_arrays(cstate), (*sim._last_contact, sim.contact_energy, sim.contact_count), counters)
     steps = counters[0] - sim.stats.substeps
     for k, value in zip(SPAN_COUNTERS, counters):
@@ -306,7 +314,7 @@ def run_krylov_span(sim: Any, t_end: float, dt: float, accepted: int, rejected: 
         solver.x_hyd = x_hyd
         mob.H, mob.g, mob.Kh = H, (g if hyd.spin else np.zeros(a.shape[0])), np.ascontiguousarray(-H.T)
         mob.ab, mob.lu, mob.piv, mob.alu, mob.apiv, mob.h = pre
-    solver.since_hydro = since_hydro
+    solver.since_hydro, solver.calm_steps = since_hydro, calm
     rate.rho, rate._age = rho, age
     return code, accepted, rejected, last_step
 

@@ -63,7 +63,7 @@ _EYE = np.eye(3)
 # A Jacobian factorised at step h_J is reused for steps h with h / h_J in this band (the chord
 # iteration still contracts: the hydrodynamic part R/h is off by at most 25 %); outside it, or
 # after a halving, it is refactorised at the new h.
-_H_REUSE = (0.8, 1.25)
+H_REUSE = (0.8, 1.25)
 # The kept LU is refactorised (at the predictor, the resistance rotated to it) once the residuals the chord
 # iteration needed beyond two per step (one correction and the forces at the accepted iterate) since the last
 # factorisation add up to what a refactorisation costs: ~3.4 ms against ~0.1 ms per extra residual and solve
@@ -71,6 +71,12 @@ _H_REUSE = (0.8, 1.25)
 # (the contraction rate of settled 10 rpm steps grows from 0.007 to ~0.1 in 60 steps) and at once when a
 # Newton-Krylov step rebuilds the resistance (the shape changed): ~0.5, 4.9 residuals per step.
 LU_REFRESH_BUDGET = 30
+# With Newton-Krylov on, a chord step that would need a new dense factorisation at its start (no LU, a step
+# outside the H_REUSE band of the LU's, or a resistance rebuilt by an attempt that was not accepted) is taken
+# by Newton-Krylov instead (~1 ms against ~5-7 ms for the resistance, its inverse and the LU of 487 unknowns),
+# until the shape has stayed within hydro_refresh_tol of the kept resistance for this many attempts in a row:
+# then the swimmer is cruising and the LU pays for itself over the chord steps that follow.
+CALM_STEPS_FOR_LU = 4
 
 
 class DenseChordSolver:
@@ -83,6 +89,7 @@ class DenseChordSolver:
 
     def reset(self) -> None:
         self.krylov = False  # this step is solved by Newton-Krylov (``newton_krylov``)
+        self.calm_steps = 0  # attempts in a row whose shape stayed within hydro_refresh_tol of the resistance's
         self.hyd: ResistanceOperator | None = None
         self.x_hyd: np.ndarray | None = None
         self.since_hydro = 0
@@ -167,8 +174,11 @@ class DenseChordSolver:
         fit = None  # best_fit_rotation(x_hyd, x_pred), computed once
         if nm.newton_krylov and self.hyd is not None and not nm.single_iteration:
             Qh, dev = fit = best_fit_rotation(self.x_hyd, x_pred)
-            if self.since_hydro >= nm.hydro_refresh_max_steps or dev > nm.hydro_refresh_tol * p.rod_radius:
-                # the shape has changed: rebuild the resistance at x_pred and solve this step by Newton-Krylov
+            changed = self.since_hydro >= nm.hydro_refresh_max_steps or dev > nm.hydro_refresh_tol * p.rod_radius
+            self.calm_steps = 0 if changed else self.calm_steps + 1
+            if changed or (self.calm_steps < CALM_STEPS_FOR_LU and self.lu_stale(h)):
+                # the shape has changed (or the chord step would need a new LU while the swimmer is not yet
+                # cruising): rebuild the resistance at x_pred and solve this step by Newton-Krylov
                 self._refresh_hydro(q_pred, lazy=True)
                 try:
                     self.mobility.begin(self.hyd, q_pred, h)
@@ -177,7 +187,7 @@ class DenseChordSolver:
                 self.krylov = True
                 self.Qh = _EYE
                 return
-        if self.lu is None or not _H_REUSE[0] <= h / self.lu_h <= _H_REUSE[1]:
+        if self.lu is None or not H_REUSE[0] <= h / self.lu_h <= H_REUSE[1]:
             self._refresh_jacobian(q_pred, h, keep_resistance=False)  # rebuilds the resistance at x_pred
             self.jac_fresh = True
         else:
@@ -202,6 +212,12 @@ class DenseChordSolver:
         # a resistance rebuilt this step sits at x_pred already; otherwise reuse the fit above
         self.Qh = _EYE if self.since_hydro == 0 else Qh
         self.Qj = _EYE if self.jac_fresh else best_fit_rotation(self.x_jac, x_pred)[0]
+
+    def lu_stale(self, h: float) -> bool:
+        """Would a chord step at the effective step h (s) start with a new dense factorisation? (no LU yet, h
+        outside the H_REUSE band of the LU's, or a resistance rebuilt by an attempt that was not accepted)."""
+        return (self.lu is None or not H_REUSE[0] <= h / self.lu_h <= H_REUSE[1]
+                or (self.since_hydro == 0 and self.system.numerics.jacobian_refresh == "resistance"))
 
     def _contacts_changed(self, q: np.ndarray, h: float) -> bool:
         ctx = self.state.step_context(h)
