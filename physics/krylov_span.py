@@ -9,8 +9,9 @@ the same order as the Python step (``Simulator._adaptive``, ``_step_start``, ``D
 
 The span returns to Python where the Python step does anything else:
 
-* ``SPAN_CHORD``: the next attempt would reuse the resistance (the shape has not changed by ``hydro_refresh_tol``):
-  the chord iteration takes it, in Python;
+* ``SPAN_CHORD``: the next attempt would reuse the resistance (the shape has not changed by ``hydro_refresh_tol``)
+  and either the kept LU is usable or the shape has been calm for ``CALM_STEPS_FOR_LU`` attempts
+  (``DenseChordSolver.begin_step``): the chord iteration takes it, in Python;
 * ``SPAN_FAILED``: an attempt failed (a singular preconditioner, a failed Newton-Krylov iteration, a stretched edge,
   a step below h_min): the state is returned as it was before that attempt and Python takes it again, so its
   failure is handled (and reported) by the one Python path;
