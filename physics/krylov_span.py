@@ -58,8 +58,9 @@ HISTORY_POINTS = 5  # ``time_integrator.History`` keeps five
 
 @njit(cache=True)
 def _mobility_parts(x: np.ndarray, mu: float, delta: float, b: float, smoothing: float, near_radius: float):
-    """What ``ResistanceOperator(..., factorize_lazily=True)`` builds for a spinning reciprocal head at nodes x (n, 3)
-    (head centre first), m: the LSBT mobility a (3M, 3M) and the head's flow operators H (3M, 3), g (3M,)."""
+    """What ``ResistanceOperator(..., factorize_lazily=True)`` builds for a head with the reciprocal Higdon forms at
+    nodes x (n, 3) (head centre first), m: the LSBT mobility a (3M, 3M) m/(N s) and the head's flow operators H
+    (3M, 3) and g (3M,) m/s per rad/s (g unused unless the head spins)."""
     flag = np.ascontiguousarray(x[1:])
     a = lsbt_mobility(flag, node_tangents(flag), mu, delta, smoothing, near_radius)
     e0 = x[1] - x[0]
