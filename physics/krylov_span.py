@@ -78,7 +78,8 @@ def krylov_span(static: tuple, consts: tuple, placeholders: tuple, work: tuple, 
     (rest, mass, vdofs, prescribed, head_spins, pos, twist, free_twist, weights, contact_on, model, first_step,
      omega) = static
     (mu, delta, b, smoothing, near_radius, drag_t, drag_r, sigma, zeta_perp, zeta_par, abw, step_tol, h_min,
-     refresh_dev, refresh_steps, newton_tol, newton_max_iter, f_floor, r0, top_order) = consts
+     refresh_dev, refresh_steps, newton_tol, newton_max_iter, f_floor, r0, top_order, gmres_rtol, gmres_max_iter,
+     has_head, first, keep_h) = consts
     no_nodes, no_blocks = placeholders
     time, t_end, dt, h_ctl, rejected, accepted, h_prev = clock
     q_cur, v_cur, d1, tangent, ref_twist, body_frame, motor_angle = state
@@ -145,7 +146,7 @@ def krylov_span(static: tuple, consts: tuple, placeholders: tuple, work: tuple, 
             nodes_c, blocks_c = contact_kernel(x_pred, cstate[2], model[3], cstate[3], model[5], model[6],
                                                model[7])[2:]
         ab, (lu, piv, info), (alu, apiv, ainfo) = preconditioner_factors(
-            q, (d1, tangent, ref_twist), rest, mass, h_eff, zeta_perp, zeta_par, 1, drag_t, drag_r, nodes_c,
+            q, (d1, tangent, ref_twist), rest, mass, h_eff, zeta_perp, zeta_par, first, drag_t, drag_r, nodes_c,
             blocks_c, prescribed, a, abw)
         if info != 0 or ainfo != 0:
             code = SPAN_FAILED
@@ -162,9 +163,9 @@ def krylov_span(static: tuple, consts: tuple, placeholders: tuple, work: tuple, 
         (nk_code, q, y, r, grad, f, frames, cstate, (e_c, count), (evaluated, its), (rho, age), value) = (
             newton_krylov_loop(q, y0, h_eff, q_cur, (d1, tangent, ref_twist), rest, (q_hat, v_hat, h_eff),
                                (mass, vdofs, prescribed, head_spins, omega, pos, twist, free_twist, weights),
-                               (a, H, g, Kh, drag_t, drag_r, True, head_spins, sigma), contact_on, model, cstate,
+                               (a, H, g, Kh, drag_t, drag_r, has_head, head_spins, sigma), contact_on, model, cstate,
                                first_step, (lu, piv, alu, apiv, abw), ab,
-                               (newton_tol, newton_max_iter, step_tol, f_floor, r0, GMRES_RTOL, GMRES_MAX_ITER),
+                               (newton_tol, newton_max_iter, step_tol, f_floor, r0, gmres_rtol, gmres_max_iter),
                                (rho, age), work))
         counters[1] += evaluated
         counters[2] += its
@@ -232,7 +233,7 @@ def krylov_span(static: tuple, consts: tuple, placeholders: tuple, work: tuple, 
             code = SPAN_AFTER_ACCEPT
             break
         # Simulator._after_accept (a Newton-Krylov step: no band in which h is kept)
-        proposal = next_step(h, err, order, False)
+        proposal = next_step(h, err, order, keep_h)
         if h < h_ctl and proposal >= h:
             proposal = max(proposal, h_ctl)
         h_ctl = min(proposal, dt)
@@ -269,7 +270,10 @@ def run_krylov_span(sim: Any, t_end: float, dt: float, accepted: int, rejected: 
     consts = (p.viscosity, p.cutoff_length, p.head_radius, nm.lsbt_smoothing, nm.near_field_radius * p.rod_radius,
               hyd.drag_t, hyd.drag_r if hyd.spin else 0.0, mob.sigma, *mob.zeta, mob.abw, nm.step_tol, nm.h_min,
               nm.hydro_refresh_tol * p.rod_radius, nm.hydro_refresh_max_steps, nm.newton_tol, nm.newton_max_iter,
-              system.f_floor, p.rod_radius, 2 if sim._order_capped else SCHEME_ORDER[nm.integrator])
+              system.f_floor, p.rod_radius, 2 if sim._order_capped else SCHEME_ORDER[nm.integrator],
+              # as values, not compile-time literals: the kernels called inside are the specialisations the Python
+              # step compiled (one compile, one cache entry each)
+              GMRES_RTOL, GMRES_MAX_ITER, True, 1, False)
     pts = sim._history.points
     nd = sim.q.shape[0]
     ht, hq, hv = np.zeros(HISTORY_POINTS), np.zeros((HISTORY_POINTS, nd)), np.zeros((HISTORY_POINTS, nd))
