@@ -5,7 +5,8 @@ solved by Newton-Krylov (``newton_krylov``); ``Simulator._adaptive`` then spends
 the compiled kernels (the step's base, the contact broad phase, the resistance and preconditioner set-up, the error
 estimate, the controller, the commit). ``krylov_span`` runs those steps in one compiled call: the same operations in
 the same order as the Python step (``Simulator._adaptive``, ``_step_start``, ``DenseChordSolver.begin_step``,
-``MobilityStep.begin`` / ``solve``, ``_commit``), so the trajectory is bit-identical (tests/physics/test_krylov_span.py).
+``MobilityStep.begin`` / ``solve``, ``_commit``), so the trajectory is bit-identical
+(tests/physics/test_krylov_span.py).
 
 The span returns to Python where the Python step does anything else:
 
@@ -242,7 +243,8 @@ def krylov_span(static: tuple, consts: tuple, placeholders: tuple, work: tuple, 
         counters[:] = kept
     return (code, (time, h_ctl, rejected, accepted, h_prev), (q_cur, v_cur, d1, tangent, ref_twist, body_frame,
             motor_angle), (npts, nfp, node_forces), (rebuilt, x_hyd, since_hydro, rho, age, parts, pre, calm), cstate,
-            (e_last, count_last, e_commit, count_commit), (v_before, same_h, motor_torque, head_torque), (h, err, order))
+            (e_last, count_last, e_commit, count_commit), (v_before, same_h, motor_torque, head_torque),
+            (h, err, order))
 
 
 def krylov_span_applies(sim: Any) -> bool:
@@ -286,8 +288,8 @@ def run_krylov_span(sim: Any, t_end: float, dt: float, accepted: int, rejected: 
     counters = np.array([getattr(sim.stats, k) for k in SPAN_COUNTERS], dtype=np.int64)
     rate = mob.contraction
     (code, (time, h_ctl, rejected, accepted, h_prev), (q, v, d1, tangent, ref_twist, body_frame, motor_angle),
-     (npts, nfp, node_forces), (rebuilt, x_hyd, since_hydro, rho, age, parts, pre, calm), cstate, (e_last, c_last, e_commit, c_commit),
-     (v_before, same_h, motor_torque, head_torque), last_step) = krylov_span(
+     (npts, nfp, node_forces), (rebuilt, x_hyd, since_hydro, rho, age, parts, pre, calm), cstate,
+     (e_last, c_last, e_commit, c_commit), (v_before, same_h, motor_torque, head_torque), last_step) = krylov_span(
         static, consts, (NO_NODES, NO_BLOCKS), mob._workspace(GMRES_MAX_ITER),
         (sim.time, t_end, dt, sim._h, rejected, accepted, sim._h_prev),
         (sim.q, sim.v, sim.d1, sim.tangent, sim.ref_twist, sim.body_frame, sim.motor_angle),
