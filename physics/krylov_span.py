@@ -114,16 +114,16 @@ def krylov_span(static: tuple, consts: tuple, placeholders: tuple, work: tuple, 
         q = q_pred.copy()
         for k in prescribed:
             q[k] = q_cur[k] + h * omega
+        x_pred = nodes_array(q)
         if contact_on:
             move = 0.0 if first_step else block_max_abs(q - q_cur, pos)
             pad = max(0.5 * r0, 2.0 * move)
-            pairs, head = contact_broad_phase(nodes_array(q), model, pad)
+            pairs, head = contact_broad_phase(x_pred, model, pad)
             cstate = (q.copy(), pad, pairs, head, pairs.shape[0] == 0 and head.shape[0] == 0)
         else:
             cstate = (q, 0.0, cstate[2], cstate[3], True)
         # the resistance: rebuilt where the shape has changed, or where a chord step would need a new LU before
         # the swimmer cruises (DenseChordSolver.begin_step, lu_stale); else the chord step
-        x_pred = nodes_array(q)
         dev = best_fit_rotation(x_hyd, x_pred)[1]
         changed = since_hydro >= refresh_steps or dev > refresh_dev
         calm = 0 if changed else calm + 1
