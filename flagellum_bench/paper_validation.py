@@ -4,12 +4,14 @@ resume (``batch.pool.run_tasks``: local workers or a Dask cluster).
 
 Readings (``READINGS``; the head's rotation and its hydrodynamics, Sec. 2.4):
 
-* ``torque_free`` (the default swimmer): the head spins per the torque balance, eqn (13), reciprocal
-  head flow forms (``physics.higdon_head``);
-* ``fixed``: the head does not spin, the flagellum base turns at omega in the lab frame, reciprocal forms;
+* ``fixed`` (the default swimmer): the head does not spin, the flagellum base turns at omega in the lab frame,
+  reciprocal head flow forms (``physics.higdon_head``);
+* ``torque_free``: the head spins per the torque balance, eqn (13), omega relative to the head, reciprocal forms;
 * ``paper``: as ``fixed``, with the head flow and force of eqns (10)-(11) as printed;
 * ``stokes_head``: as ``fixed``, with the head's own Stokes drag (eqn 12) and no head-flagellum flow
-  coupling (eqns 10-11 left out).
+  coupling (eqns 10-11 left out);
+* ``literal``: the text read literally with omega the flagellum's lab rate: theta^0 = omega t in the lab frame, the
+  head spinning at the rate of eqn (13), its rotlet (eqn 10) acting on the flagellum.
 
 Runs (``ValidationRun``):
 
@@ -46,13 +48,16 @@ READINGS: dict[str, dict[str, str]] = {
     "fixed": {"head_rotation": "fixed", "head_model": "higdon"},
     "paper": {"head_rotation": "paper", "head_model": "higdon"},
     "stokes_head": {"head_rotation": "fixed", "head_model": "stokes"},
+    "literal": {"head_rotation": "literal", "head_model": "higdon"},
 }
 READING_TEXT: dict[str, str] = {
-    "torque_free": "the default: torque-free head spinning per eqn (13), reciprocal head forms",
+    "torque_free": "torque-free head spinning per eqn (13), omega relative to the head, reciprocal head forms",
     "fixed": "head not spinning, flagellum base at omega in the lab frame, reciprocal head forms",
     "paper": "head not spinning, base at omega in the lab frame, eqns (10)-(11) as printed",
     "stokes_head": "head not spinning, base at omega in the lab frame, the head's own Stokes drag (eqn 12) "
                    "without the head-flagellum coupling of eqns (10)-(11)",
+    "literal": "base at omega in the lab frame, the head spinning per eqn (13) and its rotlet (eqn 10) acting on the "
+               "flagellum, reciprocal head forms",
 }
 #: the headless swimmer is the same under every reading: its runs are stored under this name
 NO_HEAD = "no_head"
@@ -316,6 +321,22 @@ class ValidationPlan:
 RUN_FILE = "validation_run.json"
 
 
+def _extends(file: Any, identity: dict[str, Any]) -> bool:
+    """Is ``identity`` the run stored in ``file`` with readings added (the folder's runs are this plan's runs too, and
+    it is resumed with the new readings' runs to do)?"""
+    import json
+
+    try:
+        old = json.loads(file.read_text(encoding="utf-8"))["run"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
+    new = json.loads(json.dumps(identity))
+    if not isinstance(old, dict) or set(old) != set(new):
+        return False
+    same_rest = all(old[k] == new[k] for k in new if k != "readings")
+    return same_rest and set(old["readings"]) < set(new["readings"])
+
+
 def run_validation(out_dir: str | os.PathLike[str], plan: ValidationPlan, workers: int | None = None,
                    scheduler: Any | None = None, progress: bool = True) -> dict[str, dict]:
     """Run ``plan`` into ``out_dir`` (``results.jsonl``, one line per finished run), round after round until
@@ -328,7 +349,8 @@ def run_validation(out_dir: str | os.PathLike[str], plan: ValidationPlan, worker
     from batch.store import ResultsStore, SweepError, check_same_run
 
     out = Path(out_dir)
-    check_same_run(out, RUN_FILE, plan.identity(), "validation")
+    if not _extends(out / RUN_FILE, plan.identity()):
+        check_same_run(out, RUN_FILE, plan.identity(), "validation")
     with ResultsStore(out, resume=True) as store:
         (out / RUN_FILE).write_text(json.dumps({"run": plan.identity()}, indent=1) + "\n")
         rounds = 0

@@ -221,7 +221,8 @@ class Hydrodynamics(_Term):
         return ResistanceOperator(x, p.viscosity, p.cutoff_length, p.head_radius, self.spin, nm.lsbt_smoothing,
                                   head_coupling=nm.head_model == "higdon",
                                   near_radius=nm.near_field_radius * p.rod_radius,
-                                  printed_head=p.head_rotation == "paper", factorize_lazily=lazy)
+                                  printed_head=p.head_rotation == "paper", factorize_lazily=lazy,
+                                  spin_from_balance=p.head_rotation == "literal")
 
     def evaluate(self, q: np.ndarray, ctx: StepContext) -> tuple[np.ndarray, None]:
         res = ctx.resistance

@@ -21,6 +21,10 @@ theorem); the printed ones do not. The method of images is not used, as in the p
 The paper's own reading (``head_rotation="paper"``: head not spinning, flagellum base turning
 at omega in the lab frame, eqns (10)-(11) as printed) is ``head_operators_as_printed``.
 
+The literal lab-driven reading (``head_rotation="literal"``: theta^0 = omega t in the lab frame, the head
+spinning at the rate s that eqn (13) gives, its rotlet acting on the flagellum through eqn (10)) needs s as a
+function of the flagellum forces: ``head_spin_map``.
+
 r_j = x_j - x_0 (node relative to the head centre), b the head radius.
 """
 
@@ -102,6 +106,29 @@ def head_operators_as_printed(x: np.ndarray, x_head: np.ndarray, b: float) -> tu
                 H[3 * j + p, q] = (h_iso if p == q else 0.0) + h_rad * rr
                 K[p, 3 * j + q] = (k_iso if p == q else 0.0) + k_rad * rr
     return H, K
+
+
+@njit(cache=True)
+def head_spin_map(x: np.ndarray, x_head: np.ndarray, axis: np.ndarray, b: float, mu: float) -> np.ndarray:
+    """Eqn (13) solved for the head's spin rate s about its axis a: s = w . y, w (3M,) in rad/s per N.
+
+    y (3M,) N are the forces the flagellum nodes put on the fluid (minus the hydrodynamic forces f_j on them).
+    The axial part of eqn (13), -8 pi mu b^3 s + a . t_h + a . sum_j r_j x f_j = 0, with the Stokeslets' torque
+    on the head a . t_h = -g . f (``head_flow_operators``; eqn (11)'s printed torque) and a . (r_j x f_j) =
+    (a x r_j) . f_j, gives 8 pi mu b^3 s = sum_j (g_j - a x r_j) . y_j. r_j = x_j - x_0 is the node's offset
+    (not moved onto the surface; g_j is evaluated as in ``head_flow_operators``).
+    x: (M,3) flagellum nodes, m; x_head: (3,) m; axis: (3,) unit; b: head radius, m; mu: Pa s.
+    """
+    _, g = head_flow_operators(x, x_head, axis, b)
+    m = x.shape[0]
+    w = np.empty(3 * m)
+    drag_r = 8.0 * math.pi * mu * b * b * b
+    for j in range(m):
+        r0, r1, r2 = x[j, 0] - x_head[0], x[j, 1] - x_head[1], x[j, 2] - x_head[2]
+        w[3 * j + 0] = (g[3 * j + 0] - (axis[1] * r2 - axis[2] * r1)) / drag_r
+        w[3 * j + 1] = (g[3 * j + 1] - (axis[2] * r0 - axis[0] * r2)) / drag_r
+        w[3 * j + 2] = (g[3 * j + 2] - (axis[0] * r1 - axis[1] * r0)) / drag_r
+    return w
 
 
 def sphere_translational_drag(mu: float, b: float) -> float:

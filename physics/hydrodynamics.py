@@ -16,6 +16,12 @@ symmetric positive definite (the system can only dissipate energy).
 
 With the head forms as printed in the paper (``printed_head``, the paper's reading) the head
 force is f_h = K F with K != -H^T, so R = [[D - K C H, K C], [-C H, C]] is not symmetric.
+
+In the literal lab-driven reading (``spin_from_balance``: theta^0 = omega t in the lab frame) the head spins at
+the rate s = w . y that eqn (13) gives for the flagellum's forces y = -F (``higdon_head.head_spin_map``), and its
+rotlet g s enters the flagellum's flow (eqn 10): A y = u - H U - g (w . y), i.e. the mobility A is replaced by
+A' = A + g w^T and s is not a generalised velocity. A' is not symmetric: C' = A'^{-1} is formed explicitly (LU),
+and R = [[D + H^T C' H, -H^T C'], [-C' H, C']].
 """
 
 from __future__ import annotations
@@ -26,8 +32,8 @@ import numpy as np
 from numba import njit
 from scipy.linalg import lapack
 
-from physics.higdon_head import (head_flow_operators, head_operators_as_printed, sphere_rotational_drag,
-                                 sphere_translational_drag)
+from physics.higdon_head import (head_flow_operators, head_operators_as_printed, head_spin_map,
+                                 sphere_rotational_drag, sphere_translational_drag)
 from physics.lsbt import lsbt_mobility, node_tangents
 
 
@@ -60,13 +66,18 @@ class ResistanceOperator:
 
     def __init__(self, nodes: np.ndarray, mu: float, delta: float, head_radius: float,
                  head_spins: bool, smoothing: float, head_coupling: bool = True,
-                 near_radius: float = 0.0, printed_head: bool = False, factorize_lazily: bool = False) -> None:
+                 near_radius: float = 0.0, printed_head: bool = False, factorize_lazily: bool = False,
+                 spin_from_balance: bool = False) -> None:
         nodes = np.ascontiguousarray(nodes, dtype=np.float64)
         self.has_head = head_radius > 0.0
         self.spin = head_spins and self.has_head
         self.printed = printed_head and self.has_head
+        #: the literal lab-driven reading: the head's spin from eqn (13) acts on the flagellum (module doc)
+        self.lab_spin = spin_from_balance and self.has_head
         if self.spin and printed_head:
             raise ValueError("the head forms as printed (eqns 10-11) are for a head that does not spin")
+        if self.lab_spin and (self.spin or printed_head or not head_coupling):
+            raise ValueError("spin_from_balance needs the reciprocal head coupling and a head that is not a DOF")
         flag = np.ascontiguousarray(nodes[1:]) if self.has_head else nodes
         a = lsbt_mobility(flag, node_tangents(flag), mu, delta, smoothing, near_radius)
         self.m3 = a.shape[0]
@@ -74,6 +85,12 @@ class ResistanceOperator:
         self._inv: np.ndarray | None = None
         self._chol: tuple[np.ndarray, bool] | None = None
         self._smoothing = smoothing
+        if self.lab_spin:  # A' = A + g w^T (module doc): g is the rotlet's flow, w eqn (13) solved for the spin
+            e0 = nodes[1] - nodes[0]
+            axis = e0 / math.sqrt(e0 @ e0)
+            _, g_spin = head_flow_operators(flag, nodes[0].copy(), axis, head_radius)
+            self.spin_map = head_spin_map(flag, nodes[0].copy(), axis, head_radius, mu)
+            self.a = a + np.outer(g_spin, self.spin_map)
         if not factorize_lazily:
             self._factorize()
         if self.has_head:
@@ -101,7 +118,7 @@ class ResistanceOperator:
         from its parts computed elsewhere (``krylov_span``): the mobility a (3M, 3M) m/(N s), the head's flow H
         (3M, 3) and spin flow g (3M,), its drags (N s/m, N m s)."""
         op = cls.__new__(cls)
-        op.has_head, op.spin, op.printed = True, spin, False
+        op.has_head, op.spin, op.printed, op.lab_spin = True, spin, False, False
         op.m3 = a.shape[0]
         op.a, op._inv, op._chol, op._smoothing = a, None, None, smoothing
         op.H, op.g, op.K = H, g, -H.T
@@ -111,8 +128,9 @@ class ResistanceOperator:
         return op
 
     def _factorize(self) -> None:
-        """Cholesky of A_reg (or, for the indefinite plain eqn (8), its explicit inverse)."""
-        if self._smoothing > 0.0:
+        """Cholesky of A_reg (or, for the indefinite plain eqn (8) and the non-symmetric A' of the literal reading,
+        its explicit inverse)."""
+        if self._smoothing > 0.0 and not self.lab_spin:
             c, info = lapack.dpotrf(self.a, lower=0, clean=1, overwrite_a=0)
             if info != 0:
                 raise HydroError(f"LSBT mobility is not positive definite (Cholesky failed at pivot {info})")
@@ -174,6 +192,9 @@ class ResistanceOperator:
         if self.printed:
             R[0:3, 0:3] = self.drag_t * np.eye(3) - self.K @ CH
             R[0:3, 3:3 + m3] = self.K @ c
+        elif self.lab_spin:  # C' is not symmetric
+            R[0:3, 0:3] = self.drag_t * np.eye(3) + self.H.T @ CH
+            R[0:3, 3:3 + m3] = -(self.H.T @ c)
         else:  # K = -H^T (kept in this form: same arithmetic as before the printed option existed)
             R[0:3, 0:3] = self.drag_t * np.eye(3) + self.H.T @ CH
             R[0:3, 3:3 + m3] = -CH.T
@@ -191,13 +212,16 @@ class ResistanceOperator:
 
 def resistance_matrix(nodes: np.ndarray, mu: float, delta: float, head_radius: float,
                       head_spins: bool, smoothing: float, near_radius: float = 0.0,
-                      printed_head: bool = False) -> np.ndarray:
+                      printed_head: bool = False, spin_from_balance: bool = False) -> np.ndarray:
     """Generalised resistance R, (3n[+1], 3n[+1]), SI (N s/m, N s, N m s).
 
     nodes: (n,3) rod nodes, m (node 0 is the head centre if head_radius > 0).
     head_spins: append the head spin rate s as the last generalised velocity.
     near_radius: m, the near-field kernel of ``lsbt`` (0 = plain eqn 8 for every pair).
     printed_head: eqns (10)-(11) as printed (R not symmetric) instead of the reciprocal forms.
+    spin_from_balance: the literal lab-driven reading (the head's spin from eqn (13) acts on the flagellum; R not
+    symmetric).
     """
     return ResistanceOperator(nodes, mu, delta, head_radius, head_spins, smoothing,
-                              near_radius=near_radius, printed_head=printed_head).dense()
+                              near_radius=near_radius, printed_head=printed_head,
+                              spin_from_balance=spin_from_balance).dense()

@@ -21,7 +21,8 @@ The span returns to Python where the Python step does anything else:
 * ``SPAN_DONE``: the span reached t_end.
 
 Where it applies (``krylov_span_applies``): error-controlled steps with Newton-Krylov and the LSBT resistance of a
-head with the reciprocal Higdon forms (``head_model="higdon"``, not ``head_rotation="paper"``), the previous attempt
+head with the reciprocal Higdon forms (``head_model="higdon"``, ``head_rotation`` torque_free or fixed: not the
+printed forms of ``paper`` nor the spin-coupled mobility of ``literal``), the previous attempt
 solved by Newton-Krylov, no restart pending. The timings of ``StepStats`` (``time_*``) are not split inside a span.
 """
 
@@ -253,7 +254,8 @@ def krylov_span_applies(sim: Any) -> bool:
     nm, p = sim.numerics, sim.params
     solver = sim._solver
     return (sim.compiled_span and NUMPY_BLAS and nm.step_tol > 0.0 and nm.newton_krylov and not nm.single_iteration
-            and nm.hydro_model == "lsbt" and nm.head_model == "higdon" and p.has_head and p.head_rotation != "paper"
+            and nm.hydro_model == "lsbt" and nm.head_model == "higdon" and p.has_head
+            and p.head_rotation in ("torque_free", "fixed")
             and not sim._restart and getattr(solver, "krylov", False) and solver.hyd is not None
             and solver.mobility.hyd is not None)
 

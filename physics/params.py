@@ -15,6 +15,8 @@ from typing import Any
 from physics.validation import finite_range, require_finite
 
 RPM_TO_RAD_S = 2.0 * math.pi / 60.0
+#: the readings of the head's rotation (``SwimmerParams.head_rotation``; docs/validation.md)
+HEAD_ROTATIONS = ("torque_free", "fixed", "literal", "paper")
 
 
 def _f(default: Any, unit: str, help: str, lo: float | None = None, hi: float | None = None,
@@ -54,11 +56,14 @@ class SwimmerParams:
     head_radius: float = _f(0.012, "m", "head radius b (0 = no head)", 0.0, 0.1)
     n_nodes: int = _f(122, "-", "number of DER nodes N including the head node (paper: 122)", 8, 2000)
     head_rotation: str = _f("torque_free", "-",
-                            "torque_free: head spins per the torque balance, eqn (13), reciprocal head flow "
-                            "forms; fixed: head does not spin, flagellum base turns at omega in the lab frame; "
-                            "paper: as fixed, with the head flow and force of eqns (10)-(11) as printed "
-                            "(the paper's reading, docs/validation.md)",
-                            choices=("torque_free", "fixed", "paper"))
+                            "fixed (default): head held against rotation, flagellum base turns at omega in the lab "
+                            "frame, reciprocal head flow forms; torque_free: head spins per the torque balance, "
+                            "eqn (13), omega relative to the head; "
+                            "literal: flagellum base turns at omega in the lab frame, the head spins per eqn (13) "
+                            "and its rotlet (eqn 10) acts on the flagellum (needs head_model=higdon, hydro_model="
+                            "lsbt); paper: as fixed, with the head flow and force of eqns (10)-(11) as printed "
+                            "(docs/validation.md)",
+                            choices=HEAD_ROTATIONS)
 
     def __post_init__(self) -> None:
         if isinstance(self.n_nodes, float) and self.n_nodes.is_integer():
@@ -185,6 +190,17 @@ class NumericsConfig:
 
     def replace(self, **changes: Any) -> "NumericsConfig":
         return dataclasses.replace(self, **changes)
+
+
+def check_combination(params: SwimmerParams, numerics: NumericsConfig) -> None:
+    """ValueError naming the values when a reading of the head is combined with a model it does not support:
+    ``head_rotation=literal`` acts through the Higdon head's rotlet on the LSBT flagellum (eqns 8, 10, 13)."""
+    if params.head_rotation == "literal" and (numerics.head_model != "higdon" or numerics.hydro_model != "lsbt"):
+        bad = (f"head_model={numerics.head_model!r}" if numerics.head_model != "higdon"
+               else f"hydro_model={numerics.hydro_model!r}")
+        raise ValueError(f"head_rotation='literal' with {bad} is not allowed; allowed: head_model='higdon' and "
+                         "hydro_model='lsbt' (the head's spin acts on the flagellum through eqn (10)'s rotlet), or "
+                         "another head_rotation (torque_free, fixed, paper)")
 
 
 def parameter_table() -> list[dict[str, Any]]:

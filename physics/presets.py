@@ -30,7 +30,7 @@ import dataclasses
 from collections.abc import Mapping
 from typing import Any
 
-from physics.params import NumericsConfig, SwimmerParams, apply_overrides
+from physics.params import NumericsConfig, SwimmerParams, apply_overrides, check_combination
 
 #: The preset of every command, the environment and the agents unless told otherwise.
 DEFAULT_PRESET = "faithful"
@@ -76,6 +76,7 @@ def configure(preset: str | None = None,
     """
     p, n = apply_preset(preset) if preset else (SwimmerParams(), NumericsConfig())
     if not overrides:
+        check_combination(p, n)
         return p, n
     p, n = apply_overrides(p, n, {k: v for k, v in overrides.items() if isinstance(v, str)})
     typed = {k: v for k, v in overrides.items() if not isinstance(v, str)}
@@ -84,8 +85,10 @@ def configure(preset: str | None = None,
     unknown = sorted(set(typed) - p_names - n_names)
     if unknown:
         raise ValueError(f"unknown parameter {unknown[0]!r}; known parameters: {', '.join(sorted(p_names | n_names))}")
-    return (p.replace(**{k: v for k, v in typed.items() if k in p_names}),
+    p, n = (p.replace(**{k: v for k, v in typed.items() if k in p_names}),
             n.replace(**{k: v for k, v in typed.items() if k in n_names}))
+    check_combination(p, n)
+    return p, n
 
 
 def apply_preset(name: str, params: SwimmerParams | None = None,

@@ -27,12 +27,16 @@ Hessian in every Jacobian the solvers factorise. Their broad phase runs once per
 predicted motion, and is redone within the step if an iterate leaves its boxes.
 
 Motor (Sec. 2.5): the twist angle theta^0 of the first edge is the motor shaft.
-* ``head_rotation="torque_free"`` (default, eqn 13): theta^0 = psi + omega t where psi is the
+* ``head_rotation="fixed"`` (default): the head does not spin; theta^0 = omega t (Dirichlet): omega is the flagellum's
+  rate in the lab frame, as in the paper's figures (docs/validation.md).
+* ``head_rotation="torque_free"`` (eqn 13): theta^0 = psi + omega t where psi is the
   head's spin angle; theta^0 is a free DOF whose generalised force includes the head's
   hydrodynamic axial torque at spin rate s = d(theta^0)/dt - omega. The elastic moment on
   theta^0 is the torque the motor passes from flagellum to head, so the head spins until
   the axial torques balance, as in eqn (13).
-* ``head_rotation="fixed"``: the head does not spin; theta^0 = omega t (Dirichlet).
+* ``head_rotation="literal"``: theta^0 = omega t (Dirichlet, the flagellum's rate in the lab frame) and the head
+  spins at the rate eqn (13) gives for the flagellum's forces; its rotlet (eqn 10) acts on the flagellum
+  (``hydrodynamics``: the mobility A + g w^T). ``head_spin_rate`` is that rate after each step.
 * ``head_rotation="paper"``: as ``fixed``, with the head flow and force of eqns (10)-(11) as printed
   (``higdon_head.head_operators_as_printed``). ``numerics.head_model="stokes"`` keeps the head's own drag
   and drops its flow coupling with the flagellum (any reading).
@@ -57,10 +61,11 @@ from physics.body_frame import transported_body_frame
 from physics.chord_iteration import chord_solve, compiled_chord_applies
 from physics.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS, ContactModel
 from physics.force_terms import scene_for
+from physics.higdon_head import head_spin_map
 from physics.hydrodynamics import HydroError
 from physics.implicit_residual import block_max_abs, forces_converged
 from physics.krylov_span import SPAN_AFTER_ACCEPT, SPAN_DONE, krylov_span_applies, run_krylov_span
-from physics.params import NumericsConfig, SwimmerParams
+from physics.params import NumericsConfig, SwimmerParams, check_combination
 from physics.step_context import StepContext, SystemDescription
 from physics.step_solvers import BandedNewtonSolver, DenseChordSolver
 from physics.threads import one_blas_thread
@@ -166,7 +171,10 @@ class Simulator:
         ei = np.full(n - 2, p.bending_stiffness)
         gj = np.full(n - 2, p.twisting_stiffness)
         self.rest, d1, _, ref_twist = rest_from_configuration(q0, ea, ei, gj)
+        check_combination(p, self.numerics)
         self.head_spins = p.has_head and p.head_rotation == "torque_free"
+        #: the literal reading: the head spins per eqn (13) without being a DOF (module doc)
+        self.head_spins_from_balance = p.has_head and p.head_rotation == "literal"
         self.mass = lumped_masses(p, self.rest.l_bar, self.layout.ndof, self.head_spins)
         self._pos = self.layout.position_dofs()
         self.vdofs = np.concatenate([self._pos, [3]]) if self.head_spins else self._pos
@@ -205,6 +213,7 @@ class Simulator:
         # observables of the last step
         self.node_forces = np.zeros((n, 3))  # hydrodynamic force on each node, N
         self.head_axial_torque = 0.0
+        self.head_spin_rate = 0.0  # rad/s about the head axis t^0 (torque_free, literal; 0 for a head held still)
         self.motor_torque = 0.0
         self.contact = (ContactModel(self.rest.l_bar, p.rod_radius, p.head_radius, self.numerics.contact_margin,
                                      self.numerics.contact_stiffness) if self.numerics.contact else None)
@@ -232,7 +241,8 @@ class Simulator:
 
     # --- public API -----------------------------------------------------------------
     def set_motor_speed(self, omega_rad_s: float) -> None:
-        """Set the motor speed omega (rad/s, the flagellum's rate relative to the head): finite, >= 0 and at most
+        """Set the motor speed omega (rad/s, the flagellum's rate relative to the head, which is its lab rate unless
+        ``head_rotation="torque_free"``): finite, >= 0 and at most
         ``physics.schedule.MAX_RPM`` (the rule of the command line and of motor schedules)."""
         if (isinstance(omega_rad_s, bool) or not isinstance(omega_rad_s, numbers.Real)
                 or not 0.0 <= omega_rad_s <= MAX_RPM * RPM_TO_RAD_S):
@@ -591,6 +601,15 @@ class Simulator:
                                   self.step_count, self.time, quantity)
         self._h = h_new
 
+    def _spin_from_balance(self, q: np.ndarray) -> float:
+        """The head's spin rate (rad/s) of eqn (13) at the accepted q for the flagellum's hydrodynamic forces of the
+        step (``node_forces``): s = w . y with y = -F (``higdon_head.head_spin_map``)."""
+        x = nodes_of(q)
+        e0 = x[1] - x[0]
+        w = head_spin_map(np.ascontiguousarray(x[1:]), x[0].copy(), e0 / math.sqrt(e0 @ e0), self.params.head_radius,
+                          self.params.viscosity)
+        return float(-w @ self.node_forces[1:].ravel())
+
     def _check_state(self, q: np.ndarray, t: np.ndarray) -> None:
         finite, i_min, r_min, i_max, r_max = edge_stretch_extremes(q, self.rest.l_bar)
         if not finite:
@@ -617,7 +636,13 @@ class Simulator:
         self._force_points = [*self._force_points[1 - EXTRAPOLATION_POINTS:], (self.time, self.node_forces)]
         self.head_axial_torque = float(f[3]) if self.head_spins else 0.0
         self.motor_torque = float(grad[3])
-        self.body_frame = transported_body_frame(self.body_frame, q[0:3], q[4:7], dq[3] - h * self.omega,
-                                                 self.head_spins)
+        if self.head_spins_from_balance:
+            self.head_spin_rate = self._spin_from_balance(q)
+            dpsi = h * self.head_spin_rate
+        else:
+            dpsi = dq[3] - h * self.omega
+            self.head_spin_rate = dpsi / h if self.head_spins else 0.0
+        self.body_frame = transported_body_frame(self.body_frame, q[0:3], q[4:7], dpsi,
+                                                 self.head_spins or self.head_spins_from_balance)
         if self.contact is not None:
             self.contact_energy, self.contact_count = self._last_contact

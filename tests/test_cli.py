@@ -51,6 +51,8 @@ SIM = ["simulate", "--duration", "0.01"]
     (SIM + ["--omega-rpm", "10", "--set", "viscosity=-1"], ["viscosity=-1.0", "allowed"]),
     (SIM + ["--omega-rpm", "10", "--set", "novalue"], ["'novalue'", "NAME=VALUE"]),
     (SIM + ["--omega-rpm", "10", "--set", "head_rotation=wobble"], ["'wobble'", "torque_free"]),
+    (SIM + ["--omega-rpm", "10", "--set", "head_rotation=literal", "--set", "head_model=stokes"],
+     ["head_rotation='literal'", "head_model='stokes'", "allowed"]),
     (SIM + ["--omega-rpm", "10", "--head-radius", "0.01", "--set", "head_radius=0.02"], ["both given"]),
     (["simulate", "--omega-rpm", "10", "--duration", "-1"], ["'-1'", "> 0"]),
     (["simulate", "--omega-rpm", "10", "--duration", "1e-5", "--preset", "paper"], ["1e-05", "time step"]),

@@ -111,7 +111,24 @@ def test_convergence_runs_follow_the_final_bracket_and_the_largest_turn():
 def test_unknown_reading_is_refused():
     with pytest.raises(ValueError, match="readings=.*allowed: a non-empty subset of torque_free"):
         ValidationPlan(readings=("spinning",))
-    assert set(READINGS) == {"torque_free", "fixed", "paper", "stokes_head"}
+    assert set(READINGS) == {"torque_free", "fixed", "paper", "stokes_head", "literal"}
+
+
+def test_a_folder_of_fewer_readings_is_extended_but_not_one_of_other_readings(tmp_path, monkeypatch):
+    """A folder made with a subset of the readings (the same grid and preset) is this plan's too: it is resumed with
+    the new readings' runs; one with a reading the plan lacks is refused."""
+    import flagellum_bench.paper_validation as pv
+
+    calls = []
+    monkeypatch.setattr("batch.pool.run_tasks", lambda todo, *a, **k: calls.append(len(todo)) or [])
+    older = {**ValidationPlan().identity(), "readings": ["torque_free", "fixed"]}
+    (tmp_path / RUN_FILE).write_text(json.dumps({"run": older}))
+    plan = ValidationPlan(readings=("torque_free", "fixed", "literal"), tight_step_tol=None)
+    monkeypatch.setattr(pv.ValidationPlan, "pending", lambda self, records: [] if calls else ["a run"])
+    run_validation(tmp_path, plan, workers=1, progress=False)
+    assert calls == [1] and json.loads((tmp_path / RUN_FILE).read_text())["run"]["readings"] == list(plan.readings)
+    with pytest.raises(SweepError, match="readings is"):
+        run_validation(tmp_path, ValidationPlan(readings=("fixed",), tight_step_tol=None), workers=1, progress=False)
 
 
 def test_a_folder_of_another_validation_is_refused(tmp_path):
@@ -152,6 +169,8 @@ def test_report_rows_from_synthetic_records():
     assert rows["R8"]["ours"] == pytest.approx(0.36) and rows["R8"]["pass"] is True
     assert rows["R11"]["pass"] is True
     assert rows["R9"]["pass"] is None  # no turns: not measured
+    # R3 is scored at <= 30 rpm only: the grid's 1.01 there passes whatever L'/L does nearer omega_b
+    assert rows["R3"]["pass"] is True and rows["R3"]["ours"]["up_to_30_rpm"] == pytest.approx([1.01, 1.01])
 
 
 def test_script_rejects_bad_workers_before_any_output(tmp_path):

@@ -26,7 +26,7 @@ _EYE = np.eye(3)
 
 def _steady(n_nodes: int = 24) -> Simulator:
     """A torque-free swimmer after 1.5 s at 10 rpm from rest (its steps end on the chord iteration)."""
-    p, n = configure("faithful", {"n_nodes": n_nodes})
+    p, n = configure("faithful", {"n_nodes": n_nodes, "head_rotation": "torque_free"})
     sim = Simulator(p, n)
     sim.set_motor_speed(10 * RPM_TO_RAD_S)
     advance(sim, 1.5)
@@ -197,8 +197,9 @@ def test_compiled_blas_and_lapack_calls_are_numpys_and_scipys():
         assert info == 0 and np.array_equal(got, lapack.dpotrs(c, x, lower=False)[0])
 
 
-@pytest.mark.parametrize("overrides", [{}, {"head_rotation": "paper"}, {"head_radius": 0.0}],
-                         ids=["torque-free head", "head as printed", "no head"])
+@pytest.mark.parametrize("overrides", [{"head_rotation": "torque_free"}, {"head_rotation": "paper"}, {"head_rotation": "literal"},
+                                       {"head_radius": 0.0}],
+                         ids=["torque-free head", "head as printed", "literal head", "no head"])
 def test_runs_with_the_compiled_chord_iteration_are_the_python_runs_bit_for_bit(overrides):
     """Whole runs (N = 24, 1 s at 10 rpm, 0.3 s at 150 rpm, 0.5 s at 10 rpm: chord and Newton-Krylov steps, the
     resistance's inverse formed inside steps) with the compiled iteration and with the Python one: the same

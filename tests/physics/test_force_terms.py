@@ -19,12 +19,13 @@ from physics.step_context import compiled_contact_args
 
 CASES = {
     # name: (overrides, rpm, seconds); N = 40 nodes, the faithful preset (BDF3, Newton-Krylov where the shape changes)
-    "torque-free head, contact": ({}, 150, 1.0),
+    "torque-free head, contact": ({"head_rotation": "torque_free"}, 150, 1.0),
     "fixed head 300 rpm, contact active": ({"head_rotation": "fixed"}, 300, 1.8),
-    "no contact": ({"contact": False}, 150, 1.0),
+    "no contact": ({"contact": False, "head_rotation": "torque_free"}, 150, 1.0),
     "no head": ({"head_radius": 0.0}, 150, 1.0),
     "head as printed": ({"head_rotation": "paper"}, 150, 1.0),
-    "rft, torque-free head": ({"hydro_model": "rft"}, 150, 1.0),
+    "literal head (spin from eqn 13)": ({"head_rotation": "literal"}, 150, 1.0),
+    "rft, torque-free head": ({"hydro_model": "rft", "head_rotation": "torque_free"}, 150, 1.0),
     "rft, fixed head 300 rpm, contact active": ({"hydro_model": "rft", "head_rotation": "fixed"}, 300, 2.6),
     "rft, no head, no contact": ({"hydro_model": "rft", "head_radius": 0.0, "contact": False}, 150, 1.0),
 }
@@ -74,7 +75,7 @@ def test_the_scene_has_the_terms_the_configuration_needs():
 
 
 @pytest.mark.parametrize("name", ["torque-free head, contact", "fixed head 300 rpm, contact active", "no head",
-                                  "head as printed", "rft, torque-free head", "rft, fixed head 300 rpm, contact active"])
+                                  "head as printed", "literal head (spin from eqn 13)", "rft, torque-free head", "rft, fixed head 300 rpm, contact active"])
 def test_each_term_s_jacobian_action_matches_central_differences_of_its_force(name):
     """At the configuration of the step's start (bent after a burst; where the frames were last updated, so the DER
     Hessian is the symmetric part of the gradient's derivative) each term's action along random directions against
@@ -166,7 +167,7 @@ def test_scene_residual_is_the_fused_kernels_residual_bit_for_bit(name):
 
 
 @pytest.mark.parametrize("name", ["torque-free head, contact", "fixed head 300 rpm, contact active", "no contact",
-                                  "no head", "head as printed"])
+                                  "no head", "head as printed", "literal head (spin from eqn 13)"])
 def test_scene_jacobian_action_is_the_assembled_dense_jacobian_times_v(name):
     """dr/dq v against the direct solver's J = M/h^2 + K + P^T R P / h + contact blocks (prescribed DOFs as identity
     rows and columns: compared with v zero there, on the free rows), for the step's resistance, rotated or not."""
@@ -185,7 +186,7 @@ def test_scene_jacobian_action_is_the_assembled_dense_jacobian_times_v(name):
 
 
 @pytest.mark.parametrize("name", ["torque-free head, contact", "fixed head 300 rpm, contact active", "no head",
-                                  "head as printed"])
+                                  "head as printed", "literal head (spin from eqn 13)"])
 def test_scene_jacobian_action_is_the_mobility_form_s_q_part(name):
     """The mobility form (``newton_krylov``) has the flagellum's forces y as unknowns: with dy = C B P v / h (the
     forces the velocity v / h induces) its J (v, dy) is (dr/dq v, 0), the scene's action with the resistance the

@@ -9,7 +9,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from physics.geometry import initial_nodes
-from physics.higdon_head import head_flow_operators
+from physics.higdon_head import head_flow_operators, head_spin_map
 from physics.hydrodynamics import resistance_matrix
 from physics.params import SwimmerParams
 
@@ -71,3 +71,41 @@ def test_resistance_rotates_covariantly_with_the_configuration():
     for i in range(n):
         Qt[3 * i:3 * i + 3, 3 * i:3 * i + 3] = Q
     np.testing.assert_allclose(R1, Qt @ R0 @ Qt.T, atol=1e-9 * np.abs(R0).max())
+
+
+def test_literal_head_spin_balances_the_torques_of_eqn_13():
+    """The literal reading (theta^0 = omega t in the lab, the head spinning at the rate of eqn 13, its rotlet acting on
+    the flagellum): for random velocities of a bent swimmer, the forces of its resistance are those of the resistance
+    with the head spin as a generalised velocity (``head_spins``) at the rate ``head_spin_map`` gives, and at that rate
+    the axial torques of eqn (13) balance: -8 pi mu b^3 s + a . t_h + a . sum r_j x f_j = 0, t_h as eqn (11) prints
+    it (-sum b^3 r_j x f_j / r_j^3)."""
+    rng = np.random.default_rng(3)
+    x = initial_nodes(P)
+    x[2:] += 0.3 * P.rod_radius * rng.normal(size=(len(x) - 2, 3))  # bent, x1 stays on the head's surface
+    n = len(x)
+    V = rng.normal(size=3 * n) * 1e-3
+    R_lit = resistance_matrix(x, MU, DELTA, B, False, 20.0, spin_from_balance=True)
+    G = -R_lit @ V
+    f = G[3:].reshape(-1, 3)  # hydrodynamic forces on the flagellum nodes, N
+    r = x[1:] - x[0]
+    a = (x[1] - x[0]) / np.linalg.norm(x[1] - x[0])
+    s = head_spin_map(np.ascontiguousarray(x[1:]), x[0].copy(), a, B, MU) @ (-G[3:])
+    assert abs(s) > 1e-3 * np.abs(V).max() / B  # the head does spin
+    rn = np.linalg.norm(r, axis=1)
+    t_h = -np.sum((B**3 / rn**3)[:, None] * np.cross(r, f), axis=0)
+    balance = -8 * math.pi * MU * B**3 * s + a @ t_h + a @ np.cross(r, f).sum(axis=0)
+    scale = 8 * math.pi * MU * B**3 * abs(s)
+    assert abs(balance) <= 1e-10 * scale
+    # the same forces from the spin-augmented resistance at that spin rate, whose axial torque closes eqn (13)
+    R_spin = resistance_matrix(x, MU, DELTA, B, True, 20.0)
+    G_spin = -R_spin @ np.concatenate([V, [s]])
+    np.testing.assert_allclose(G_spin[:-1], G, rtol=0, atol=1e-10 * np.abs(G).max())
+    assert abs(G_spin[-1] + a @ np.cross(r, f).sum(axis=0)) <= 1e-10 * scale
+
+
+def test_literal_head_needs_the_higdon_coupling():
+    from physics.presets import configure
+
+    for bad in ({"head_model": "stokes"}, {"hydro_model": "rft"}):
+        with pytest.raises(ValueError, match=f"head_rotation='literal' with {next(iter(bad))}="):
+            configure("faithful", {"head_rotation": "literal", **bad})

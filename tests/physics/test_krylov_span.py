@@ -57,7 +57,7 @@ def _run(overrides: dict, phases: tuple, compiled: bool) -> tuple[list, dict, Si
 
 CASES = {
     # burst and relaxation of the torque-free swimmer: Newton-Krylov runs, chord steps between them
-    "burst": ({"n_nodes": 24}, ((10, 1.0), (150, 0.4), (10, 0.5)), {SPAN_DONE, SPAN_CHORD}),
+    "burst": ({"n_nodes": 24, "head_rotation": "torque_free"}, ((10, 1.0), (150, 0.4), (10, 0.5)), {SPAN_DONE, SPAN_CHORD}),
     # a fixed head at 300 rpm, buckled into contact (from 1.8 s): contact forces and Hessians, rejected steps
     "contact": ({"n_nodes": 40, "head_rotation": "fixed"}, ((300, 2.2),), {SPAN_DONE}),
     # BDF3 at step_tol 1e-7 from rest, the resistance rebuilt at every step: 1000 collapsed steps in one span
@@ -109,10 +109,13 @@ def test_a_failing_attempt_is_handed_back_to_the_python_step(monkeypatch):
     assert out[0][3] == "residual"
 
 
-@pytest.mark.parametrize("overrides, applies", [({}, True), ({"head_rotation": "paper"}, False),
+@pytest.mark.parametrize("overrides, applies", [({}, True), ({"head_rotation": "torque_free"}, True),
+                                                ({"head_rotation": "paper"}, False),
+                                                ({"head_rotation": "literal"}, False),
                                                 ({"head_radius": 0.0}, False), ({"hydro_model": "rft"}, False),
                                                 ({"step_tol": 0.0, "dt": 0.005}, False)],
-                         ids=["faithful", "head as printed", "no head", "rft", "fixed steps"])
+                         ids=["faithful", "torque-free head", "head as printed", "literal head", "no head", "rft",
+                              "fixed steps"])
 def test_where_the_span_applies(overrides, applies):
     """After 0.3 s at 150 rpm (the last attempt by Newton-Krylov where there is one): the span takes the next
     attempt only for the configurations it covers, never right after a motor-speed change, never when switched off."""

@@ -29,7 +29,8 @@ def _buckled(contact: bool, n_nodes: int = 40, seconds: float = 1.8) -> Simulato
 
 
 def _torque_free(n_nodes: int = 24) -> Simulator:
-    p, n = configure("faithful", {"n_nodes": n_nodes, "integrator": "bdf3", "newton_krylov": True})
+    p, n = configure("faithful", {"n_nodes": n_nodes, "integrator": "bdf3", "newton_krylov": True,
+                                  "head_rotation": "torque_free"})
     sim = Simulator(p, n)
     sim.set_motor_speed(150 * RPM_TO_RAD_S)
     advance(sim, 0.5)

@@ -23,8 +23,9 @@ def _swim(omega_rpm: float, duration: float, dt: float = 5e-3, **params) -> Simu
 
 @pytest.fixture(scope="module")
 def steady10() -> Simulator:
-    """Paper swimmer (b = 1.2 cm) after 15 s at 10 rpm; head positions kept at t = 3 s and 15 s."""
-    sim = _swim(10.0, 3.0)
+    """Paper swimmer (b = 1.2 cm) with a torque-free head (eqn 13) after 15 s at 10 rpm; head positions kept at t = 3 s
+    and 15 s."""
+    sim = _swim(10.0, 3.0, head_rotation="torque_free")
     sim.x_at_3s = sim.head_position
     sim.advance(12.0)
     return sim
@@ -151,3 +152,13 @@ def test_end_to_end_ratio_is_the_norm_quotient_bit_for_bit():
         advance(sim, steps=5)
         x = sim.nodes
         assert sim.end_to_end_ratio() == float(np.linalg.norm(x[-1] - x[0]) / np.linalg.norm(x0[-1] - x0[0]))
+
+
+def test_literal_head_counter_rotates_at_the_rate_of_eqn_13_while_the_flagellum_turns_at_omega():
+    """head_rotation=literal: the motor twist is omega t in the lab frame, and the head spins against the flagellum at
+    the rate eqn (13) gives (between 0 and omega: the flagellum's torque is shared by the head's rotational drag)."""
+    sim = _swim(10.0, 3.0, head_rotation="literal", n_nodes=60)
+    assert sim.q[3] == pytest.approx(sim.omega * sim.time, rel=1e-12)
+    assert -sim.omega < sim.head_spin_rate < -0.05 * sim.omega
+    fixed = _swim(10.0, 3.0, head_rotation="fixed", n_nodes=60)
+    assert fixed.head_spin_rate == 0.0
