@@ -33,11 +33,16 @@ TURN_MAP_VERSION = 1
 #: Motor speeds of the paper's protocol (Sec. 3), rpm.
 PAPER_OMEGA_L_RPM = 10.0
 PAPER_OMEGA_H_RPM = 60.0
-#: Burst speed used for planning: under eqn (13) (torque-free head) this model's buckling speed
-#: for b = 1.2 cm is 70-90 rpm (docs/validation.md), so the paper's 60 rpm does not buckle; 150
-#: rpm buckles within ~10 s with every preset. ``--omega-h 60`` measures the paper's protocol.
+#: Burst speed used for planning. The default swimmer (flagellum at omega in the lab, head held) buckles
+#: at 52 rpm for b = 1.2 cm, so the paper's 60 rpm turns it (R9), but slowly: 39-49 s of burst for 30-90 deg
+#: while the head drifts ~17 cm. At 90 and 150 rpm one burst turns it by up to 172 and 138 deg in 13 and
+#: 3.75 s; on development paths with swimmers randomised by +-10 % the adaptive planners kept every path at
+#: 150 rpm and lost a quarter to a third of them at 90 rpm (docs/planner.md measures all three).
 PLANNER_OMEGA_H_RPM = 150.0
-DEFAULT_T_C_S = (1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0, 13.0, 15.0, 20.0, 25.0, 30.0, 40.0)
+#: Burst lengths of a calibration, s: at 150 rpm theta rises from ~1 deg (1.5 s) to ~140 deg (3.75 s),
+#: steepest at the end (~200 deg/s), hence the 0.125 s steps there; 4-10 s samples the buckled regime.
+DEFAULT_T_C_S = (1.0, 1.5, 2.0, 2.5, 2.75, 3.0, 3.125, 3.25, 3.375, 3.5, 3.625, 3.75, 3.875, 4.0, 4.5, 5.0, 6.0,
+                 8.0, 10.0)
 DEFAULT_PHASES_DEG = (0.0, 90.0, 180.0, 270.0)
 
 

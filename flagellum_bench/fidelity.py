@@ -14,8 +14,9 @@ Metrics (the same for every configuration):
 * ``omega_b``: buckling threshold for b = 1.2 cm (rpm), by bisection on L'/L(100 s) < 0.98
   in [50, 130] rpm (3 halvings: bracket width 10 rpm).
 
-The turning metrics use 90 rpm, not the paper's 60 rpm: with the head torque-free (eqn 13, our
-default) 60 rpm is below this model's buckling threshold and produces no turn at all.
+The turning metrics use 90 rpm, not the paper's 60 rpm: the ladder's rows were measured with the head
+torque-free (``head_rotation=torque_free``, eqn 13), under which 60 rpm is below this model's buckling
+threshold and produces no turn at all.
 
 Errors are relative to ``paper``: |x - x_paper| / max(|x_paper|, floor) with floors 10 deg for
 angles and 0 elsewhere. Costs are real-time factors (simulated s per wall s) on one core.
@@ -384,7 +385,7 @@ def relative_error(metric: str, value: float, reference: float) -> float:
 REPORT_NOTES = (
     "Every task is one configuration on one metric, on one core (two tasks at a time on this 2-core machine). "
     f"The turning metrics burst at {OMEGA_HIGH_RPM:g} rpm, not the paper's 60 rpm: with the torque-free head "
-    "(eqn 13) 60 rpm is below this model's buckling threshold and makes no turn. Relative errors are "
+    "(eqn 13, `head_rotation=torque_free`, the reading of these rows) 60 rpm is below this model's buckling threshold and makes no turn. Relative errors are "
     f"|x - x_paper| / max(|x_paper|, floor), floor {ANGLE_FLOOR_DEG:g}° for angles (φ is often near 0) and 0 "
     "otherwise. RTF = simulated seconds per wall second; RTF (10 rpm) is from the swim-speed task, RTF (90 rpm) "
     "from the L'/L task. ω_b is the midpoint of its final 10-rpm bracket (L'/L(100 s) < 0.98 by bisection on "

@@ -55,7 +55,7 @@ class SwimmerParams:
     viscosity: float = _f(2.7, "Pa s", "fluid viscosity mu", 0.0, None, True)
     head_radius: float = _f(0.012, "m", "head radius b (0 = no head)", 0.0, 0.1)
     n_nodes: int = _f(122, "-", "number of DER nodes N including the head node (paper: 122)", 8, 2000)
-    head_rotation: str = _f("torque_free", "-",
+    head_rotation: str = _f("fixed", "-",
                             "fixed (default): head held against rotation, flagellum base turns at omega in the lab "
                             "frame, reciprocal head flow forms; torque_free: head spins per the torque balance, "
                             "eqn (13), omega relative to the head; "

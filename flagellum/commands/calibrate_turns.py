@@ -24,10 +24,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "--controller rule and ppo look for it first)")
     parser.add_argument("--omega-l", metavar="RPM", default="10", help="low (cruise) motor speed, rpm (default 10)")
     parser.add_argument("--omega-h", metavar="RPM", default=None,
-                        help="burst motor speed, rpm (default 150: the paper's 60 rpm does not buckle this "
-                             "model's torque-free swimmer, see agents/turn_map.py)")
+                        help="burst motor speed, rpm (default 150: turns of 0-140 deg in 1-3.75 s; 60 is the "
+                             "paper's protocol, slower turns with more drift; see agents/turn_map.py)")
     parser.add_argument("--t-c", metavar="S", nargs="+",
-                        help="burst lengths, s (default 1-13 in steps of 1, 15, 20, 25, 30, 40)")
+                        help="burst lengths, s (default 1-10, in 0.125 s steps from 3 to 4)")
     parser.add_argument("--phases", metavar="DEG", nargs="+",
                         help="hover before the burst, degrees of one flagellum rotation (default 0 90 180 270)")
     parser.add_argument("--workers", metavar="N", help="local worker processes (default: one per core)")

@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from agents.assets import default_turn_map
 from agents.adaptive_planner import AdaptivePlanner
 from agents.online_turn_map import OnlineMapConfig, OnlineTurnMap, shift_reading
 from agents.turn_map import TurnMap
 from flagellum_env.turn_measurement import CruiseObservables, summarise_cruise
+
+#: a frozen turn map (faithful preset, 150 rpm bursts, torque-free head): the numbers below were read off it
+MAP_150_RPM = Path(__file__).parent / "data" / "turn_map_150rpm.json"
 
 # a rising branch: 0 deg at 0 s, 10 deg at 4 s, then 30 deg/s up to 130 deg at 8 s
 T_BRANCH = np.array([0.0, 4.0, 8.0])
@@ -43,7 +46,7 @@ def test_shift_reading_small_turn_says_nothing_and_beyond_the_peak_is_the_peak()
 
 @pytest.fixture(scope="module")
 def faithful_map() -> TurnMap:
-    return TurnMap.load(default_turn_map("faithful"))
+    return TurnMap.load(MAP_150_RPM)
 
 
 def test_readings_converge_to_the_swimmers_shift(faithful_map):

@@ -3,6 +3,8 @@ agent on a short path, determinism of predict, CLI errors."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import json
 import math
 
@@ -32,32 +34,33 @@ TINY = {"tiny": {"n_envs": 1, "n_timesteps": 3, "seed": 0, "checkpoint_every": 1
 
 @pytest.fixture(scope="module")
 def fast_map() -> TurnMap:
-    return TurnMap.load(default_turn_map("coarse"))
+    """A frozen map (rising branch to 178 deg at t_c = 8.1 s): the correction's arithmetic, not a preset's map."""
+    return TurnMap.load(Path(__file__).parent / "data" / "turn_map_150rpm.json")
 
 
 def _plan(theta: float = 60.0) -> dict:
-    return {"t_c": 9.5, "theta_deg": theta, "burst_phase": 1.0, "predicted_miss_m": 0.004, "miss_straight_m": 0.05,
+    return {"t_c": 7.0, "theta_deg": theta, "burst_phase": 1.0, "predicted_miss_m": 0.004, "miss_straight_m": 0.05,
             "heading": [1.0, 0.0, 0.0], "head": [0.0, 0.0, 0.0]}
 
 
 def test_zero_correction_is_the_planners_turn(fast_map):
     out = corrected_plan(_plan(), np.zeros(2), fast_map, ResidualLimits())
-    assert out["t_c"] == 9.5 and out["burst_phase"] == pytest.approx(1.0)
-    assert out["planned_t_c"] == 9.5 and out["residual"] == [0.0, 0.0]
+    assert out["t_c"] == 7.0 and out["burst_phase"] == pytest.approx(1.0)
+    assert out["planned_t_c"] == 7.0 and out["residual"] == [0.0, 0.0]
     t, th = fast_map.rising_branch()
-    assert out["predicted_theta_deg"] == pytest.approx(np.interp(9.5, t, th))
-    assert out["predicted_azimuth"] == pytest.approx(wrap_angle(1.0 + math.radians(fast_map.psi_for(9.5))))
+    assert out["predicted_theta_deg"] == pytest.approx(np.interp(7.0, t, th))
+    assert out["predicted_azimuth"] == pytest.approx(wrap_angle(1.0 + math.radians(fast_map.psi_for(7.0))))
 
 
 def test_full_correction_scales_the_burst_and_shifts_the_phase_by_the_limits(fast_map):
     lim = ResidualLimits(max_dtc_fraction=0.2, max_dphase_deg=30.0)
     out = corrected_plan(_plan(), np.array([1.0, -1.0]), fast_map, lim)
-    assert out["t_c"] == pytest.approx(9.5 * 1.2)
+    assert out["t_c"] == pytest.approx(7.0 * 1.2)
     assert out["burst_phase"] == pytest.approx(1.0 - math.radians(30.0))
     assert out["predicted_theta_deg"] > corrected_plan(_plan(), np.zeros(2), fast_map, lim)["predicted_theta_deg"]
     # actions are clipped to [-1, 1]; beyond the rising branch the prediction is the map's maximum
     short = corrected_plan(_plan(), np.array([-5.0, 0.0]), fast_map, lim)
-    assert short["t_c"] == pytest.approx(9.5 * 0.8)
+    assert short["t_c"] == pytest.approx(7.0 * 0.8)
     long = corrected_plan({**_plan(), "t_c": 11.0}, np.array([1.0, 0.0]), fast_map, lim)
     assert long["predicted_theta_deg"] == pytest.approx(fast_map.max_theta_deg)
     with pytest.raises(ValueError, match="two finite numbers"):

@@ -4,26 +4,36 @@ corrected_adaptive_plan, map_features) and FlagellumTurn-v0 with planner="adapti
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 import pytest
 
 import flagellum_env  # noqa: F401  (registers the ids)
-from agents.adaptive_planner import AdaptivePlanner
 from agents.assets import default_turn_map
+from agents.adaptive_planner import AdaptivePlanner
 from agents.online_turn_map import OnlineMapConfig, OnlineTurnMap
 from agents.residual_planner import (N_ADAPTIVE_FEATURES, N_FEATURES, N_MAP_FEATURES, AdaptiveResidualPlanner,
                                      ResidualLimits, corrected_adaptive_plan, map_features)
 from agents.turn_map import TurnMap
 from flagellum_env.steer_env import FlagellumSteerEnv
 
+#: a frozen turn map (faithful preset, 150 rpm bursts, torque-free head): the numbers below were read off it
+MAP_150_RPM = Path(__file__).parent / "data" / "turn_map_150rpm.json"
+
 ONE_TURN = [[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]]
 
 
 @pytest.fixture(scope="module")
 def tmap() -> TurnMap:
+    """The default swimmer's shipped map (the episodes fly the default swimmer)."""
     return TurnMap.load(default_turn_map("faithful"))
+
+
+@pytest.fixture(scope="module")
+def frozen_map() -> TurnMap:
+    return TurnMap.load(MAP_150_RPM)
 
 
 def _episode(planner_cls, tmap, params=None, **kwargs):
@@ -80,7 +90,8 @@ def test_features_carry_the_online_maps_state(tmap):
     assert m[4] == 0.0  # not following the model: the cruise was not matched
 
 
-def test_a_correction_moves_the_burst_and_its_map_timing_together(tmap):
+def test_a_correction_moves_the_burst_and_its_map_timing_together(frozen_map):
+    tmap = frozen_map
     online = OnlineTurnMap(tmap, OnlineMapConfig())
     online.shift_s, online.bias_s = 0.4, 0.1
     t_c = 6.0  # past the first L'/L the map records (4.9 s): the burst is flown by the ratio clock

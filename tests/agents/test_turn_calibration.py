@@ -1,4 +1,4 @@
-"""Calibration end to end (fast preset): a 10 s burst at 150 rpm turns the swimmer, by the same
+"""Calibration end to end (fast preset): a 4.5 s burst at 150 rpm (on the rising branch) turns the swimmer, by the same
 angle whatever the flagellum's phase at the burst, and the phase sets the turn's direction."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from physics.presets import apply_preset
 def calibrated(tmp_path_factory):
     out = tmp_path_factory.mktemp("cal") / "coarse.json"
     p, n = apply_preset("coarse")
-    tmap = calibrate_turns(p, n, out, preset="coarse", t_c_values=[10.0], phases_deg=[0.0, 90.0], workers=1,
+    tmap = calibrate_turns(p, n, out, preset="coarse", t_c_values=[4.5], phases_deg=[0.0, 90.0], workers=1,
                            progress=False)
     return out, tmap
 
@@ -37,7 +37,7 @@ def test_map_file_round_trip_and_resume_runs_nothing(calibrated, monkeypatch):
     assert (runs_dir(out) / "results.jsonl").is_file()
     monkeypatch.setattr(task_pool, "make_backend", lambda *a: pytest.fail("resume started workers"))
     p, n = apply_preset("coarse")
-    again = calibrate_turns(p, n, out, preset="coarse", t_c_values=[10.0], phases_deg=[0.0, 90.0], resume=True,
+    again = calibrate_turns(p, n, out, preset="coarse", t_c_values=[4.5], phases_deg=[0.0, 90.0], resume=True,
                             progress=False)
     assert again.points == tmap.points
 
@@ -63,7 +63,7 @@ def test_a_turn_measured_on_a_dask_cluster_equals_the_local_one(calibrated, tmp_
     p, n = apply_preset("coarse")
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster:
-        again = calibrate_turns(p, n, dask_out, preset="coarse", t_c_values=[10.0], phases_deg=[0.0, 90.0],
+        again = calibrate_turns(p, n, dask_out, preset="coarse", t_c_values=[4.5], phases_deg=[0.0, 90.0],
                                 resume=True, progress=False, scheduler=cluster.scheduler_address)
     assert len(records.read_text().splitlines()) == 2
     assert again.points == tmap.points
