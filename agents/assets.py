@@ -7,9 +7,8 @@ Shipped (``pyproject.toml``, ``[tool.setuptools.package-data]``):
 - ``agents/eval_paths/*.json``: the 20 evaluation paths (``flagellum evaluate --paths eval``);
 - ``agents/pretrained/ppo_residual_adaptive/``: the PPO agent of ``--controller ppo`` (``model.zip``,
   ``vecnormalize.pkl``, ``config.yml``, ``meta.json``; its training curve ``episodes.csv`` and
-  ``training_curve.png``): the residual on the adaptive planner trained at ``faithful``. Its validation and
-  checkpoints and the earlier agents (the one trained on ``coarse`` among them) are results, in the
-  repository's ``results/agents/`` (docs/agents.md).
+  ``training_curve.png``): the residual on the adaptive planner trained at ``faithful`` (docs/control.md). Its
+  validation runs and checkpoints are results of its training run, not shipped.
 
 Turn maps you measure yourself go to ``user_turn_map_dir()`` (``$FLAGELLUM_TURN_MAPS``, else
 ``$XDG_DATA_HOME/flagellum/turn_maps``, else ``~/.local/share/flagellum/turn_maps``): that is where

@@ -1,6 +1,6 @@
 """From-scratch PPO on the raw ``FlagellumSteer-v0``: one action = the motor speed for ``control_dt`` s.
 
-The baseline of docs/agents.md (``scripts/train_raw_ppo.py`` is its command line): stable-baselines3 PPO with
+The from-scratch baseline (``scripts/train_raw_ppo.py`` is its command line): stable-baselines3 PPO with
 ``MlpPolicy`` (SB3's defaults except ``n_steps`` and ``batch_size``), ``VecNormalize`` on observations and rewards,
 no planner and no turn map. The bookkeeping is stable-baselines3's own:
 

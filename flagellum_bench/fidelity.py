@@ -385,16 +385,14 @@ def relative_error(metric: str, value: float, reference: float) -> float:
 REPORT_NOTES = (
     "Every task is one configuration on one metric, on one core (two tasks at a time on this 2-core machine). "
     f"The turning metrics burst at {OMEGA_HIGH_RPM:g} rpm, not the paper's 60 rpm: with the torque-free head "
-    "(eqn 13, `head_rotation=torque_free`, the reading of these rows) 60 rpm is below this model's buckling threshold and makes no turn. Relative errors are "
-    f"|x - x_paper| / max(|x_paper|, floor), floor {ANGLE_FLOOR_DEG:g}° for angles (φ is often near 0) and 0 "
-    "otherwise. RTF = simulated seconds per wall second; RTF (10 rpm) is from the swim-speed task, RTF (90 rpm) "
-    "from the L'/L task. ω_b is the midpoint of its final 10-rpm bracket (L'/L(100 s) < 0.98 by bisection on "
-    "[50, 130] rpm), so configurations in the same bracket show 0 % and a neighbouring bracket 13 %. Presets: `paper` N = 122, implicit Euler at h = 1 ms, refresh 0.03 r0, Newton 1e-6; `faithful` N = 122, "
-    "BDF2 with step_tol 1e-4 inside 0.1 s steps, Jacobian refactorised with the resistance; `fast` the same with "
-    "step_tol 1e-3; `coarse` N = 45, h = 10 ms, refresh 0.1 r0, Newton 1e-5 (called `fast` until 2026-12-02); "
-    "`balanced` is the retired preset N = 122, implicit Euler at h = 20 ms (until 2026-12-01 N = 60, h = 5 ms, "
-    "refresh 0.1 r0: that configuration keeps its records under its own name, `LSBT N = 60, ...`). Why the "
-    "coarse grids turn less: docs/node_convergence.md.")
+    "(eqn 13, `head_rotation=torque_free`) 60 rpm is below this model's buckling threshold and makes no turn. "
+    f"Relative errors are |x - x_paper| / max(|x_paper|, floor), floor {ANGLE_FLOOR_DEG:g}° for angles (φ is often "
+    "near 0) and 0 otherwise. RTF = simulated seconds per wall second; RTF (10 rpm) is from the swim-speed task, "
+    f"RTF ({OMEGA_HIGH_RPM:g} rpm) from the L'/L task. ω_b is the midpoint of its final 10-rpm bracket (L'/L(100 s) < "
+    "0.98 by bisection on [50, 130] rpm), so configurations in the same bracket show 0 % and a neighbouring bracket "
+    "13 %. Configurations: `paper` N = 122, implicit Euler at h = 1 ms, refresh 0.03 r0, Newton 1e-6; `balanced` "
+    "N = 122, implicit Euler at h = 20 ms, refresh 0.03 r0, Newton 1e-5 (not a preset); the other presets as in "
+    "physics/presets.py; the rest as named. Why the coarse grids turn less: docs/node_convergence.md.")
 
 
 def missing_tasks(done: dict[tuple[str, str], dict], configs=LADDER, metrics=FULL_METRICS) -> list[str]:

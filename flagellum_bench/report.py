@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import math
 import platform
-import time
 from pathlib import Path
 from typing import Any
 
@@ -121,18 +120,18 @@ def pareto_plot(rows: list[dict[str, Any]], path: Path) -> None:
 
 def write_report(rows: list[dict[str, Any]], json_path: Path, md_path: Path | None, png_path: Path | None,
                  command: str, wall_s: float, missing: list[str] = (), notes: str = "") -> None:
-    """JSON (a list of rows), markdown table and Pareto plot. ``missing``: tasks not measured yet."""
-    date = time.strftime("%Y-%m-%d %H:%M")
+    """JSON (a list of rows), markdown table and Pareto plot. ``missing``: tasks not measured yet.
+
+    The markdown names the command and the machine, not dates (the rows' measurement dates are in the JSON and
+    the results file); ``wall_s`` is kept for the callers and not written."""
     machine = f"{platform.platform()}, {platform.processor() or 'cpu'}, one core per task"
     json_path.parent.mkdir(parents=True, exist_ok=True)
     json_path.write_text(json.dumps(list(rows), indent=2) + "\n")
     if md_path is not None:
-        dates = sorted({d for r in rows for d in r.get("measured", [])})
-        header = (f"# Fidelity ladder\n\nProduced by `{command}` on {date} ({machine}; this call: "
-                  f"{wall_s / 60:.0f} min wall; tasks measured "
-                  + ("-" if not dates else dates[0] if len(dates) == 1 else f"{dates[0]} to {dates[-1]}") + ").")
+        header = "# Fidelity ladder"
         if notes:
             header += "\n\n" + notes
+        header += f"\n\nProduced by `{command}` ({machine})."
         if missing:
             by_metric: dict[str, list[str]] = {}
             for task in missing:
@@ -149,11 +148,10 @@ def quick_markdown(rows: list[dict[str, Any]], wall_s: float, missing: list[str]
     """The report of ``flagellum bench --quick``: speed by phase and errors against ``reference``, one row per preset."""
     import os
     import platform
-    import time as _time
 
     load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
     err_keys = ("swim_per_turn", "theta", "phi", "lratio_end_of_burst")
-    lines = [f"# flagellum bench --quick ({_time.strftime('%Y-%m-%d %H:%M UTC', _time.gmtime())})", "",
+    lines = ["# flagellum bench --quick", "",
              f"{platform.node()}, {os.cpu_count()} cores, load average {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} "
              f"at the end; {wall_s:.0f} s in all. Real-time factor = simulated s per CPU s (`time.process_time`; "
              "wall-clock in brackets where measured), one task per core. Steady: 12 s at 10 rpm after 26 s of "

@@ -16,12 +16,11 @@ control step inside which the adaptive steps are taken. ``fast`` is the same gri
 looser error tolerance. ``reference`` is the converged swimmer every preset's error is measured against:
 the same model with BDF2 at step_tol 1e-7, Newton 1e-8 and the resistance rebuilt at 0.003 r0 of
 deformation (BDF3 stalls below step_tol 1e-6: its steps collapse to microseconds; the convergence of
-``reference``: docs/time_integration.md). ``coarse`` (N = 45, h = 10 ms implicit Euler; called
-``fast`` before 2026-12-02) swims like ``paper`` but buckles later and turns differently: its turns are
-its own, and so is its turn map.
+``reference``: docs/time_integration.md). ``coarse`` (N = 45, h = 10 ms implicit Euler) swims like
+``paper`` but buckles later and turns differently: its turns are its own, and so is its turn map.
 
-Measured costs and errors against ``reference``: docs/fidelity.md (``flagellum bench --quick`` and
-scripts/bench_fidelity.py).
+Measured costs and errors against ``reference``: docs/bench_quick.md (``flagellum bench --quick``); the wider
+ladder: docs/fidelity.md (scripts/bench_fidelity.py).
 """
 
 from __future__ import annotations
@@ -45,7 +44,7 @@ PRESETS: dict[str, dict[str, dict[str, Any]]] = {
                   "numerics": {**_ADAPTIVE, "integrator": "bdf2", "step_tol": 1e-7, "hydro_refresh_tol": 0.003,
                                "newton_tol": 1e-8}},
     # paper: the chord iteration without Anderson mixing runs compiled (chord_iteration.chord_loop): 1.25x steady,
-    # 1.18x burst, the end state of a 1.5 s burst 2.7e-10 m from the mixed iteration's (2026-12-04)
+    # 1.18x burst, the end state of a 1.5 s burst 2.7e-10 m from the mixed iteration's
     "paper": {"params": {"n_nodes": 122},
               "numerics": {"dt": 1e-3, "hydro_model": "lsbt", "head_model": "higdon",
                            "hydro_refresh_tol": 0.03, "newton_tol": 1e-6, "newton_krylov": True, "anderson_depth": 0}},

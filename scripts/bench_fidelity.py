@@ -18,6 +18,20 @@ from flagellum_bench.fidelity import (FULL_METRICS, LADDER, QUICK_METRICS, REPOR
                                 rows_from, run_fidelity)
 from flagellum_bench.report import pareto_plot, write_report
 
+#: What docs/fidelity.md says before the notes: what its rows are (the committed records of --results) and the figure.
+DOCS_INTRO = (
+    "The ladder: configurations of the model from `paper` (the paper's grid and scheme) down to local RFT on 30 "
+    "nodes, each measured on the same metrics, errors against `paper`. The committed records "
+    "(results/bench/fidelity_full.results.jsonl) were measured with the head torque-free "
+    "(`head_rotation=torque_free`; the default reading is `fixed`). In the tables the row `fast` is N = 45, "
+    "implicit Euler at h = 10 ms, refresh 0.1 r0, Newton 1e-5: the configuration of the `coarse` preset. The "
+    "error-controlled presets (`faithful`, `fast`, `reference`) are not in them: their speed by phase and their "
+    "errors against `reference` are in [bench_quick.md](bench_quick.md) (`flagellum bench --quick`).\n\n"
+    "![Fidelity ladder: error against paper vs real-time factor](figures/fidelity_pareto.png)\n\n"
+    "*Error against `paper` against the real-time factor, the points labelled with the presets' names (the row "
+    "`fast` as `coarse`). Redrawn from docs/fidelity.json by `python scripts/bench_fidelity.py --figure-only` (no "
+    "simulation).*")
+
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -54,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
     write_report(rows, Path("docs/fidelity.json"), Path("docs/fidelity.md"), Path("docs/figures/fidelity_pareto.png"),
                  "python scripts/bench_fidelity.py " + ("--report-only" if args.report_only else f"--metrics {args.metrics}"),
                  time.perf_counter() - t0,
-                 missing=missing_tasks(done, LADDER, FULL_METRICS), notes=REPORT_NOTES)
+                 missing=missing_tasks(done, LADDER, FULL_METRICS), notes=DOCS_INTRO + "\n\n" + REPORT_NOTES)
     print(Path("docs/fidelity.md").read_text())
     return 0
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
 from pathlib import Path
 
 from flagellum_bench.fidelity import LADDER, load_done, run_fidelity
@@ -27,21 +26,20 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-progress", action="store_true")
     args = ap.parse_args(argv)
     configs = sweep_configs()
-    t0 = time.perf_counter()
     if not args.report_only:
         run_fidelity(Path(args.results), configs, (METRIC,), workers=args.workers, progress=not args.no_progress)
     done = load_done(Path(args.results), configs)
     paper = load_done(Path(args.reference), LADDER).get(("paper", METRIC))
     reference = paper["result"] if paper and paper["result"] else None
     rows = sweep_rows(done, reference)
-    dates = sorted(r["measured"] for r in rows if r["measured"])
+    # the records kept by load_done were measured with the configurations' current setup, head reading included
+    head_rotation = configs[0].build()[0].head_rotation
     header = ("# Buckling onset against the discretisation\n\n"
-              f"Produced by `python scripts/bench_node_convergence.py` on {time.strftime('%Y-%m-%d %H:%M')} "
-              f"(this call: {(time.perf_counter() - t0) / 60:.0f} min wall; runs measured "
-              + (f"{dates[0]} to {dates[-1]}" if dates else "-") + "; one core per run, two at a time). "
+              "Produced by `python scripts/bench_node_convergence.py` (one core per run, two at a time). "
               "Each run: steady 10 rpm swimming, a 40 s burst at 90 rpm, back to 10 rpm until the heading "
-              "settles (`flagellum_env.turn_measurement.measure_turn`); θ is the turn. All runs use `fast`'s Newton tolerance "
-              "(1e-5); N, h and the resistance-refresh tolerance vary. θ error = |θ - θ_paper| / θ_paper.")
+              "settles (`flagellum_env.turn_measurement.measure_turn`); θ is the turn. All runs start from `coarse`'s "
+              "numerics (implicit Euler, Newton tolerance 1e-5); N, h and the resistance-refresh tolerance vary. "
+              f"Head reading: `head_rotation={head_rotation}`. θ error = |θ - θ_paper| / θ_paper.")
     Path("docs").mkdir(exist_ok=True)
     Path("docs/node_convergence.json").write_text(json.dumps({"reference": reference, "rows": rows}, indent=2) + "\n")
     Path("docs/node_convergence.md").write_text(markdown(rows, reference, header))

@@ -14,7 +14,7 @@ how many chords there are (and so the axial length), or where the helix ends (it
 For each variant, rigid swimmer, 10 rpm, b = 1.2 cm, no contact involved (nothing touches):
 * thrust coefficient B: axial force on the rigid helix (head absent) rotating at unit rate about
   its axis while held in place, N/(rad/s), and B / (mu L_ax^2) (nondimensional);
-* distance per motor turn with the head, for the consistent reading (torque-free head, eqn 13,
+* distance per motor turn with the head, for the torque-free reading (head spinning per eqn 13,
   reciprocal head forms) and for the paper's (head not spinning, eqns 10-11 as printed), cm.
 Both from the generalised resistance of ``physics.hydrodynamics`` (LSBT with the default smoothing;
 and raw eqn 8 without smoothing for the thrust coefficient).
@@ -152,7 +152,7 @@ def main(argv: list[str] | None = None) -> int:
     Path(args.out).write_text(json.dumps(rows, indent=1))
     md = [__doc__.split("\n\n", 2)[2].strip(), "", "Produced by `python scripts/helix_geometry.py`.", "",
           "| variant | helix nodes | axial length (cm) | contour (cm) | turns | B (uN per rad/s) | B raw eqn 8 | "
-          "cm/turn, consistent | cm/turn, paper's reading |", "|---|---|---|---|---|---|---|---|---|"]
+          "cm/turn, torque-free | cm/turn, paper's reading |", "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         md.append(f"| {r['variant']} | {r['helix_nodes']} | {r['axial_length_cm']:.2f} | {r['contour_length_cm']:.2f} | "
                   f"{r['turns']:.2f} | {1e6 * r['thrust_N_per_rad_s']:.1f} | {1e6 * r['thrust_raw_eqn8_N_per_rad_s']:.1f} | "

@@ -90,9 +90,13 @@ def _init() -> None:
 
 
 def write_md(recs: list[dict], path: Path, command: str) -> None:
+    from physics.params import SwimmerParams
+
+    head_rotation = BASE.get("head_rotation", SwimmerParams().head_rotation)
     lines = ["# Stability at the extremes", "",
-             f"Produced by `{command}` on {time.strftime('%Y-%m-%d %H:%M')}. Base: N = {BASE['n_nodes']}, "
-             f"h = {BASE['dt'] * 1e3:g} ms, b = 1.2 cm, LSBT + Higdon head, torque-free head, contact on, 10 rpm, from rest; "
+             f"Produced by `{command.strip()}`. Base: N = {BASE['n_nodes']}, "
+             f"h = {BASE['dt'] * 1e3:g} ms, b = 1.2 cm, LSBT + Higdon head, `head_rotation={head_rotation}`, "
+             "contact on, 10 rpm, from rest; "
              "each run a few simulated seconds. Outcomes: ok (finite, every edge within 0.5-2x its rest length), "
              "error (a SimulationError with its message), crash (anything else: a bug).", "",
              "Smallest gaps at the end of the run (mm): rod-rod = centre-line distance of non-adjacent edges - 2 r0, "

@@ -1,0 +1,163 @@
+"""docs/control.md and docs/control.json: the controllers on held-out paths and swimmers, and the shipped agent.
+
+    python scripts/control_report.py --eval DIR [DIR ...]
+
+Each DIR is a ``flagellum evaluate`` folder (its results.json) of the same paths at one level of model error, made
+by, for example::
+
+    python scripts/make_eval_paths.py --count 6 --seed0 11000 --out out/heldout/paths
+    flagellum evaluate --paths out/heldout/paths --seed0 11000 --workers 2 [--randomize 0.05 | 0.1] \\
+        --controller rule --controller adaptive --controller adaptive@line=2 --controller ppo --out out/heldout/LEVEL
+
+The shipped agent's facts come from its meta.json (package data); the prose is scripts/templates/control.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from agents.assets import package_file
+from agents.evaluation_report import load_results
+from agents.turn_map import PLANNER_OMEGA_H_RPM
+
+TEMPLATE = Path(__file__).with_name("templates") / "control.md"
+AGENT = ("pretrained", "ppo_residual_adaptive")
+
+
+def level_of(results: dict[str, Any]) -> float:
+    """The model error of an evaluation: the largest randomised fraction of E, μ, b (0 for the nominal swimmer)."""
+    randomize = results.get("env_overrides", {}).get("randomize") or {}
+    return max((float(randomize.get(k, 0.0)) for k in ("youngs_modulus", "viscosity", "head_radius")), default=0.0)
+
+
+def level_label(level: float) -> str:
+    return "nominal" if level == 0 else f"±{100 * level:g} %"
+
+
+def _pct(x: float) -> str:
+    return f"{100 * x:.0f} %"
+
+
+def summarise(folders: list[Path]) -> dict[str, Any]:
+    """Per level: the controllers' aggregates and the paths each did not finish; ValueError if the folders do not
+    hold the same paths and controllers, or two hold the same level."""
+    levels: dict[str, Any] = {}
+    paths = controllers = None
+    for folder in folders:
+        res = load_results(folder)
+        names = sorted({r["path"] for r in res["per_path"]})
+        ctrl = list(res["aggregate"])
+        if paths is not None and (names != paths or ctrl != controllers):
+            raise ValueError(f"{str(folder)!r} holds other paths or controllers than {str(folders[0])!r}")
+        paths, controllers = names, ctrl
+        label = level_label(level_of(res))
+        if label in levels:
+            raise ValueError(f"two folders hold the level {label!r}: {levels[label]['folder']!r} and {str(folder)!r}")
+        lost = {c: sorted(r["path"] for r in res["per_path"] if r["controller"] == c and not r.get("success"))
+                for c in ctrl}
+        levels[label] = {"folder": str(folder), "level": level_of(res), "preset": res.get("preset"),
+                         "seeds": res.get("seeds", {}), "missing": res.get("missing", []),
+                         "aggregate": res["aggregate"], "not_finished": lost}
+    return {"paths": paths, "controllers": controllers,
+            "levels": dict(sorted(levels.items(), key=lambda kv: kv[1]["level"]))}
+
+
+def heldout_table(summary: dict[str, Any]) -> str:
+    levels = summary["levels"]
+    head = "| controller | " + " | ".join(f"{lv}: success, cross-track, Δz/ΔL" for lv in levels) + " |"
+    rows = [head, "|---" * (len(levels) + 1) + "|"]
+    for c in summary["controllers"]:
+        cells = []
+        for lv in levels.values():
+            a = lv["aggregate"][c]
+            xte = a.get("mean_cross_track_m")
+            dz = a.get("max_out_of_plane_ratio")
+            cells.append(f"{_pct(a['success_rate'])}, {'-' if xte is None else f'{100 * xte:.2f} cm'}, "
+                         f"{'-' if dz is None else f'{100 * dz:.1f} %'}")
+        rows.append(f"| `{c}` | " + " | ".join(cells) + " |")
+    return "\n".join(rows)
+
+
+def heldout_intro(summary: dict[str, Any]) -> str:
+    seeds = sorted(s for lv in summary["levels"].values() for s in lv["seeds"].values())
+    presets = sorted({str(lv["preset"]) for lv in summary["levels"].values()})
+    n = len(summary["paths"])
+    planar = sum(p.startswith("planar") for p in summary["paths"])
+    return (f"{n} paths ({planar} planar, {n - planar} 3-D; three waypoints, segments of 12-20 cm, turns of 30-150°, "
+            f"`scripts/make_eval_paths.py`) flown at `{'`, `'.join(presets)}` by the nominal swimmer and by swimmers "
+            f"off the model (E, μ and b drawn within ±F, the helix's pitch and radius within ±0.4 F; the controllers "
+            f"keep the nominal turn map), one episode per path and controller; the k-th path's swimmer is drawn with "
+            f"env seed {min(seeds) if seeds else '-'} + k. No controller was trained or tuned on these paths or "
+            f"swimmers.")
+
+
+def _paths_or_count(paths: list[str], n: int) -> str:
+    return ", ".join(paths) if len(paths) <= 4 else f"{len(paths)} of {n} paths"
+
+
+def heldout_notes(summary: dict[str, Any]) -> str:
+    lines = []
+    for label, lv in summary["levels"].items():
+        agg = lv["aggregate"]
+        best = max(agg, key=lambda c: (agg[c]["success_rate"], -(agg[c].get("mean_cross_track_m") or 1e9)))
+        n = len(summary["paths"])
+        lost = "; ".join(f"`{c}` {_paths_or_count(p, n)}" for c, p in lv["not_finished"].items() if p) or "none"
+        errors = sum(int(a.get("failed_runs", 0)) for a in agg.values())
+        lines.append(f"- {label}: best `{best}` ({_pct(agg[best]['success_rate'])}, "
+                     f"{100 * agg[best]['mean_cross_track_m']:.2f} cm); not finished: {lost}; episodes ending in an "
+                     f"error: {errors}.")
+    return "\n".join(lines)
+
+
+def agent_facts() -> tuple[str, str, dict[str, Any]]:
+    meta = json.loads(package_file(*AGENT, "meta.json").read_text(encoding="utf-8"))
+    mk = meta["make_kwargs"]
+    rnd = mk["env_kwargs"].get("randomize", {})
+    rp = mk["random_path"]
+    agent = (f"`agents/pretrained/{AGENT[1]}/` (model, VecNormalize statistics, config, meta, episode log and "
+             f"training curve): PPO (stable-baselines3 {meta['versions']['stable_baselines3']}, PyTorch "
+             f"{meta['versions']['torch']}) in `{meta['env_id']}` at `{meta['preset']}` on the `{meta['planner']}` "
+             f"planner, {meta['decisions']} decisions (planned turns) in {meta['wall_time_s'] / 60:.0f} min of wall "
+             f"time with {meta['n_envs']} env workers on this 2-core machine"
+             f"{', stopped by its wall-time budget' if meta.get('stopped_by_wall_time_budget') else ''}. It was "
+             f"trained on the swimmer whose head counter-rotates (`head_rotation=torque_free`, the default then); the "
+             f"table above flies it on the current default, the head held.")
+    training = (f"It was trained on randomised swimmers (E ±{100 * rnd.get('youngs_modulus', 0):g} %, μ "
+                f"±{100 * rnd.get('viscosity', 0):g} %, b ±{100 * rnd.get('head_radius', 0):g} %, the helix "
+                f"±{100 * rnd.get('geometry', 0):g} %, drawn per episode) on paths of {rp['n_waypoints'][0]}-"
+                f"{rp['n_waypoints'][1]} waypoints, segments of {100 * rp['segment_length_m'][0]:g}-"
+                f"{100 * rp['segment_length_m'][1]:g} cm and turns of {rp['min_turn_deg']:g}-{rp['max_turn_deg']:g}°, "
+                f"with a price of {mk['action_cost']:g} |a|² per decision.")
+    return agent, training, meta
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--eval", nargs="+", type=Path, required=True, metavar="DIR",
+                    help="flagellum evaluate folders of the same paths, one per level of model error")
+    ap.add_argument("--docs", type=Path, default=Path("docs"), help="where control.md and control.json go")
+    args = ap.parse_args(argv)
+    try:
+        summary = summarise(args.eval)
+    except ValueError as exc:
+        print(f"control_report: {exc}", file=sys.stderr)
+        return 2
+    agent, training, meta = agent_facts()
+    values = {"omega_h": PLANNER_OMEGA_H_RPM, "heldout_intro": heldout_intro(summary),
+              "heldout_table": heldout_table(summary), "heldout_notes": heldout_notes(summary), "agent": agent,
+              "agent_training": training, "agent_config": meta["config"]}
+    args.docs.mkdir(parents=True, exist_ok=True)
+    (args.docs / "control.json").write_text(json.dumps(
+        {"heldout": {**summary, "levels": {k: {kk: vv for kk, vv in v.items() if kk != "folder"}
+                                           for k, v in summary["levels"].items()}}}, indent=1) + "\n")
+    (args.docs / "control.md").write_text(TEMPLATE.read_text(encoding="utf-8").format(**values))
+    print(f"wrote {args.docs / 'control.md'} and control.json")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,69 @@
+"""scripts/control_report.py: docs/control.md and control.json from evaluation folders (made up here)."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+
+SCRIPT = Path(__file__).resolve().parent.parent / "scripts" / "control_report.py"
+PATHS = ("3d_1", "planar_1")
+
+
+@pytest.fixture(scope="module")
+def script():
+    spec = importlib.util.spec_from_file_location("control_report", SCRIPT)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _folder(root: Path, name: str, level: float, success: dict[str, tuple[bool, bool]],
+            xte_cm: dict[str, float]) -> Path:
+    """An evaluate folder: two paths, the given controllers' success per path and mean cross-track."""
+    per_path, aggregate = [], {}
+    for c, ok in success.items():
+        for path, s in zip(PATHS, ok):
+            per_path.append({"path": path, "controller": c, "success": s, "mean_cross_track_m": xte_cm[c] / 100})
+        aggregate[c] = {"episodes": 2, "success_rate": sum(ok) / 2, "mean_cross_track_m": xte_cm[c] / 100,
+                        "max_out_of_plane_ratio": 0.05, "failed_runs": 0}
+    overrides = {"randomize": {"youngs_modulus": level, "viscosity": level, "head_radius": level,
+                               "geometry": 0.4 * level}} if level else {}
+    folder = root / name
+    folder.mkdir()
+    (folder / "results.json").write_text(json.dumps({
+        "per_path": per_path, "aggregate": aggregate, "preset": "faithful", "env_overrides": overrides,
+        "seeds": {p: 500 + k for k, p in enumerate(PATHS)}, "missing": []}))
+    return folder
+
+
+def test_the_report_tabulates_each_level(script, tmp_path):
+    nominal = _folder(tmp_path, "a", 0.0, {"rule": (True, True), "ppo": (True, True)}, {"rule": 0.5, "ppo": 0.7})
+    rand10 = _folder(tmp_path, "b", 0.1, {"rule": (False, True), "ppo": (True, True)}, {"rule": 3.0, "ppo": 1.5})
+    docs = tmp_path / "docs"
+    # given out of order: the table goes nominal, then ±10 %
+    assert script.main(["--eval", str(rand10), str(nominal), "--docs", str(docs)]) == 0
+    text = (docs / "control.md").read_text()
+    assert "| `rule` | 100 %, 0.50 cm, 5.0 % | 50 %, 3.00 cm, 5.0 % |" in text
+    assert "| `ppo` | 100 %, 0.70 cm, 5.0 % | 100 %, 1.50 cm, 5.0 % |" in text
+    assert "- nominal: best `rule` (100 %, 0.50 cm); not finished: none" in text
+    assert "- ±10 %: best `ppo` (100 %, 1.50 cm); not finished: `rule` 3d_1;" in text
+    assert "env seed 500 + k" in text and "{" not in text.replace("{}", "")
+    data = json.loads((docs / "control.json").read_text())
+    assert list(data["heldout"]["levels"]) == ["nominal", "±10 %"]
+    assert data["heldout"]["levels"]["±10 %"]["not_finished"] == {"rule": ["3d_1"], "ppo": []}
+
+
+def test_folders_of_other_controllers_or_the_same_level_are_refused(script, tmp_path, capsys):
+    a = _folder(tmp_path, "a", 0.0, {"rule": (True, True)}, {"rule": 0.5})
+    b = _folder(tmp_path, "b", 0.05, {"ppo": (True, True)}, {"ppo": 0.5})
+    c = _folder(tmp_path, "c", 0.0, {"rule": (True, True)}, {"rule": 0.6})
+    assert script.main(["--eval", str(a), str(b), "--docs", str(tmp_path / "docs")]) == 2
+    assert "other paths or controllers" in capsys.readouterr().err
+    assert script.main(["--eval", str(a), str(c), "--docs", str(tmp_path / "docs")]) == 2
+    assert "two folders hold the level 'nominal'" in capsys.readouterr().err
+    assert not (tmp_path / "docs").exists()
+    assert script.main(["--eval", str(tmp_path / "none"), "--docs", str(tmp_path / "docs")]) == 2
+    assert "holds no results.json" in capsys.readouterr().err
