@@ -25,9 +25,9 @@ In the ``Dict`` form each part is a 1-D ``Box`` of the size given (what stable-b
 ``MultiInputPolicy`` expects). Entries are clipped to finite bounds: waypoints +-50 (L), velocity +-1000 (mm/s), shape +-2
 (L), L'/L [0, 2]; the others as given above.
 
-The body frame turns with the head, which spins about X_b as the motor drives the flagellum
-(torque balance), so the Y_b and Z_b components rotate at the head's spin rate; the
-orientation part tells where Y_b and Z_b are.
+The body frame turns with the head. With the default ``head_rotation=fixed`` the head does not spin;
+with ``torque_free`` or ``literal`` it spins about X_b as the motor drives the flagellum, so the Y_b and
+Z_b components rotate at the head's spin rate. The orientation part tells where Y_b and Z_b are.
 """
 
 from __future__ import annotations

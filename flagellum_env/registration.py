@@ -40,8 +40,9 @@ TURN_ENV_ID = "FlagellumTurn-v0"
 TURN_FAST_ENV_ID = "FlagellumTurn-fast-v0"
 TURN_COARSE_ENV_ID = "FlagellumTurn-coarse-v0"
 
-#: A lower bound of the steady straight-swimming speed at 10 rpm, m/s: measured 4.68e-4 m/s at the
-#: faithful, fast and coarse presets (``env.steady_speed_m_s``); 4 % below it.
+#: A lower bound of the steady straight-swimming speed at 10 rpm, m/s (``env.steady_speed_m_s``): measured 7.15e-4
+#: m/s at the faithful and fast presets and 7.08e-4 at coarse with the default head reading (held), 4.68e-4 with the
+#: head counter-rotating (``head_rotation=torque_free``, the slowest reading); 4 % below the slowest.
 STEADY_SPEED_FLOOR_M_S = 4.5e-4
 #: The defaults the bound is computed from (``SteerConfig`` / ``RandomPathConfig``; a test holds them equal).
 STEER_DEFAULT_CONTROL_DT_S = 2.0

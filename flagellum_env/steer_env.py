@@ -84,9 +84,10 @@ class FlagellumSteerEnv(gym.Env):
     | 45            | time_left        | fraction of the time budget left, [0, 1]               | -    |
 
     The buckled state shows in ``shape`` (the tip folds back towards the head) and in
-    ``end_to_end_ratio``. The head spins about X_b (torque balance with the motor), so Y_b, Z_b
-    and every body-frame component across X_b turn at the head's spin rate; ``orientation``
-    tells where they are. With randomisation, Gaussian noise is added to the measured parts
+    ``end_to_end_ratio``. With the default reading of the head (``head_rotation=fixed``) the head
+    does not spin and the body frame turns only as the swimmer turns; with ``torque_free`` or ``literal``
+    the head spins about X_b, so Y_b, Z_b and every body-frame component across X_b turn at its spin
+    rate; ``orientation`` tells where they are. With randomisation, Gaussian noise is added to the measured parts
     (rows waypoints to end_to_end_ratio). See ``flagellum_env.observations``.
 
     ## Rewards
@@ -120,8 +121,8 @@ class FlagellumSteerEnv(gym.Env):
     - Truncation: after ``max_sim_time_s`` simulated seconds (rounded up to whole steps). By
       default ``max_sim_time_s = time_factor * path length / v0`` where v0 is the steady
       straight-swimming speed at the low motor speed (measured on the steady start; about
-      0.047 cm/s at 10 rpm) and ``time_factor = 1.5``: enough to swim the whole path at the low
-      speed (about 270 steps on a default random path).
+      0.07 cm/s at 10 rpm) and ``time_factor = 1.5``: enough to swim the whole path at the low
+      speed (at most about 250 steps on a default random path).
     - ``gymnasium.make`` adds a ``TimeLimit`` at the registered ``max_episode_steps`` = 400: the
       largest budget of a default random path (3 segments of at most 8 cm), so it never cuts an
       episode short with the registered defaults. For a longer path (``"square"``: ~1670 steps) or
@@ -495,8 +496,8 @@ class FlagellumSteerFastEnv(FlagellumSteerEnv):
 
 class FlagellumSteerCoarseEnv(FlagellumSteerEnv):
     """``FlagellumSteer-coarse-v0``: ``FlagellumSteer-v0`` (``FlagellumSteerEnv``, whose docstring is the
-    manual) at the ``coarse`` preset. Not the cheapest any more: with the BDF3 + Newton-Krylov solvers of
-    ``faithful`` and ``fast`` (2026-12-02) they cost less per env step (docs/env.md, Speed).
+    manual) at the ``coarse`` preset. Not the cheapest: with their BDF3 + Newton-Krylov solvers ``faithful``
+    and ``fast`` cost less per env step (docs/bench_quick.md).
 
     A coarser grid (N = 45 nodes instead of the paper's 122) with fixed 10 ms implicit Euler steps: it
     swims straight like ``paper`` (its steady speed at 10 rpm is within 0.3 % of the others) but **buckles later and turns
