@@ -37,8 +37,8 @@ from agents.online_turn_map import GAUSS_HERMITE_3, OnlineMapConfig, OnlineTurnM
 from agents.turn_map import TurnMap
 from agents.turn_planner import (PlannerConfig, RulePlanner, _Episode, graded_line_miss, line_distance, pick_turn,
                                  turn_ends)
-from flagellum_env.turn_geometry import angle_between, azimuth, perpendicular_basis, wrap_angle
-from flagellum_env.turn_measurement import CruiseObservables, cruise_observables, summarise_cruise
+from agents.turn_geometry import angle_between, azimuth, perpendicular_basis, wrap_angle
+from agents.turn_measurement import CruiseObservables, cruise_observables, summarise_cruise
 from physics.validation import require_finite
 
 

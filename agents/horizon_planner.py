@@ -57,8 +57,8 @@ import numpy as np
 from agents.adaptive_planner import AdaptivePlanner, _AdaptiveEpisode, segment_distance
 from agents.online_turn_map import OnlineMapConfig, OnlineTurnMap
 from agents.turn_map import TurnMap
-from flagellum_env.turn_geometry import perpendicular_basis, wrap_angle
-from flagellum_env.turn_measurement import summarise_cruise
+from agents.turn_geometry import perpendicular_basis, wrap_angle
+from agents.turn_measurement import summarise_cruise
 from physics.validation import require_finite
 
 #: Sigma points of a standard 2-D normal (map-time error, direction error), in standard deviations,

@@ -36,8 +36,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from agents.turn_map import TurnMap
-from flagellum_env.turn_geometry import wrap_angle
-from flagellum_env.turn_measurement import CruiseObservables
+from agents.turn_geometry import wrap_angle
+from agents.turn_measurement import CruiseObservables
 from physics.validation import require_finite
 
 

@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flagellum_env.turn_geometry import angle_between, azimuth, wrap_angle
+from agents.turn_geometry import angle_between, azimuth, wrap_angle
 from agents.adaptive_planner import AdaptiveConfig, AdaptivePlanner
 from agents.controller_spec import controller_kind, controller_options
 from agents.online_turn_map import OnlineMapConfig, OnlineTurnMap

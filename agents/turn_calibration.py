@@ -2,7 +2,7 @@
 
 Every (t_c, phase) pair is one task of the shared task pool (``batch.pool``): it
 starts from the environment's steady start (``flagellum_env.steady_start``: 5 motor turns at
-omega_l from rest, cached), runs ``flagellum_env.turn_measurement.measure_turn`` and returns one JSON record.
+omega_l from rest, cached), runs ``agents.turn_measurement.measure_turn`` and returns one JSON record.
 Records go to ``<out>.runs/results.jsonl`` as they finish; running again with ``resume=True``
 measures only what is missing. When all are done, the map is written to ``<out>`` (JSON).
 """
@@ -25,7 +25,7 @@ from agents.turn_map import DEFAULT_PHASES_DEG, DEFAULT_T_C_S, PAPER_OMEGA_L_RPM
 from batch.store import ResultsStore, check_records_belong, check_same_run
 from batch.worker import PointOutcome
 from batch.pool import pending, run_tasks
-from flagellum_env.turn_measurement import TurnResult, phase_node_index
+from agents.turn_measurement import TurnResult, phase_node_index
 from physics.geometry import layout_for
 from physics.params import RPM_TO_RAD_S, NumericsConfig, SwimmerParams
 
@@ -60,7 +60,7 @@ class TurnTask:
         return f"t_c={self.t_c:g} s, phase={self.phase_deg:g} deg"
 
     def execute(self) -> PointOutcome:
-        from flagellum_env.turn_measurement import measure_turn
+        from agents.turn_measurement import measure_turn
         from flagellum_env.steady_start import get_steady_start
 
         t0 = time.perf_counter()

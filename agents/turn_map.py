@@ -1,7 +1,7 @@
 """Turn map of Sec. 3 / Fig. 5d of Huang & Jawed 2020: what a burst of t_c seconds at the high
 motor speed omega_h does to a swimmer that was swimming straight at omega_l.
 
-One measurement (``flagellum_env.turn_measurement.measure_turn``): the heading, a burst of t_c
+One measurement (``agents.turn_measurement.measure_turn``): the heading, a burst of t_c
 at omega_h, and the heading after it has settled: theta, phi, psi, the relaxation time and
 the head's displacement over the turn.
 
@@ -24,8 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from flagellum_env.turn_geometry import angle_between, azimuth, turn_angles, unit, wrap_angle
-from flagellum_env.turn_measurement import DEFAULT_SHAPE_NODES, TurnResult, phase_node_index
+from agents.turn_geometry import angle_between, azimuth, turn_angles, unit, wrap_angle
+from agents.turn_measurement import DEFAULT_SHAPE_NODES, TurnResult, phase_node_index
 from physics.params import RPM_TO_RAD_S, NumericsConfig, SwimmerParams
 
 TURN_MAP_FORMAT = "flagellum-turn-map"

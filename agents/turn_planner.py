@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from flagellum_env.turn_geometry import angle_between, azimuth, perpendicular_basis, unit, wrap_angle
+from agents.turn_geometry import angle_between, azimuth, perpendicular_basis, unit, wrap_angle
 from agents.turn_map import TurnMap
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M
 from physics.validation import require_finite

@@ -83,7 +83,7 @@ QUICK_METRICS = ("swim_per_turn_10rpm", "lratio_100s")
 
 # --- flagellum bench --quick: one row per preset ------------------------------------------------
 #: The burst of the quick protocol: from steady 10 rpm, BURST_TC s at BURST_RPM, then 10 rpm until the
-#: heading settles (``flagellum_env.turn_measurement``).
+#: heading settles (``agents.turn_measurement``).
 BURST_RPM = 150.0
 BURST_TC = 7.5
 #: The held-out path of the episode metric (a start and 3 waypoints, from the committed eval set).
@@ -201,7 +201,7 @@ def run_metric(cfg: FidelityConfig, metric: str) -> dict[str, Any]:
         ratio, rtf = _lratio(cfg, OMEGA_HIGH_RPM)
         out["lratio_100s"], out["rtf"] = ratio, rtf
     elif metric.startswith("turn_tc"):
-        from flagellum_env.turn_measurement import measure_turn
+        from agents.turn_measurement import measure_turn
 
         tc = float(metric[len("turn_tc"):])
         sim = _steady(cfg)
@@ -211,7 +211,7 @@ def run_metric(cfg: FidelityConfig, metric: str) -> dict[str, Any]:
         out[f"theta_tc{int(tc)}"], out[f"phi_tc{int(tc)}"] = res.theta_deg, res.phi_deg
         out["straight"] = res.straight
     elif metric == "burst":
-        from flagellum_env.turn_measurement import measure_turn
+        from agents.turn_measurement import measure_turn
 
         sim = _steady(cfg)
         res = measure_turn(sim, 10.0, BURST_RPM, BURST_TC, relax_max_s=90.0)

@@ -19,7 +19,7 @@ Runs (``ValidationRun``):
   averaged over the second half, the distance per motor turn over the last five turns, smallest gaps,
   largest Reynolds number, final shape (Fig. 4);
 * a *turn*: the paper's protocol of Fig. 5(d): steady 10 rpm for 60 s, a burst of t_c at 60 rpm started
-  at a chosen rotation phase, 10 rpm until the heading settles (``flagellum_env.turn_measurement``).
+  at a chosen rotation phase, 10 rpm until the heading settles (``agents.turn_measurement``).
 
 ``ValidationPlan.pending`` says which runs are needed given the records so far: the Fig. 4 grid
 (``GRID_RPM`` for every head and reading; the headless swimmer once, all readings being the same swimmer
@@ -181,7 +181,7 @@ def run_point(run: ValidationRun) -> dict[str, Any]:
 def run_turn(run: ValidationRun) -> dict[str, Any]:
     """Fig. 5(d): steady ``LOW_RPM`` for ``SETTLE_S``, a burst of ``run.value`` s at ``HIGH_RPM`` after a hover of
     ``run.phase_deg`` of a rotation, then ``LOW_RPM`` until the heading settles: theta, phi (deg)."""
-    from flagellum_env.turn_measurement import measure_turn
+    from agents.turn_measurement import measure_turn
     from physics.errors import SimulationError
     from physics.params import RPM_TO_RAD_S
     from physics.simulator import Simulator

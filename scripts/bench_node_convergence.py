@@ -37,7 +37,7 @@ def main(argv: list[str] | None = None) -> int:
     header = ("# Buckling onset against the discretisation\n\n"
               "Produced by `python scripts/bench_node_convergence.py` (one core per run, two at a time). "
               "Each run: steady 10 rpm swimming, a 40 s burst at 90 rpm, back to 10 rpm until the heading "
-              "settles (`flagellum_env.turn_measurement.measure_turn`); θ is the turn. All runs start from `coarse`'s "
+              "settles (`agents.turn_measurement.measure_turn`); θ is the turn. All runs start from `coarse`'s "
               "numerics (implicit Euler, Newton tolerance 1e-5); N, h and the resistance-refresh tolerance vary. "
               f"Head reading: `head_rotation={head_rotation}`. θ error = |θ - θ_paper| / θ_paper.")
     Path("docs").mkdir(exist_ok=True)

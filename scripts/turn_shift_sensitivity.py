@@ -3,7 +3,7 @@
 For swimmers drawn around the preset's (E, mu, b uniform within +-FRACTION, helix pitch and
 radius within +-0.4 FRACTION, as ``flagellum evaluate --randomize``): from the steady start at
 omega_l, the steady end-to-end strain L'/L - 1 and the flagellum's lab rotation rate (what a
-controller sees while cruising, ``flagellum_env.turn_measurement.cruise_observables``), then one turn (``measure_turn``: a burst of T_C s
+controller sees while cruising, ``agents.turn_measurement.cruise_observables``), then one turn (``measure_turn``: a burst of T_C s
 at omega_h, phase 0) and the buckling-time shift it reads against the preset's turn map
 (``agents.online_turn_map.shift_reading``). Rows go to ``--out`` (JSON lines) as they finish;
 running again skips the swimmers already there. ``--fit`` prints the least-squares fit of the
@@ -56,7 +56,7 @@ def cruise(preset: str, factors: dict[str, float]) -> dict:
     from agents.assets import default_turn_map
     from agents.turn_map import TurnMap
     from flagellum_env.steady_start import get_steady_start
-    from flagellum_env.turn_measurement import cruise_observables
+    from agents.turn_measurement import cruise_observables
     from physics.params import RPM_TO_RAD_S
 
     tm = TurnMap.load(default_turn_map(preset))
@@ -72,7 +72,7 @@ def one(seed: int, fraction: float, preset: str, t_c: float) -> dict:
     from agents.online_turn_map import OnlineMapConfig, shift_reading
     from agents.turn_map import TurnMap
     from flagellum_env.steady_start import get_steady_start
-    from flagellum_env.turn_measurement import measure_turn
+    from agents.turn_measurement import measure_turn
     from physics.params import RPM_TO_RAD_S
 
     t0 = time.perf_counter()

@@ -102,7 +102,7 @@ def test_the_import_walker_sees_imports_inside_functions_and_relative_ones():
     modules = module_files()
     # agents.turn_calibration imports the turn measurement at the top, flagellum.cli imports
     # physics.errors inside main(): both must be seen
-    assert "flagellum_env.turn_measurement" in imported_modules("agents.turn_calibration",
+    assert "agents.turn_measurement" in imported_modules("agents.turn_calibration",
                                                               modules["agents.turn_calibration"], modules)
     assert "physics.errors" in imported_modules("flagellum.cli", modules["flagellum.cli"], modules)
 

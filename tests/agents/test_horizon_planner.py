@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from agents.horizon_planner import HorizonConfig, Situation, TurnModel, search
-from flagellum_env.turn_geometry import perpendicular_basis
+from agents.turn_geometry import perpendicular_basis
 
 
 def _model(time_std: float = 0.05, psi_std_deg: float = 3.0, offset=(0.01, 0.0, 0.0), peak_deg: float = 180.0,

@@ -11,7 +11,7 @@ import pytest
 from agents.adaptive_planner import AdaptivePlanner
 from agents.online_turn_map import OnlineMapConfig, OnlineTurnMap, shift_reading
 from agents.turn_map import TurnMap
-from flagellum_env.turn_measurement import CruiseObservables, summarise_cruise
+from agents.turn_measurement import CruiseObservables, summarise_cruise
 
 #: a frozen turn map (faithful preset, 150 rpm bursts, torque-free head): the numbers below were read off it
 MAP_150_RPM = Path(__file__).parent / "data" / "turn_map_150rpm.json"
@@ -420,7 +420,7 @@ def test_expected_miss_without_spread_is_the_rule_planners_miss(faithful_map):
     k, j = 20, 7
     theta, psi, off = out.theta[k, 1], out.psi[k, 1], out.offset[k, 1]
     e1, e2 = np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.0, 1.0])
-    from flagellum_env.turn_geometry import perpendicular_basis
+    from agents.turn_geometry import perpendicular_basis
     e1, e2 = perpendicular_basis(D)
     e_ref = np.cos(beta[j]) * e1 + np.sin(beta[j]) * e2
     heading = np.cos(theta) * D + np.sin(theta) * (np.cos(beta[j] + psi) * e1 + np.sin(beta[j] + psi) * e2)

@@ -15,7 +15,7 @@ from agents.path_following import env_settings, make_controller, run_episode
 from agents.ppo_config import TrainConfig
 from agents.ppo_policy import PRETRAINED_DIR, load_agent
 from agents.residual_planner import N_FEATURES, ResidualLimits, corrected_plan, turn_features
-from flagellum_env.turn_geometry import azimuth, wrap_angle
+from agents.turn_geometry import azimuth, wrap_angle
 from agents.assets import default_turn_map
 from agents.turn_map import TurnMap
 from flagellum.cli import main

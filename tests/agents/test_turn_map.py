@@ -8,10 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from flagellum_env.turn_geometry import (angle_between, azimuth, direction_from, perpendicular_basis, turn_angles,
+from agents.turn_geometry import (angle_between, azimuth, direction_from, perpendicular_basis, turn_angles,
                                   wrap_angle)
 from agents.turn_map import TurnMap, TurnMapMismatch
-from flagellum_env.turn_measurement import TurnResult, phase_node_index
+from agents.turn_measurement import TurnResult, phase_node_index
 from physics.params import NumericsConfig, SwimmerParams
 
 

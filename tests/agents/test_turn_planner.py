@@ -105,7 +105,7 @@ def test_turn_choice_keeps_course_or_predicts_a_better_line():
 @pytest.mark.parametrize("target_deg", [0.0, 2.1, 179.0, -179.0, 91.3])
 def test_hover_bursts_at_the_first_step_near_or_past_the_phase(sense, target_deg):
     from agents.turn_planner import burst_phase_reached
-    from flagellum_env.turn_geometry import wrap_angle
+    from agents.turn_geometry import wrap_angle
 
     target = np.radians(target_deg)
     rng = np.random.default_rng(int(abs(target_deg) * 10) + (7 if sense > 0 else 0))
@@ -137,7 +137,7 @@ def test_hover_window_alone_could_be_jumped_when_steps_lengthen():
 
 def test_a_hover_whose_phase_swings_is_given_up_and_one_that_turns_is_not():
     from agents.turn_planner import hover_phase_stuck
-    from flagellum_env.turn_geometry import wrap_angle
+    from agents.turn_geometry import wrap_angle
 
     period = 90
     # the replayed case: the azimuth about a heading 22 deg off the flagellum's axis swings between -32 and +13 deg

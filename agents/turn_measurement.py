@@ -2,7 +2,7 @@
 ``agents.turn_calibration`` and the fidelity benchmark).
 
 From steady swimming at omega_l, measure the heading d0 (head displacement over one wobble
-period, see ``flagellum_env.turn_geometry``), hover at omega_l for a chosen fraction of a
+period, see ``agents.turn_geometry``), hover at omega_l for a chosen fraction of a
 flagellum rotation (this selects the rotation phase at which the burst starts), run omega_h for
 t_c, then omega_l again until the heading stops changing (two consecutive one-period headings
 within ``straight_tol_deg``): that heading is t1. Recorded: theta, phi (paper's definitions, in
@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from flagellum_env.turn_geometry import angle_between, azimuth, turn_angles, unit, wrap_angle
+from agents.turn_geometry import angle_between, azimuth, turn_angles, unit, wrap_angle
 from physics.params import RPM_TO_RAD_S
 from physics.run import advance
 
