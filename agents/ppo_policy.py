@@ -7,7 +7,7 @@ An agent is a folder written by ``flagellum train`` (``agents.ppo_training``): `
 With plain stable-baselines3, the agent on its own env (``meta.json`` stores the env as a registered id
 and its ``gymnasium.make`` arguments; tests/agents/test_shipped_agent_env.py)::
 
-    import json, flagellum_env  # registers the ids
+    import json, agents  # registers the FlagellumTurn ids
     from stable_baselines3 import PPO
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import VecNormalize

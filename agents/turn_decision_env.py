@@ -1,7 +1,7 @@
 """Training environment of the residual PPO agent: one step = one turn the planner plans.
 
 ``TurnDecisionEnv`` (``FlagellumTurn-v0``; ``-fast`` and ``-coarse`` variants, all registered by
-``import flagellum_env``) runs ``FlagellumSteer-v0`` under a ``ResidualPlanner`` (0.1 s control steps,
+``import agents``) runs ``FlagellumSteer-v0`` under a ``ResidualPlanner`` (0.1 s control steps,
 the rule planner's; ``planner="adaptive"``: an ``AdaptiveResidualPlanner``, the adaptive planner's). Whenever
 the planner plans a turn it stops and hands the turn's features to the
 agent (the observation); the agent's action corrects the turn (``ResidualLimits``); the env then
@@ -40,7 +40,7 @@ from agents.turn_map import TurnMap
 from flagellum_env.config import resolve_path
 from flagellum_env.paths import RandomPathConfig, WaypointPath
 from flagellum_env.paths import random_path as draw_random_path
-from flagellum_env.registration import TURN_COARSE_ENV_ID, TURN_ENV_ID, TURN_FAST_ENV_ID
+from agents.registration import TURN_COARSE_ENV_ID, TURN_ENV_ID, TURN_FAST_ENV_ID
 from flagellum_env.steer_env import FlagellumSteerEnv
 from physics.presets import DEFAULT_PRESET, preset_names
 from physics.validation import require_finite

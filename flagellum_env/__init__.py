@@ -1,6 +1,6 @@
 """Gymnasium environments for steering the buckling-flagellum swimmer through waypoints.
 
-``import flagellum_env`` registers every id of the package (``flagellum_env.registration``)::
+``import flagellum_env`` registers the package's ids (``flagellum_env.registration``)::
 
     import gymnasium as gym
     import flagellum_env  # noqa: F401  (registers the ids)
@@ -13,9 +13,9 @@
 | ``FlagellumSteer-v0``      | motor speed every ``control_dt`` (2 s)            | faithful |
 | ``FlagellumSteer-fast-v0`` | the same, looser error tolerance                  | fast     |
 | ``FlagellumSteer-coarse-v0`` | the same on the coarse grid                     | coarse   |
-| ``FlagellumTurn-v0``       | one step = one turn the rule planner plans (``agents``) | faithful |
-| ``FlagellumTurn-fast-v0``  | the same                                          | fast     |
-| ``FlagellumTurn-coarse-v0``| the same; the shipped PPO agent's env             | coarse   |
+
+The turn-level ids of the PPO agents (``FlagellumTurn-*``: one step = one turn the planner plans) are registered
+by ``import agents``, one layer up (``agents.registration``).
 
 ``gym.make("flagellum_env:FlagellumSteer-v0")`` imports the package itself (a worker process that
 did not import it, e.g. a ``SubprocVecEnv`` started with ``spawn``, finds every id this way).
@@ -32,9 +32,6 @@ from flagellum_env.registration import (
     STEER_COARSE_ENV_ID,
     STEER_ENV_ID,
     STEER_FAST_ENV_ID,
-    TURN_COARSE_ENV_ID,
-    TURN_ENV_ID,
-    TURN_FAST_ENV_ID,
 )
 
 ENV_ID = STEER_ENV_ID
@@ -49,8 +46,7 @@ _API = {"FlagellumSteerEnv": "flagellum_env.steer_env", "FlagellumSteerFastEnv":
         "random_path": "flagellum_env.paths", "save_path": "flagellum_env.paths",
         "square_path": "flagellum_env.paths"}
 
-__all__ = sorted(["ENV_ID", "ENV_IDS", "STEER_ENV_ID", "STEER_FAST_ENV_ID", "STEER_COARSE_ENV_ID", "TURN_ENV_ID",
-                  "TURN_FAST_ENV_ID", "TURN_COARSE_ENV_ID", *_API])
+__all__ = sorted(["ENV_ID", "ENV_IDS", "STEER_ENV_ID", "STEER_FAST_ENV_ID", "STEER_COARSE_ENV_ID", *_API])
 
 
 def __getattr__(name: str):

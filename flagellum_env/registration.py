@@ -1,30 +1,24 @@
-"""Every Gymnasium id of the package, registered in one place (``import flagellum_env`` runs this).
+"""The Gymnasium ids of the env layer, registered in one place (``import flagellum_env`` runs this).
 
 Light on purpose: it imports Gymnasium only, not the env, the physics or NumPy (the entry points are
 strings, loaded by ``gymnasium.make``). Each id is a class with its own defaults and docstring
 (highway-env's pattern: ``highway-fast-v0`` beside ``highway-v0``):
 
-| id                         | class (entry point)                                   | preset     | max_episode_steps |
-|----------------------------|-------------------------------------------------------|------------|-------------------|
-| ``FlagellumSteer-v0``      | ``flagellum_env.steer_env.FlagellumSteerEnv``         | faithful   | 400               |
-| ``FlagellumSteer-fast-v0`` | ``flagellum_env.steer_env.FlagellumSteerFastEnv``     | fast       | 400               |
-| ``FlagellumSteer-coarse-v0`` | ``flagellum_env.steer_env.FlagellumSteerCoarseEnv`` | coarse     | 400               |
-| ``FlagellumTurn-v0``       | ``agents.turn_decision_env.TurnDecisionEnv``          | faithful   | None              |
-| ``FlagellumTurn-fast-v0``  | ``agents.turn_decision_env.TurnDecisionFastEnv``      | fast       | None              |
-| ``FlagellumTurn-coarse-v0``| ``agents.turn_decision_env.TurnDecisionCoarseEnv``    | coarse     | None              |
+| id                           | class (entry point)                                 | preset   | max_episode_steps |
+|------------------------------|-----------------------------------------------------|----------|-------------------|
+| ``FlagellumSteer-v0``        | ``flagellum_env.steer_env.FlagellumSteerEnv``       | faithful | 400               |
+| ``FlagellumSteer-fast-v0``   | ``flagellum_env.steer_env.FlagellumSteerFastEnv``   | fast     | 400               |
+| ``FlagellumSteer-coarse-v0`` | ``flagellum_env.steer_env.FlagellumSteerCoarseEnv`` | coarse   | 400               |
 
-``FlagellumSteer-*``: the env ends every episode on its own time budget (``time_factor`` x path length
-/ v0, see the class docstring), which depends on the path. ``max_episode_steps`` at registration is
-the largest that budget can be with the registered defaults (the longest default random path, 3 x 8 cm,
-at ``STEADY_SPEED_FLOOR_M_S``), so the ``TimeLimit`` Gymnasium adds never cuts an episode the env would
-have run on: ``steer_max_episode_steps()``. Give ``gymnasium.make`` a larger ``max_episode_steps`` (or
--1: no ``TimeLimit``) for a longer path or a shorter ``control_dt``; the env warns when it sees that
-the registered limit would cut its budget.
+The env ends every episode on its own time budget (``time_factor`` x path length / v0, see the class
+docstring), which depends on the path. ``max_episode_steps`` at registration is the largest that budget can be
+with the registered defaults (the longest default random path, 3 x 8 cm, at ``STEADY_SPEED_FLOOR_M_S``), so the
+``TimeLimit`` Gymnasium adds never cuts an episode the env would have run on: ``steer_max_episode_steps()``. Give
+``gymnasium.make`` a larger ``max_episode_steps`` (or -1: no ``TimeLimit``) for a longer path or a shorter
+``control_dt``; the env warns when it sees that the registered limit would cut its budget.
 
-``FlagellumTurn-*`` (one step = one turn the planner plans; the entry point is in ``agents``, one layer
-up, named here as a string so that ``import flagellum_env`` registers every id without importing
-it): every episode ends within the base env's time budget, a few to some tens of decisions, so no
-``TimeLimit`` is added.
+The turn-level ids of the PPO agents (``FlagellumTurn-*``) live one layer up and are registered by ``import
+agents`` (``agents.registration``).
 """
 
 from __future__ import annotations
@@ -36,9 +30,6 @@ import gymnasium as gym
 STEER_ENV_ID = "FlagellumSteer-v0"
 STEER_FAST_ENV_ID = "FlagellumSteer-fast-v0"
 STEER_COARSE_ENV_ID = "FlagellumSteer-coarse-v0"
-TURN_ENV_ID = "FlagellumTurn-v0"
-TURN_FAST_ENV_ID = "FlagellumTurn-fast-v0"
-TURN_COARSE_ENV_ID = "FlagellumTurn-coarse-v0"
 
 #: A lower bound of the steady straight-swimming speed at 10 rpm, m/s (``env.steady_speed_m_s``): measured 7.15e-4
 #: m/s at the faithful and fast presets and 7.08e-4 at coarse with the default head reading (held), 4.68e-4 with the
@@ -64,9 +55,6 @@ ENV_IDS: dict[str, tuple[str, int | None]] = {
     STEER_ENV_ID: ("flagellum_env.steer_env:FlagellumSteerEnv", steer_max_episode_steps()),
     STEER_FAST_ENV_ID: ("flagellum_env.steer_env:FlagellumSteerFastEnv", steer_max_episode_steps()),
     STEER_COARSE_ENV_ID: ("flagellum_env.steer_env:FlagellumSteerCoarseEnv", steer_max_episode_steps()),
-    TURN_ENV_ID: ("agents.turn_decision_env:TurnDecisionEnv", None),
-    TURN_FAST_ENV_ID: ("agents.turn_decision_env:TurnDecisionFastEnv", None),
-    TURN_COARSE_ENV_ID: ("agents.turn_decision_env:TurnDecisionCoarseEnv", None),
 }
 
 

@@ -3,12 +3,15 @@
 Layers, bottom to top: physics -> batch -> flagellum_env -> agents -> flagellum_bench (benchmarks) -> flagellum
 (the CLI). A module
 may import its own package and the layers below it, never one above; and no two files import each
-other, directly or round a longer loop (imports inside functions count: they are cycles at run time).
+other, directly or round a longer loop (imports inside functions count: they are cycles at run time). A string
+naming an entry point (``"package.module:Name"``, as ``gymnasium.register`` takes) is a reference to that module
+too: it may not point up a layer (it is loaded later, so it is not part of a cycle).
 """
 
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -58,9 +61,30 @@ def imported_modules(name: str, path: Path, modules: dict[str, Path]) -> set[str
     return found
 
 
+#: ``"package.module:Name"``: an entry point named in a string
+ENTRY_POINT = re.compile(r"^([A-Za-z_]\w*(?:\.[A-Za-z_]\w*)*):[A-Za-z_][\w-]*$")
+
+
+def entry_point_modules(name: str, path: Path, modules: dict[str, Path]) -> set[str]:
+    """The modules of ``modules`` that ``name`` names in entry-point strings (``"pkg.mod:Name"``)."""
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) and (m := ENTRY_POINT.match(node.value)):
+            if m[1] in modules and m[1] != name:
+                found.add(m[1])
+    return found
+
+
 def import_graph() -> dict[str, set[str]]:
     modules = module_files()
     return {name: imported_modules(name, f, modules) for name, f in modules.items()}
+
+
+def reference_graph() -> dict[str, set[str]]:
+    """Imports and entry-point strings: what the layering is checked on."""
+    modules = module_files()
+    return {name: imported_modules(name, f, modules) | entry_point_modules(name, f, modules)
+            for name, f in modules.items()}
 
 
 def strongly_connected(graph: dict[str, set[str]]) -> list[set[str]]:
@@ -125,10 +149,18 @@ def test_every_known_cycle_still_exists(known):
     assert known in groups, f"{sorted(known)} is no longer a cycle: remove it from KNOWN_CYCLES"
 
 
+def test_the_entry_point_finder_sees_registered_entry_points():
+    modules = module_files()
+    found = entry_point_modules("agents.registration", modules["agents.registration"], modules)
+    assert found == {"agents.turn_decision_env"}
+    assert "flagellum_env.steer_env" in entry_point_modules("flagellum_env.registration",
+                                                            modules["flagellum_env.registration"], modules)
+
+
 def test_no_package_imports_a_layer_above_it():
     rank = {pkg: i for i, pkg in enumerate(LAYERS)}
     upward = []
-    for name, targets in import_graph().items():
+    for name, targets in reference_graph().items():
         for t in targets:
             if rank[t.split(".")[0]] > rank[name.split(".")[0]]:
                 upward.append(f"{name} -> {t}")

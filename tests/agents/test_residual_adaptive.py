@@ -10,7 +10,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import flagellum_env  # noqa: F401  (registers the ids)
+import agents  # noqa: F401  (registers the FlagellumTurn ids)
 from agents.assets import default_turn_map
 from agents.adaptive_planner import AdaptivePlanner
 from agents.online_turn_map import OnlineMapConfig, OnlineTurnMap

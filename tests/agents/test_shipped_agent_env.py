@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import yaml
 
-import flagellum_env  # noqa: F401  (registers the ids)
+import agents  # noqa: F401  (registers the FlagellumTurn ids)
 from agents.assets import pretrained_dir
 from agents.ppo_config import TrainConfig
 from agents.residual_planner import N_ADAPTIVE_FEATURES, ResidualLimits

@@ -1,6 +1,5 @@
-"""``import flagellum_env`` (and so ``import agents``) registers FlagellumTurn-v0 (``TurnDecisionEnv``);
-``gymnasium.make`` builds it, both env checkers pass (for every id: tests/env/test_registered_ids.py),
-bad arguments fail at construction, and the reward, ``info``, the no-turn case and seeding behave as
+"""``import agents`` registers FlagellumTurn-v0 (``TurnDecisionEnv``) and its variants (``agents.registration``);
+``gymnasium.make`` builds each, both env checkers pass on each, bad arguments fail at construction, and the reward, ``info``, the no-turn case and seeding behave as
 docs/env.md says.
 
 Cheap on purpose (coarse preset, a one-turn path): with ``off_path_m = 0.02`` every episode leaves the path
@@ -22,6 +21,7 @@ import numpy as np
 import pytest
 
 import agents
+from agents.registration import TURN_ENV_IDS
 from agents.residual_planner import N_FEATURES
 from agents.turn_decision_env import TurnDecisionEnv
 from flagellum_env.paths import path_from_waypoints
@@ -68,10 +68,59 @@ def test_import_agents_is_light():
                       "print(sorted(m for m in sys.modules if m.split('.')[0] in ('torch', 'stable_baselines3',"
                       " 'numba', 'scipy', 'physics') or m.startswith(('agents.', 'flagellum_env.'))))")
     assert r.returncode == 0, r.stderr
-    assert r.stdout.strip() == "['flagellum_env.registration']"
+    assert r.stdout.strip() == "['agents.registration']"
 
 
-@pytest.mark.parametrize("module", ["agents", "flagellum_env"])
+def test_import_agents_registers_the_turn_ids_with_their_classes():
+    r = _fresh_python("import gymnasium as gym, agents\n"
+                      "print(sorted((i, s.entry_point, s.max_episode_steps) for i, s in gym.registry.items() "
+                      "if i.startswith('Flagellum')))")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == str(sorted((i, e, None) for i, e in TURN_ENV_IDS.items()))
+    assert sorted(TURN_ENV_IDS) == ["FlagellumTurn-coarse-v0", "FlagellumTurn-fast-v0", "FlagellumTurn-v0"]
+
+
+@pytest.mark.parametrize("env_id, preset", [("FlagellumTurn-v0", "faithful"), ("FlagellumTurn-fast-v0", "fast"),
+                                            ("FlagellumTurn-coarse-v0", "coarse")])
+def test_make_gives_the_ids_class_and_preset(env_id, preset):
+    env = gym.make(env_id).unwrapped
+    assert type(env).env_id == env_id and env.preset == preset
+    env.close()
+
+
+def test_the_coarse_variant_says_it_turns_differently():
+    doc = " ".join(type(gym.make("FlagellumTurn-coarse-v0").unwrapped).__doc__.split())
+    assert "turns differently" in doc
+
+
+@pytest.mark.parametrize("env_id", sorted(TURN_ENV_IDS))
+def test_gymnasium_check_env_passes(env_id):
+    import warnings
+
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make(env_id, render_mode="rgb_array", disable_env_checker=True, **CHEAP).unwrapped
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the checker's warnings count as failures
+        check_env(env, skip_render_check=False)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", sorted(TURN_ENV_IDS))
+def test_stable_baselines3_check_env_passes(env_id):
+    import warnings
+
+    sb3_env_checker = pytest.importorskip("stable_baselines3.common.env_checker")
+    env = gym.make(env_id, render_mode="rgb_array", **CHEAP)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sb3_env_checker.check_env(env, warn=True)
+    frame = env.render()
+    assert frame.ndim == 3 and frame.shape[2] == 3
+    env.close()
+
+
+@pytest.mark.parametrize("module", ["agents"])
 def test_without_a_prior_import_the_module_prefixed_id_works(module):
     r = _fresh_python("import gymnasium as gym, sys\n"
                       "assert 'agents' not in sys.modules and 'flagellum_env' not in sys.modules\n"

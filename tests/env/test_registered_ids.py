@@ -1,9 +1,9 @@
-"""Every registered id (``flagellum_env.registration``): its class, preset, time limit and render rate, and
-both env checkers (Gymnasium's and stable-baselines3's) on ``gymnasium.make`` of it.
+"""Every id the env layer registers (``flagellum_env.registration``): its class, preset, time limit and render
+rate, and both env checkers (Gymnasium's and stable-baselines3's) on ``gymnasium.make`` of it. The turn-level ids
+of ``agents`` are tested in tests/agents/test_turn_env_registration.py.
 
-Cheap on purpose: the steering ids on the small configuration (tests/env/conftest.py: 0.2 s steps, a 6 mm
-path, no buckling) at their own presets; the turn-level ids on a one-turn path that is left during the
-first burst, at the coarse preset (the physics is not the point: the id's class, validation and spaces are).
+Cheap on purpose: the small configuration (tests/env/conftest.py: 0.2 s steps, a 6 mm path, no buckling) at each
+id's own preset (the physics is not the point: the id's class, validation and spaces are).
 """
 
 from __future__ import annotations
@@ -20,35 +20,32 @@ from gymnasium.utils.env_checker import check_env
 
 import flagellum_env
 from flagellum_env.config import SteerConfig
-from flagellum_env.paths import RandomPathConfig, path_from_waypoints
+from flagellum_env.paths import RandomPathConfig
 from flagellum_env.registration import ENV_IDS, steer_max_episode_steps
 
 ROOT = Path(__file__).resolve().parents[2]
-ONE_TURN = path_from_waypoints([[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]], name="one_turn", reach_radius_m=0.015)
-PRESET = {"FlagellumSteer-v0": "faithful", "FlagellumSteer-fast-v0": "fast", "FlagellumSteer-coarse-v0": "coarse",
-          "FlagellumTurn-v0": "faithful", "FlagellumTurn-fast-v0": "fast", "FlagellumTurn-coarse-v0": "coarse"}
+PRESET = {"FlagellumSteer-v0": "faithful", "FlagellumSteer-fast-v0": "fast", "FlagellumSteer-coarse-v0": "coarse"}
 
 
 def cheap_kwargs(env_id: str, small: dict) -> dict:
-    if env_id.startswith("FlagellumSteer"):
-        return {k: v for k, v in small.items() if k != "preset"}  # the id's own preset
-    return {"preset": "coarse", "paths": [ONE_TURN], "env_kwargs": {"off_path_m": 0.02}}
+    return {k: v for k, v in small.items() if k != "preset"}  # the id's own preset
 
 
-def test_every_id_of_the_package_is_registered_with_its_class_and_time_limit():
-    ours = sorted(i for i in gym.registry if i.startswith("Flagellum"))
+def test_every_id_of_the_env_layer_is_registered_with_its_class_and_time_limit():
+    ours = sorted(i for i in gym.registry if i.startswith("FlagellumSteer"))
     assert ours == sorted(ENV_IDS) == sorted(PRESET)
     for env_id, (entry_point, max_steps) in ENV_IDS.items():
         spec = gym.spec(env_id)
-        assert spec.entry_point == entry_point and spec.max_episode_steps == max_steps
-        assert (max_steps == 400) == env_id.startswith("FlagellumSteer")
+        assert spec.entry_point == entry_point and spec.max_episode_steps == max_steps == 400
+        assert entry_point.startswith("flagellum_env.")
 
 
 def test_the_registered_time_limit_is_the_largest_budget_of_the_default_random_paths():
     cfg, rp = SteerConfig(), RandomPathConfig()
     bound = steer_max_episode_steps(cfg.control_dt, cfg.time_factor, rp.n_waypoints * rp.segment_length_m[1])
     assert bound == steer_max_episode_steps() == gym.spec("FlagellumSteer-v0").max_episode_steps == 400
-    # v0 = 4.68e-4 m/s at 10 rpm (every preset): the longest default path's budget, 385 steps, fits
+    # v0 at 10 rpm: 4.68e-4 m/s with the head counter-rotating (the slowest reading; 7.1e-4 with the default):
+    # the longest default path's budget, 385 steps, fits
     assert cfg.time_factor * 0.24 / 4.68e-4 / cfg.control_dt < bound
 
 
@@ -56,14 +53,13 @@ def test_the_registered_time_limit_is_the_largest_budget_of_the_default_random_p
 def test_make_gives_the_ids_class_and_preset(env_id):
     env = gym.make(env_id).unwrapped
     assert type(env).env_id == env_id
-    assert (env.config.preset if env_id.startswith("FlagellumSteer") else env.preset) == PRESET[env_id]
+    assert env.config.preset == PRESET[env_id]
     env.close()
 
 
-def test_the_coarse_variants_say_they_turn_differently():
-    for env_id in ("FlagellumSteer-coarse-v0", "FlagellumTurn-coarse-v0"):
-        doc = " ".join(type(gym.make(env_id).unwrapped).__doc__.split())
-        assert "turns differently" in doc, env_id
+def test_the_coarse_variant_says_it_turns_differently():
+    doc = " ".join(type(gym.make("FlagellumSteer-coarse-v0").unwrapped).__doc__.split())
+    assert "turns differently" in doc
 
 
 def test_render_fps_follows_control_dt(small_kwargs):
@@ -114,7 +110,7 @@ def _fresh_python(code: str) -> subprocess.CompletedProcess:
                           check=False)
 
 
-def test_import_flagellum_env_registers_every_id_and_imports_no_agent_code():
+def test_import_flagellum_env_registers_its_ids_and_imports_no_agent_code():
     r = _fresh_python("import sys, gymnasium as gym, flagellum_env\n"
                       "print(sorted(i for i in gym.registry if i.startswith('Flagellum')))\n"
                       "print(sorted(m for m in sys.modules if m.split('.')[0] in ('agents', 'physics', 'flagellum')))")

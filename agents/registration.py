@@ -1,0 +1,41 @@
+"""The turn-level ids of the PPO agents, registered by ``import agents`` (the env layer registers only its own).
+
+One step of ``FlagellumTurn-*`` is one turn the planner plans (``agents.turn_decision_env``); each id is a class
+with its own defaults and docstring:
+
+| id                          | class (entry point)                                | preset   |
+|-----------------------------|----------------------------------------------------|----------|
+| ``FlagellumTurn-v0``        | ``agents.turn_decision_env.TurnDecisionEnv``       | faithful |
+| ``FlagellumTurn-fast-v0``   | ``agents.turn_decision_env.TurnDecisionFastEnv``   | fast     |
+| ``FlagellumTurn-coarse-v0`` | ``agents.turn_decision_env.TurnDecisionCoarseEnv`` | coarse   |
+
+Every episode ends within the base env's time budget, a few to some tens of decisions, so no ``TimeLimit`` is
+added. Light on purpose, like ``flagellum_env.registration``: it imports Gymnasium only; the entry points are
+strings that ``gymnasium.make`` loads. ``gym.make("agents:FlagellumTurn-v0")`` imports the package itself (a
+``SubprocVecEnv`` worker started with ``spawn`` finds the ids this way).
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+
+TURN_ENV_ID = "FlagellumTurn-v0"
+TURN_FAST_ENV_ID = "FlagellumTurn-fast-v0"
+TURN_COARSE_ENV_ID = "FlagellumTurn-coarse-v0"
+
+#: id -> entry point
+TURN_ENV_IDS: dict[str, str] = {
+    TURN_ENV_ID: "agents.turn_decision_env:TurnDecisionEnv",
+    TURN_FAST_ENV_ID: "agents.turn_decision_env:TurnDecisionFastEnv",
+    TURN_COARSE_ENV_ID: "agents.turn_decision_env:TurnDecisionCoarseEnv",
+}
+
+
+def register_turn_envs() -> None:
+    """Register every id of ``TURN_ENV_IDS`` that is not registered yet (re-importing registers nothing twice)."""
+    for env_id, entry_point in TURN_ENV_IDS.items():
+        if env_id not in gym.registry:
+            gym.register(id=env_id, entry_point=entry_point, max_episode_steps=None)
+
+
+register_turn_envs()
