@@ -73,7 +73,7 @@ def bench_turn(env_id: str, policy: str, n_episodes: int, seed: int = 0,
     second, resets included."""
     import gymnasium as gym
 
-    import flagellum_env  # noqa: F401  (registers the ids)
+    import agents  # noqa: F401  (registers the FlagellumTurn ids)
     from flagellum_env.paths import path_from_waypoints
 
     path = path_from_waypoints(ONE_TURN_WAYPOINTS, name="one_turn", reach_radius_m=0.015)

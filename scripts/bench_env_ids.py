@@ -15,8 +15,11 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from agents.registration import TURN_ENV_IDS
 from flagellum_bench.env_ids import POLICIES, bench_steer, bench_turn, format_table, machine
 from flagellum_env.registration import ENV_IDS
+
+ALL_IDS = [*ENV_IDS, *TURN_ENV_IDS]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -24,12 +27,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--steps", type=int, default=20, help="timed steps per FlagellumSteer id and policy (default 20)")
     ap.add_argument("--episodes", type=int, default=1,
                     help="timed one-turn episodes per FlagellumTurn id and policy (default 1)")
-    ap.add_argument("--id", action="append", choices=list(ENV_IDS), default=None, help="an id (repeatable; default all)")
+    ap.add_argument("--id", action="append", choices=ALL_IDS, default=None, help="an id (repeatable; default all)")
     ap.add_argument("--json", type=Path, default=Path("docs/bench_env_ids.json"), help="output JSON file")
     args = ap.parse_args(argv)
     if args.steps < 1 or args.episodes < 1:
         ap.error("--steps and --episodes must be positive")
-    ids = args.id or list(ENV_IDS)
+    ids = args.id or ALL_IDS
     start = machine()
     rows = []
     with tqdm(total=len(ids) * len(POLICIES), unit="run") as bar:
