@@ -49,6 +49,18 @@ def _wait_for(proc: subprocess.Popen, ready, deadline_s: float = 180.0) -> None:
         time.sleep(0.2)
 
 
+def _busiest_cpu_s(proc: subprocess.Popen, n: int) -> list[float]:
+    """CPU seconds (user + system) of the ``n`` busiest child processes of ``proc`` (fewer if it has fewer)."""
+    cpu = []
+    for child in psutil.Process(proc.pid).children(recursive=True):
+        try:
+            times = child.cpu_times()
+        except psutil.NoSuchProcess:
+            continue
+        cpu.append(times.user + times.system)
+    return sorted(cpu, reverse=True)[:n] if len(cpu) >= n else []
+
+
 def _running_after(procs: list[psutil.Process], seconds: float) -> list[psutil.Process]:
     """Those of ``procs`` still running after ``seconds`` (an exited child of a killed parent may stay a zombie
     until its new parent reaps it: that counts as gone)."""
@@ -109,7 +121,9 @@ def test_an_interrupted_parallel_follow_writes_every_episode_so_far(tmp_path):
     kids: list[psutil.Process] = []
     try:
         _wait_for(proc, lambda: out.is_dir() and len(psutil.Process(proc.pid).children(recursive=True)) >= 2)
-        time.sleep(6.0)  # into both episodes
+        # into both episodes: the two busiest workers have each had 6 s of CPU (on an idle machine, ~6 s of wall
+        # time; counted in CPU so that a loaded machine does not interrupt an episode before its first step)
+        _wait_for(proc, lambda: min(_busiest_cpu_s(proc, 2), default=0.0) >= 6.0)
         kids = psutil.Process(proc.pid).children(recursive=True)
         proc.send_signal(signal.SIGTERM)
         stdout, err = proc.communicate(timeout=120)
