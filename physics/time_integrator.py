@@ -1,7 +1,8 @@
-"""Time discretisation of eqn (6) of Huang & Jawed 2020: implicit Euler and variable-step BDF2,
-with a local error estimate and a step-size controller.
+"""Time discretisation of eqn (6) of Huang & Jawed 2020: implicit Euler and variable-step BDF of order up to
+2, 3 or 4 (``NumericsConfig.integrator``: euler, bdf2, bdf3, bdf4), with a local error estimate and a step-size
+controller.
 
-Both schemes give the same nonlinear system as the paper's implicit Euler,
+Every scheme gives the same nonlinear system as the paper's implicit Euler,
 
     M (q - q^ - h_e v^) / h_e^2 + grad E(q) + P^T R (P (q - q^) / h_e - omega e_s) = 0,
 
@@ -9,11 +10,14 @@ only with different base values (q^, v^) and an effective step h_e, so the resid
 Jacobian M/h_e^2 + K + P^T R P / h_e and every solver are shared:
 
 * implicit Euler (order 1): h_e = h, q^ = q_n, v^ = v_n (eqn 6 as printed).
-* BDF2 (order 2; variable step, ratio w = h_n / h_{n-1}; Hairer & Wanner, *Solving ODEs II*,
-  Sec. III.5): v_{n+1} = a0 q_{n+1} + a1 q_n + a2 q_{n-1} with a0 = (1 + 2w) / (h (1 + w)),
-  a1 = -(1 + w) / h, a2 = w^2 / (h (1 + w)); the same formula for the acceleration from the
-  velocities. So h_e = 1 / a0, q^ = -(a1 q_n + a2 q_{n-1}) / a0, v^ = -(a1 v_n + a2 v_{n-1}) / a0.
-  BDF2 is L-stable like implicit Euler: the stiff elastic and twist modes are damped, not rung.
+* BDF of order k (variable step; Hairer & Wanner, *Solving ODEs II*, Sec. III.5): v_{n+1} = sum_j alpha_j
+  q(tau_j) over t_{n+1} and the last k accepted points, alpha_j the derivative at t_{n+1} of the Lagrange basis
+  polynomials (``bdf_coefficients``); the same formula for the acceleration from the velocities. So
+  h_e = 1 / alpha_0, q^ = -sum_{j>0} alpha_j q_j / alpha_0, likewise v^. For k = 2 with ratio w = h_n / h_{n-1}:
+  alpha = ((1 + 2w) / (h (1 + w)), -(1 + w) / h, w^2 / (h (1 + w))). BDF2 is L-stable like implicit Euler (the
+  stiff elastic and twist modes are damped, not rung); BDF3 and BDF4 are A(alpha)-stable (see
+  ``COLLAPSED_STEPS`` below for what is done when that shows). The order ramps up by one per step after a
+  restart (``scheme_order``).
 
 Local error (Milne's device): the predictor P is the polynomial through the last p + 1 accepted
 points (p = the order), evaluated at t_{n+1}. For a solution with smooth (p+1)-th derivative,
