@@ -66,7 +66,7 @@ class ResidualLimits:
     ``max_dtc_fraction`` (in (0, 1)), the burst phase by up to ``max_dphase_deg`` (degrees, > 0).
 
     The defaults are the first agent's (agents/configs/ppo_residual_coarse.yml): 5 % of the
-    burst and 15 degrees (until 2026-12-02 they were 25 % and 30 degrees, which no shipped agent used)."""
+    burst and 15 degrees."""
 
     max_dtc_fraction: float = 0.05
     max_dphase_deg: float = 15.0

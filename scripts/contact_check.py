@@ -2,9 +2,9 @@
 
     python scripts/contact_check.py [--runs balanced:90:100 paper:90:100 ...] [--workers 2]
 
-A run is PRESET:RPM:SECONDS[:off]; besides today's presets, ``balanced`` is the preset of that name retired on
-2026-12-02 (``paper`` at h = 20 ms, Newton tolerance 1e-5), kept here so the recorded runs can be repeated;
-the runs at ``coarse`` were recorded as ``fast``, its name until then.
+A run is PRESET:RPM:SECONDS[:off]; besides today's presets, ``balanced`` is a retired preset
+(``paper`` at h = 20 ms, Newton tolerance 1e-5), kept here so the recorded runs can be repeated;
+the runs at ``coarse`` were recorded under that configuration's earlier name, ``fast``.
                                     [--out docs/contact_check.json]
 
 Each run (PRESET:RPM:SECONDS[:off]) starts from rest at a constant motor speed, with contact on
