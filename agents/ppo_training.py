@@ -8,13 +8,15 @@ the curriculum; checkpoints with their VecNormalize statistics; tensorboard logs
 a wall-time budget. ``out_dir`` receives::
 
     config.yml          the configuration trained from
-    meta.json           mode, preset, commit, decisions, wall time, versions (updated at each save), and the
+    meta.json           mode, preset, the swimmer's head reading (``head_rotation``), commit, decisions, wall time,
+                        versions (updated at each save), and the
                         agent's env: ``env_id`` and ``make_kwargs`` (``gymnasium.make(env_id, **make_kwargs)``)
     model.zip           the final policy          vecnormalize.pkl  its normalisation statistics
     episodes.csv        one row per training episode (appended; survives resume)
     eval/evaluations.npz  EvalCallback's log (kept across resume)
     checkpoints/        rl_model_<n>_steps.zip + rl_model_vecnormalize_<n>_steps.pkl
     tb/                 tensorboard logs
+    training_curve.png  training episodes and validations against decisions (at the end of a run or a stop)
 
 ``resume=True`` continues from the newest checkpoint with its statistics, the decisions done and
 the wall time already spent. A config with ``init_from`` starts from that trained agent's policy
@@ -104,6 +106,15 @@ def agent_env(config: TrainConfig) -> tuple[str, dict[str, Any]]:
                     "random_path": dict(config.curriculum[-1].random_path),
                     # the rule planner's agents from before the choice existed store no "planner" (its default)
                     **({"planner": config.planner} if config.planner != "rule" else {})}
+
+
+def trained_head_rotation(preset: str, env_kwargs: dict[str, Any]) -> str:
+    """The reading of the head (``SwimmerParams.head_rotation``) of the swimmer an agent trains on: the preset's,
+    or the env's ``params`` override."""
+    from flagellum_env.config import make_config
+
+    physics = {k: v for k, v in env_kwargs.items() if k in ("params", "numerics")}
+    return make_config(preset=preset, **physics).physics()[0].head_rotation
 
 
 def _make_env(config: TrainConfig, rank: int, paths=None):
@@ -305,10 +316,23 @@ def train(config: TrainConfig, out_dir: str | Path, resume: bool = False, progre
         book.num_timesteps = decisions
         book.write_meta(final=not interrupted, interrupted=interrupted, defer_signals=False)
         _close(venv, eval_env, at_once=interrupted)
+    write_training_curve(out, config)
     result = TrainResult(out, decisions, spent_before + time.perf_counter() - t0, book.stopped, interrupted)
     if interrupted:
         raise TrainingInterrupted(result)
     return result
+
+
+def write_training_curve(out: Path, config: TrainConfig) -> Path | None:
+    """``out/training_curve.png``: the run's training episodes and validations (``agents.training_plots``);
+    None when no episode has been logged yet."""
+    from agents.training_plots import training_figure
+
+    if not (out / "episodes.csv").is_file() or (out / "episodes.csv").stat().st_size == 0:
+        return None
+    fig = training_figure(out, title=f"{config.name}: PPO residual on the {config.planner} planner, {config.preset}")
+    fig.savefig(out / "training_curve.png", dpi=110)
+    return out / "training_curve.png"
 
 
 def stop_vec_workers(vec) -> bool:
@@ -415,6 +439,7 @@ class _Bookkeeping(BaseCallback):
         env_id, make_kwargs = agent_env(self.config)
         self.meta.update({
             "name": self.config.name, "mode": MODE, "preset": self.config.preset, "turn_map": self.config.turn_map,
+            "head_rotation": trained_head_rotation(self.config.preset, self.config.env_kwargs),
             "planner": self.config.planner,
             "config": self.config.source, "n_envs": self.config.n_envs,
             "limits": dict(self.config.limits), "action_cost": self.config.action_cost,

@@ -1,15 +1,16 @@
 """docs/control.md and docs/control.json: the controllers on held-out paths and swimmers, and the shipped agent.
 
-    python scripts/control_report.py --eval DIR [DIR ...]
+    python scripts/control_report.py --eval DIR [DIR ...] [--controllers SPEC [SPEC ...]]
 
-Each DIR is a ``flagellum evaluate`` folder (its results.json) of the same paths at one level of model error, made
-by, for example::
+Each DIR is a ``flagellum evaluate`` folder (its results.json) of the same paths at one level of model error; several
+folders of one level (the same paths and swimmer seeds, other controllers) are merged. Made by, for example::
 
     python scripts/make_eval_paths.py --count 6 --seed0 11000 --out out/heldout/paths
     flagellum evaluate --paths out/heldout/paths --seed0 11000 --workers 2 [--randomize 0.05 | 0.1] \\
         --controller rule --controller adaptive --controller adaptive@line=2 --controller ppo --out out/heldout/LEVEL
 
-The shipped agent's facts come from its meta.json (package data); the prose is scripts/templates/control.md.
+``--controllers`` tabulates those controllers of the folders, in that order (default: all of them). The shipped
+agent's facts come from its meta.json (package data); the prose is scripts/templates/control.md.
 """
 
 from __future__ import annotations
@@ -25,6 +26,10 @@ from agents.evaluation_report import load_results
 from agents.turn_map import PLANNER_OMEGA_H_RPM
 
 TEMPLATE = Path(__file__).with_name("templates") / "control.md"
+#: What each reading of the head means, in the words of docs/validation.md.
+HEAD_READINGS = {"fixed": "the default: the head held against rotation, ω the flagellum's rate in the lab",
+                 "literal": "ω the flagellum's lab rate, the head spinning by eqn (13)",
+                 "torque_free": "ω relative to a counter-rotating head", "paper": "the printed eqns (10)-(11)"}
 AGENT = ("pretrained", "ppo_residual_adaptive")
 
 
@@ -42,27 +47,48 @@ def _pct(x: float) -> str:
     return f"{100 * x:.0f} %"
 
 
-def summarise(folders: list[Path]) -> dict[str, Any]:
-    """Per level: the controllers' aggregates and the paths each did not finish; ValueError if the folders do not
-    hold the same paths and controllers, or two hold the same level."""
-    levels: dict[str, Any] = {}
-    paths = controllers = None
+def summarise(folders: list[Path], only: list[str] | None = None) -> dict[str, Any]:
+    """Per level: the controllers' aggregates and the paths each did not finish. Folders of the same level (the same
+    paths, preset and swimmer seeds) are merged, each giving its controllers; ``only``: those controllers, in that
+    order. ValueError if a level's folders differ in paths, preset or seeds or give a controller twice, if the
+    levels do not hold the same paths and controllers, or if a controller of ``only`` is in none of them."""
+    merged: dict[str, dict[str, Any]] = {}
     for folder in folders:
         res = load_results(folder)
-        names = sorted({r["path"] for r in res["per_path"]})
-        ctrl = list(res["aggregate"])
-        if paths is not None and (names != paths or ctrl != controllers):
-            raise ValueError(f"{str(folder)!r} holds other paths or controllers than {str(folders[0])!r}")
-        paths, controllers = names, ctrl
         label = level_label(level_of(res))
-        if label in levels:
-            raise ValueError(f"two folders hold the level {label!r}: {levels[label]['folder']!r} and {str(folder)!r}")
-        lost = {c: sorted(r["path"] for r in res["per_path"] if r["controller"] == c and not r.get("success"))
-                for c in ctrl}
-        levels[label] = {"folder": str(folder), "level": level_of(res), "preset": res.get("preset"),
-                         "seeds": res.get("seeds", {}), "missing": res.get("missing", []),
-                         "aggregate": res["aggregate"], "not_finished": lost}
-    return {"paths": paths, "controllers": controllers,
+        key = {"paths": sorted({r["path"] for r in res["per_path"]}), "preset": res.get("preset"),
+               "seeds": res.get("seeds", {})}
+        lv = merged.setdefault(label, {"folders": [], "level": level_of(res), **key, "missing": [],
+                                       "aggregate": {}, "per_path": []})
+        if any(lv[k] != v for k, v in key.items()):
+            raise ValueError(f"{str(folder)!r} holds other paths, preset or seeds than {lv['folders'][0]!r} "
+                             f"(both {label})")
+        twice = sorted(set(res["aggregate"]) & set(lv["aggregate"]))
+        if twice:
+            raise ValueError(f"two folders hold the level {label!r} of controller {twice[0]!r}: "
+                             f"{lv['folders'][0]!r} and {str(folder)!r}")
+        lv["folders"].append(str(folder))
+        lv["aggregate"].update(res["aggregate"])
+        lv["per_path"] += res["per_path"]
+        lv["missing"] += res.get("missing", [])
+    first = next(iter(merged.values()), None)
+    for label, lv in merged.items():
+        if (lv["paths"], sorted(lv["aggregate"])) != (first["paths"], sorted(first["aggregate"])):
+            raise ValueError(f"{lv['folders'][0]!r} holds other paths or controllers than {first['folders'][0]!r}")
+    controllers = list(first["aggregate"]) if first else []
+    if only is not None:
+        unknown = [c for c in only if c not in controllers]
+        if unknown:
+            raise ValueError(f"--controllers {unknown[0]!r} is not in the folders; allowed: {controllers}")
+        controllers = list(only)
+    levels = {label: {"folder": ", ".join(lv["folders"]), "level": lv["level"], "preset": lv["preset"],
+                      "seeds": lv["seeds"], "missing": lv["missing"],
+                      "aggregate": {c: lv["aggregate"][c] for c in controllers},
+                      "not_finished": {c: sorted(r["path"] for r in lv["per_path"]
+                                                 if r["controller"] == c and not r.get("success"))
+                                       for c in controllers}}
+              for label, lv in merged.items()}
+    return {"paths": first["paths"] if first else [], "controllers": controllers,
             "levels": dict(sorted(levels.items(), key=lambda kv: kv[1]["level"]))}
 
 
@@ -123,9 +149,8 @@ def agent_facts() -> tuple[str, str, dict[str, Any]]:
              f"{meta['versions']['torch']}) in `{meta['env_id']}` at `{meta['preset']}` on the `{meta['planner']}` "
              f"planner, {meta['decisions']} decisions (planned turns) in {meta['wall_time_s'] / 60:.0f} min of wall "
              f"time with {meta['n_envs']} env workers on this 2-core machine"
-             f"{', stopped by its wall-time budget' if meta.get('stopped_by_wall_time_budget') else ''}. It was "
-             f"trained on the swimmer whose head counter-rotates (`head_rotation=torque_free`, the default then); the "
-             f"table above flies it on the current default, the head held.")
+             f"{', stopped by its wall-time budget' if meta.get('stopped_by_wall_time_budget') else ''}, on the "
+             f"swimmer with `head_rotation={meta['head_rotation']}` ({HEAD_READINGS[meta['head_rotation']]}).")
     training = (f"It was trained on randomised swimmers (E ±{100 * rnd.get('youngs_modulus', 0):g} %, μ "
                 f"±{100 * rnd.get('viscosity', 0):g} %, b ±{100 * rnd.get('head_radius', 0):g} %, the helix "
                 f"±{100 * rnd.get('geometry', 0):g} %, drawn per episode) on paths of {rp['n_waypoints'][0]}-"
@@ -139,10 +164,12 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--eval", nargs="+", type=Path, required=True, metavar="DIR",
                     help="flagellum evaluate folders of the same paths, one per level of model error")
+    ap.add_argument("--controllers", nargs="+", metavar="SPEC",
+                    help="the controllers to tabulate, in this order (default: every one in the folders)")
     ap.add_argument("--docs", type=Path, default=Path("docs"), help="where control.md and control.json go")
     args = ap.parse_args(argv)
     try:
-        summary = summarise(args.eval)
+        summary = summarise(args.eval, args.controllers)
     except ValueError as exc:
         print(f"control_report: {exc}", file=sys.stderr)
         return 2

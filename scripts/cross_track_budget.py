@@ -1,4 +1,4 @@
-"""Where the cross-track error of evaluated episodes is made (agents.cross_track_budget), per controller.
+"""Where the cross-track error of evaluated episodes is made (experiments.cross_track_budget), per controller.
 
     python scripts/cross_track_budget.py FOLDER [FOLDER ...] [--controller C ...] [--json OUT.json]
 
@@ -16,7 +16,7 @@ import json
 import sys
 from pathlib import Path
 
-from agents.cross_track_budget import budget_table, folder_budgets
+from experiments.cross_track_budget import budget_table, folder_budgets
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -3,7 +3,7 @@
 stable-baselines3 PPO with ``MlpPolicy`` and a fresh network, ``VecNormalize`` on observations and rewards, on
 the raw env: one action = the motor speed for ``control_dt`` simulated seconds (default 2 s), continuous by
 default; no planner, no turn map. Default task, "one-turn paths": one waypoint 10-16 cm from the start, 30-150
-deg off the initial heading, in the x-y plane, reach radius 1.5 cm. The library is ``agents.raw_ppo``.
+deg off the initial heading, in the x-y plane, reach radius 1.5 cm. The library is ``experiments.raw_ppo``.
 
 Usage::
 
@@ -47,7 +47,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from agents.ppo_config import HELD_OUT_SEED0, PPO_KEYS
-from agents.raw_ppo import (CONFIG_DEFAULTS, DEFAULT_TIMESTEPS, ENV_ID, ONE_TURN, OWN_PPO, resolve_run,
+from experiments.raw_ppo import (CONFIG_DEFAULTS, DEFAULT_TIMESTEPS, ENV_ID, ONE_TURN, OWN_PPO, resolve_run,
                             train_raw_ppo)
 from physics.presets import DEFAULT_PRESET, preset_names
 
@@ -112,7 +112,7 @@ def _json_option(ap: argparse.ArgumentParser, text: str | None, option: str) -> 
 
 def draw_learning_curve(out: Path) -> Path:
     """``out/learning_curve.png`` from ``out/progress.csv``; FileNotFoundError / ValueError when there is none."""
-    from agents.training_plots import raw_ppo_figure
+    from experiments.raw_ppo_plots import raw_ppo_figure
 
     meta_file = out / "meta.json"
     c = json.loads(meta_file.read_text(encoding="utf-8")).get("config", {}) if meta_file.is_file() else {}

@@ -67,3 +67,39 @@ def test_folders_of_other_controllers_or_the_same_level_are_refused(script, tmp_
     assert not (tmp_path / "docs").exists()
     assert script.main(["--eval", str(tmp_path / "none"), "--docs", str(tmp_path / "docs")]) == 2
     assert "holds no results.json" in capsys.readouterr().err
+
+
+def test_controllers_chooses_and_orders_the_rows(script, tmp_path, capsys):
+    ctrl = {"rule": (True, True), "ppo": (True, False), "ppo:old": (False, False)}
+    xte = {"rule": 0.5, "ppo": 0.7, "ppo:old": 2.0}
+    nominal = _folder(tmp_path, "a", 0.0, ctrl, xte)
+    docs = tmp_path / "docs"
+    assert script.main(["--eval", str(nominal), "--controllers", "ppo", "rule", "--docs", str(docs)]) == 0
+    text = (docs / "control.md").read_text()
+    assert text.index("| `ppo` |") < text.index("| `rule` |") and "ppo:old" not in text
+    data = json.loads((docs / "control.json").read_text())["heldout"]
+    assert data["controllers"] == ["ppo", "rule"]
+    assert list(data["levels"]["nominal"]["aggregate"]) == ["ppo", "rule"]
+    assert data["levels"]["nominal"]["not_finished"] == {"ppo": ["planar_1"], "rule": []}
+    assert script.main(["--eval", str(nominal), "--controllers", "horizon", "--docs", str(tmp_path / "d2")]) == 2
+    assert "--controllers 'horizon' is not in" in capsys.readouterr().err and not (tmp_path / "d2").exists()
+
+
+def test_the_agent_paragraph_names_its_head_reading(script):
+    agent, _, meta = script.agent_facts()
+    assert f"`head_rotation={meta['head_rotation']}`" in agent and meta["head_rotation"] in script.HEAD_READINGS
+
+
+def test_folders_of_one_level_merge_their_controllers(script, tmp_path, capsys):
+    planners = _folder(tmp_path, "p", 0.1, {"rule": (False, True)}, {"rule": 3.0})
+    agents = _folder(tmp_path, "a", 0.1, {"ppo": (True, True)}, {"ppo": 1.5})
+    docs = tmp_path / "docs"
+    assert script.main(["--eval", str(planners), str(agents), "--docs", str(docs)]) == 0
+    data = json.loads((docs / "control.json").read_text())["heldout"]
+    assert data["controllers"] == ["rule", "ppo"]
+    assert data["levels"]["±10 %"]["not_finished"] == {"rule": ["3d_1"], "ppo": []}
+    other = _folder(tmp_path, "o", 0.1, {"adaptive": (True, True)}, {"adaptive": 1.0})
+    res = json.loads((other / "results.json").read_text())
+    (other / "results.json").write_text(json.dumps({**res, "seeds": {p: 900 for p in PATHS}}))
+    assert script.main(["--eval", str(planners), str(other), "--docs", str(tmp_path / "d2")]) == 2
+    assert "other paths, preset or seeds" in capsys.readouterr().err and not (tmp_path / "d2").exists()

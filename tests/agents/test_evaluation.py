@@ -76,7 +76,7 @@ def test_seed0_draws_each_paths_swimmer_from_its_own_seed_and_the_report_pairs_t
     assert "env seeds 7-8" in text
     assert (tmp_path / "figures" / "short_paths.png").is_file()
     # the cross-track budget reads the same traces: its mean is the episodes' mean cross-track
-    from agents.cross_track_budget import budget_table, folder_budgets
+    from experiments.cross_track_budget import budget_table, folder_budgets
 
     b = folder_budgets(out)["rule"]
     assert b["episodes"] == 2

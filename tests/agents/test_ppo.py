@@ -123,10 +123,12 @@ def tiny_run(tmp_path_factory):
 def test_short_training_run_writes_an_agent_that_loads(tiny_run):
     out, result = tiny_run
     assert result.decisions == 3 and not result.stopped_by_budget
-    for name in ("model.zip", "vecnormalize.pkl", "meta.json", "episodes.csv", "eval/evaluations.npz"):
+    for name in ("model.zip", "vecnormalize.pkl", "meta.json", "episodes.csv", "eval/evaluations.npz",
+                 "training_curve.png"):
         assert (out / name).is_file(), name
     meta = json.loads((out / "meta.json").read_text())
     assert meta["mode"] == "residual" and meta["decisions"] == 3 and meta["finished"]
+    assert meta["head_rotation"] == "fixed"  # the default swimmer's reading (faithful)
     assert meta["limits"] == {"max_dtc_fraction": 0.1}
     with np.load(out / "eval" / "evaluations.npz") as d:
         assert list(d["timesteps"]) == [3]

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from agents.cross_track_budget import budget_of_episodes, cross_track_split
+from experiments.cross_track_budget import budget_of_episodes, cross_track_split
 
 
 def _trace():

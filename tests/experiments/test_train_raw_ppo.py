@@ -1,4 +1,4 @@
-"""scripts/train_raw_ppo.py (library: agents/raw_ppo.py): a tiny PPO run on the raw FlagellumSteer-v0 (coarse
+"""scripts/train_raw_ppo.py (library: experiments/raw_ppo.py): a tiny PPO run on the raw FlagellumSteer-v0 (coarse
 preset) writes SB3's progress.csv, VecMonitor's monitor.csv, a checkpoint per update and meta; a SIGTERM stops it
 cleanly after the finished updates; --resume goes on without losing or repeating rows; the learning curve is
 drawn; bad options are one-line errors with status 2."""
