@@ -26,7 +26,7 @@ from batch.store import ResultsStore, check_records_belong, check_same_run
 from batch.worker import PointOutcome
 from batch.pool import pending, run_tasks
 from agents.turn_measurement import TurnResult, phase_node_index
-from physics.geometry import layout_for
+from physics.model.geometry import layout_for
 from physics.params import RPM_TO_RAD_S, NumericsConfig, SwimmerParams
 
 class TurnsNotMeasured(RuntimeError):

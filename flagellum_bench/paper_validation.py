@@ -5,7 +5,7 @@ resume (``batch.pool.run_tasks``: local workers or a Dask cluster).
 Readings (``READINGS``; the head's rotation and its hydrodynamics, Sec. 2.4):
 
 * ``fixed`` (the default swimmer): the head does not spin, the flagellum base turns at omega in the lab frame,
-  reciprocal head flow forms (``physics.higdon_head``);
+  reciprocal head flow forms (``physics.hydro.higdon_head``);
 * ``torque_free``: the head spins per the torque balance, eqn (13), omega relative to the head, reciprocal forms;
 * ``paper``: as ``fixed``, with the head flow and force of eqns (10)-(11) as printed;
 * ``stokes_head``: as ``fixed``, with the head's own Stokes drag (eqn 12) and no head-flagellum flow

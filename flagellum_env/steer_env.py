@@ -20,7 +20,7 @@ from flagellum_env.start_frame import StartFrame
 from flagellum_env.steady_start import SteadyStart, get_steady_start
 from flagellum_env.tracking import BucklingMonitor, PathTracker
 from physics.errors import SimulationError, is_interrupt
-from physics.geometry import layout_for
+from physics.model.geometry import layout_for
 from physics.params import RPM_TO_RAD_S, SwimmerParams
 from physics.run import advance
 from physics.simulator import Simulator

@@ -134,7 +134,7 @@ class NumericsConfig:
     integrator: str = _f("euler", "-", "implicit scheme of eqn (6): euler (implicit Euler, first order, as in the "
                          "paper), or variable-step BDF up to order 2, 3 or 4: bdf2 (L-stable), bdf3, bdf4 (stable on the "
                          "overdamped modes of this rod; the order ramps up after every restart; "
-                         "physics/time_integrator.py)",
+                         "physics/integrate/time_integrator.py)",
                          choices=("euler", "bdf2", "bdf3", "bdf4"))
     step_tol: float = _f(0.0, "-", "adaptive time stepping: the local error of each step is kept below this "
                          "fraction of the rod radius (positions) and radians (twists); 0 = fixed steps of dt",
@@ -158,8 +158,8 @@ class NumericsConfig:
                                choices=("stall", "resistance"))
     newton_krylov: bool = _f(False, "-", "solve the steps at which the hydrodynamic resistance is rebuilt (the shape "
                              "has changed: buckling, relaxation) by Newton-Krylov in the mobility form "
-                             "(physics/newton_krylov.py: no dense factorisation); the other steps keep the chord "
-                             "iteration on the reused factorisation (lsbt only)")
+                             "(physics/solvers/newton_krylov.py: no dense factorisation); the other steps keep the "
+                             "chord iteration on the reused factorisation (lsbt only)")
     single_iteration: bool = _f(False, "-", "take exactly one Newton iteration per step (linearly implicit "
                                 "Euler): fastest, first-order accurate, no convergence check")
     anderson_depth: int = _f(4, "-", "Anderson acceleration depth of the Newton/chord iteration (0 = off)", 0, 20)
@@ -170,14 +170,14 @@ class NumericsConfig:
     rft_coefficients: str = _f("lighthill", "-", "drag coefficients of the rft model",
                                choices=("lighthill", "gray_hancock"))
     contact: bool = _f(True, "-", "head-rod and rod-rod contact (penalty energies in the implicit step, "
-                       "physics/contact.py); false only for comparison: the rod can then pass through the "
+                       "physics/forces/contact.py); false only for comparison: the rod can then pass through the "
                        "head and itself")
     contact_stiffness: float = _f(0.1, "N", "contact force at zero gap (the penalty's scale)", 0.0, None, True)
     contact_margin: float = _f(0.25, "-", "activation distance of the contact penalty, in units of the rod "
                                "radius r0 (the force rises from 0 at this gap)", 0.0, 10.0, True)
     near_field_radius: float = _f(1.5, "-", "radius a of the RPY near-field kernel that replaces eqn (8)'s "
                                   "Stokeslet between strands that come close, in units of r0 (0 = plain eqn 8; "
-                                  "physics/lsbt.py)", 0.0, 10.0)
+                                  "physics/hydro/lsbt.py)", 0.0, 10.0)
 
     def __post_init__(self) -> None:
         for name in ("newton_max_iter", "hydro_refresh_max_steps", "max_substeps", "anderson_depth"):

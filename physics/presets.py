@@ -9,8 +9,8 @@ Newton-Krylov (the same solution to the Newton tolerance, 1.4x faster in a burst
 
 ``faithful`` (the default everywhere: ``DEFAULT_PRESET``) is the paper's swimmer on the paper's
 grid, integrated by variable-step BDF3 with the local error per step held below ``step_tol``
-(``physics.time_integrator``); steps at which the shape has changed (the resistance is rebuilt:
-buckling, relaxation) are solved by Newton-Krylov in the mobility form (``physics.newton_krylov``),
+(``physics.integrate.time_integrator``); steps at which the shape has changed (the resistance is rebuilt:
+buckling, relaxation) are solved by Newton-Krylov in the mobility form (``physics.solvers.newton_krylov``),
 the others by the chord iteration on the reused dense factorisation; ``dt`` = 0.1 s is the sampling /
 control step inside which the adaptive steps are taken. ``fast`` is the same grid and scheme with a
 looser error tolerance. ``reference`` is the converged swimmer every preset's error is measured against:

@@ -250,7 +250,7 @@ def advance(sim: Any, duration_s: float | None = None, *, steps: int | None = No
         if (isinstance(duration_s, bool) or not isinstance(duration_s, Real) or not math.isfinite(duration_s)
                 or duration_s < 0.0):
             raise ValueError(f"duration_s={duration_s!r} is not allowed; allowed: a finite time >= 0 s")
-        from physics.time_integrator import step_spans
+        from physics.integrate.time_integrator import step_spans
 
         todo = step_spans(duration_s, sim.numerics)
     k = 0
@@ -313,7 +313,7 @@ def run_simulation(params: SwimmerParams, numerics: NumericsConfig, schedule: Mo
     Ctrl-C, SIGTERM and ``SimulationError`` end the run early (a signal after the current step,
     ``stop_requests``); the result keeps what was computed and says why in ``interrupted`` / ``error``.
     """
-    from physics.geometry import layout_for
+    from physics.model.geometry import layout_for
 
     n_steps = validate_run_arguments(numerics, duration_s, record_interval_s, node_record_interval_s,
                                      n_nodes=layout_for(params).n)

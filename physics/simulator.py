@@ -6,7 +6,7 @@ Time stepping discretises eqn (6) of Huang & Jawed 2020 implicitly,
 
 with the hydrodynamic force *implicit in the velocity* (the paper lags it, eqn 7, which is
 unstable at h = 1 ms for this rod: h * drag / mass ~ 8 > 2). The base values q^, v^ and the
-effective step h_e come from the scheme (``physics.time_integrator``): implicit Euler (the paper's,
+effective step h_e come from the scheme (``physics.integrate.time_integrator``): implicit Euler (the paper's,
 ``integrator="euler"``) or variable-step BDF of order up to 2, 3 or 4 (``bdf2``, ``bdf3``, ``bdf4``;
 the presets ``faithful`` and ``fast`` use BDF3), with error-controlled steps inside each ``dt`` when
 ``step_tol`` > 0. R is the generalised resistance (``hydrodynamics`` for LSBT + head, ``rft`` for
@@ -21,7 +21,7 @@ factorisation). A failing fixed step
 is halved up to ``max_substeps`` times, a failing adaptive step retried at a quarter, before a
 ``SimulationError`` names the step, time and quantity.
 
-Contact (``physics.contact``, on unless ``numerics.contact`` is false): head-rod and rod-rod
+Contact (``physics.forces.contact``, on unless ``numerics.contact`` is false): head-rod and rod-rod
 penalty energies join the elastic energy in eqn (6): their gradient is in the residual, their
 Hessian in every Jacobian the solvers factorise. Their broad phase runs once per step, padded by the step's
 predicted motion, and is redone within the step if an iterate leaves its boxes.
@@ -55,21 +55,21 @@ import numpy as np
 
 from physics.elastic import rest_from_configuration, rod_frames
 from physics.errors import SimulationError, StepFailed
-from physics.geometry import edge_stretch_extremes, initial_nodes, layout_for, nodes_of, pack_q
-from physics.anderson import AndersonMixing
-from physics.body_frame import transported_body_frame
-from physics.chord_iteration import chord_solve, compiled_chord_applies
-from physics.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS, ContactModel
-from physics.force_terms import scene_for
-from physics.higdon_head import head_spin_map
-from physics.hydrodynamics import HydroError
-from physics.implicit_residual import block_max_abs, forces_converged
-from physics.krylov_span import SPAN_AFTER_ACCEPT, SPAN_DONE, krylov_span_applies, run_krylov_span
+from physics.model.geometry import edge_stretch_extremes, initial_nodes, layout_for, nodes_of, pack_q
+from physics.solvers.anderson import AndersonMixing
+from physics.model.body_frame import transported_body_frame
+from physics.solvers.chord_iteration import chord_solve, compiled_chord_applies
+from physics.forces.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS, ContactModel
+from physics.forces.force_terms import scene_for
+from physics.hydro.higdon_head import head_spin_map
+from physics.hydro.hydrodynamics import HydroError
+from physics.solvers.implicit_residual import block_max_abs, forces_converged
+from physics.solvers.krylov_span import SPAN_AFTER_ACCEPT, SPAN_DONE, krylov_span_applies, run_krylov_span
 from physics.params import NumericsConfig, SwimmerParams, check_combination
-from physics.step_context import StepContext, SystemDescription
-from physics.step_solvers import BandedNewtonSolver, DenseChordSolver
+from physics.forces.step_context import StepContext, SystemDescription
+from physics.solvers.step_solvers import BandedNewtonSolver, DenseChordSolver
 from physics.threads import one_blas_thread
-from physics.time_integrator import (COLLAPSED_STEPS, EXTRAPOLATION_POINTS, MAX_STEPS_PER_SPAN, SAFETY,
+from physics.integrate.time_integrator import (COLLAPSED_STEPS, EXTRAPOLATION_POINTS, MAX_STEPS_PER_SPAN, SAFETY,
                                      SCHEME_ORDER, SHRINK_MIN, ContractionRate, History, StepBase, error_norm,
                                      extrapolate, next_step, split_remaining, step_base, step_spans, velocity_of)
 
@@ -129,17 +129,17 @@ class Simulator:
     """Head + flagellum swimmer (Huang & Jawed 2020). SI units throughout.
 
     The equations of motion are eqn (6) with the hydrodynamic force implicit in the velocity (module doc). Its
-    terms are the scene's (``self.scene``, ``physics.force_terms``): elastic (eqns 5a-5c), contact (when
+    terms are the scene's (``self.scene``, ``physics.forces.force_terms``): elastic (eqns 5a-5c), contact (when
     ``numerics.contact``), inertia, and LSBT + head (eqns 8-13) or local RFT drag; the solvers read the static
-    ``self.system`` (``physics.step_context.SystemDescription``) and each step's ``step_context(h)``.
+    ``self.system`` (``physics.forces.step_context.SystemDescription``) and each step's ``step_context(h)``.
 
-    Integrator (``physics.time_integrator``): ``numerics.integrator`` = implicit Euler (the paper's) or
+    Integrator (``physics.integrate.time_integrator``): ``numerics.integrator`` = implicit Euler (the paper's) or
     variable-step BDF of order up to 2, 3 or 4 (``faithful``: BDF3). With ``step_tol`` > 0 every ``dt`` is
     covered by error-controlled steps (Milne's estimate, node positions in r0 and twists in rad; the order
     ramps up from implicit Euler at ``h_start`` after each start or motor-speed change; a step is retried at a
     smaller h when the estimate or the solve fails); with ``step_tol`` = 0 by one step of dt, halved up to
     ``max_substeps`` times. Each step solves the residual at the scheme's base values q^, v^ and effective step
-    h_e, by one of two solvers (``physics.step_solvers``):
+    h_e, by one of two solvers (``physics.solvers.step_solvers``):
 
     * while the LSBT resistance is reused through a rigid rotation (steady swimming): the chord iteration on
       the reused dense LU of M/h^2 + K + P^T R P / h, rotated with the swimmer, compiled end to end
@@ -199,7 +199,7 @@ class Simulator:
         self.stats = StepStats()
         self._v_prev: np.ndarray | None = None
         self._h_prev = -1.0
-        # time integration (physics.time_integrator): the history of accepted points for BDF2 and the
+        # time integration (physics.integrate.time_integrator): the history of accepted points for BDF2 and the
         # error estimate, restarted at every kink of the motion (a start or a motor-speed change)
         self._history = History()
         self._restart = True
@@ -227,7 +227,7 @@ class Simulator:
             head_spins=self.head_spins, pos=self._pos, twist=self._twist, free_twist=self._free_twist,
             weights=self._anderson_weights, rest=self.rest_arrays, f_floor=self._f_floor,
             contact_model=self.contact.model if self.contact is not None else None)
-        #: the force terms of eqn (6) this configuration needs (``physics.force_terms``)
+        #: the force terms of eqn (6) this configuration needs (``physics.forces.force_terms``)
         self.scene = scene_for(self.system)
         # chord-iteration caches
         solver = DenseChordSolver if self.numerics.hydro_model == "lsbt" else BandedNewtonSolver
@@ -374,7 +374,7 @@ class Simulator:
 
     def min_gaps(self) -> tuple[float, float]:
         """(smallest rod-rod gap d - 2 r0 over non-adjacent edges, smallest head gap d - b - r0), m,
-        of the current shape (a diagnostic over all pairs; see ``physics.contact``)."""
+        of the current shape (a diagnostic over all pairs; see ``physics.forces.contact``)."""
         model = self.contact or ContactModel(self.rest.l_bar, self.params.rod_radius, self.params.head_radius,
                                              self.numerics.contact_margin, self.numerics.contact_stiffness)
         return model.gaps(self.nodes)
@@ -404,7 +404,7 @@ class Simulator:
         return float(np.max(np.abs(z) * self._anderson_weights))
 
     def step_context(self, h: float) -> StepContext:
-        """The step being taken as the force terms see it (``physics.force_terms``), at the effective step h (s):
+        """The step being taken as the force terms see it (``physics.forces.force_terms``), at the effective step h (s):
         the scheme's base values, the frames and configuration of the step's start, the current contact state and
         the solver's resistance for this step."""
         b = self._base
@@ -456,7 +456,7 @@ class Simulator:
     def _try_step(self, base: StepBase):
         p = self.params
         q = self._step_start(base)
-        h = base.h_eff  # the solvers see the effective step of the scheme (physics.time_integrator)
+        h = base.h_eff  # the solvers see the effective step of the scheme (physics.integrate.time_integrator)
         self._solver.begin_step(q, h)
         if self._solver.krylov:  # the resistance was rebuilt: Newton-Krylov in the mobility form
             self.stats.krylov_steps += 1
@@ -540,8 +540,9 @@ class Simulator:
         self._commit(q, base, grad, f, t, d1, rt)
 
     def _adaptive(self, dt: float) -> None:
-        """Error-controlled steps (physics.time_integrator) that end exactly at time + dt. Runs of Newton-Krylov
-        steps go to one compiled call (``krylov_span``, bit-identical), which hands any other attempt back here."""
+        """Error-controlled steps (physics.integrate.time_integrator) that end exactly at time + dt. Runs of
+        Newton-Krylov steps go to one compiled call (``krylov_span``, bit-identical), which hands any other attempt
+        back here."""
         nm = self.numerics
         t_end = self.time + dt
         rejected = False

@@ -1,7 +1,7 @@
 """Cost of the buckling burst against the Newton-Krylov preconditioner's mobility band.
 
-``physics.newton_krylov.MOBILITY_BAND_NODES``: the preconditioner keeps the LSBT mobility's entries between nodes
-at most this many apart. Protocol: ``faithful`` swims 26 s at 10 rpm (settled; not timed), then, from a copy of
+``physics.solvers.newton_krylov.MOBILITY_BAND_NODES``: the preconditioner keeps the LSBT mobility's entries between
+nodes at most this many apart. Protocol: ``faithful`` swims 26 s at 10 rpm (settled; not timed), then, from a copy of
 that state for each band, 7.5 s at 150 rpm (the burst of ``scripts/bench_phases.py``). Per band: CPU seconds
 (``time.process_time``, median of the repeats after an untimed warm-up), real-time factor, steps, GMRES iterations
 per Newton-Krylov step, residuals per step, and the largest node-position difference of the end state from the
@@ -26,9 +26,9 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-import physics.newton_krylov as newton_krylov
+import physics.solvers.newton_krylov as newton_krylov
 from physics import Simulator, advance, configure
-from physics.geometry import nodes_of
+from physics.model.geometry import nodes_of
 from physics.params import RPM_TO_RAD_S
 
 

@@ -7,7 +7,7 @@ Sec. 2.2 of the paper: node x0 is the head centre, e0 (length b) points along -X
 "all the remaining nodes (x2 ... x_{N-1})" lie on the helix with edges 2 delta, and "this discrete
 formulation of LSBT requires that the length of each edge be 2 delta, resulting in a total node
 number of N = 122". So N counts the head centre and the arm node: 120 helix nodes, 119 chords of
-2 delta (this project's layout, ``physics.geometry``). Sec. 2.1 gives L = 13 cm axial length and
+2 delta (this project's layout, ``physics.model.geometry``). Sec. 2.1 gives L = 13 cm axial length and
 "a contour length l = 20 cm". The variants below keep R, lambda and the 2 delta chord and change only
 how many chords there are (and so the axial length), or where the helix ends (its final phase).
 
@@ -16,7 +16,7 @@ For each variant, rigid swimmer, 10 rpm, b = 1.2 cm, no contact involved (nothin
   its axis while held in place, N/(rad/s), and B / (mu L_ax^2) (nondimensional);
 * distance per motor turn with the head, for the torque-free reading (head spinning per eqn 13,
   reciprocal head forms) and for the paper's (head not spinning, eqns 10-11 as printed), cm.
-Both from the generalised resistance of ``physics.hydrodynamics`` (LSBT with the default smoothing;
+Both from the generalised resistance of ``physics.hydro.hydrodynamics`` (LSBT with the default smoothing;
 and raw eqn 8 without smoothing for the thrust coefficient).
 """
 
@@ -29,8 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from physics.geometry import helix_phase_step
-from physics.hydrodynamics import resistance_matrix
+from physics.model.geometry import helix_phase_step
+from physics.hydro.hydrodynamics import resistance_matrix
 from physics.params import RPM_TO_RAD_S, NumericsConfig, SwimmerParams
 
 P = SwimmerParams()
@@ -99,7 +99,7 @@ def rigid_drops() -> dict[str, list[float]]:
     """Drop of the rigid swimmer's distance per turn against b = 0 for b = 0.4, 0.8, 1.2 cm (%), head
     not spinning, for three head models: the printed forms (the paper's reading), the reciprocal forms,
     and the head's own Stokes drag with no head-flagellum flow coupling."""
-    from physics.hydrodynamics import ResistanceOperator
+    from physics.hydro.hydrodynamics import ResistanceOperator
 
     def speed(b: float, printed: bool, coupling: bool) -> float:
         x = nodes(119, b)

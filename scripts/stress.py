@@ -53,7 +53,7 @@ def run_corner(name: str, changes: dict, duration: float, max_steps: int) -> dic
     import numpy as np
 
     from physics.errors import SimulationError
-    from physics.geometry import nodes_of
+    from physics.model.geometry import nodes_of
     from physics.params import RPM_TO_RAD_S, NumericsConfig, SwimmerParams, apply_overrides
     from physics.simulator import Simulator
 

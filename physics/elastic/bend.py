@@ -13,7 +13,7 @@ theta_f]`` and then mapped to the nodes; the edge-pair geometry, that map and th
 helpers are shared with ``twist.py`` in ``edge_pair.py``.
 
 The kernels are allocation-free: 3-vectors are 3-tuples of floats (see
-``physics.frames.vcross``) and :func:`bend_into` adds into scratch arrays the caller
+``physics.model.frames.vcross``) and :func:`bend_into` adds into scratch arrays the caller
 allocates once. Only the per-element :func:`bend_energy_grad_hess` allocates.
 """
 
@@ -23,7 +23,7 @@ import numpy as np
 from numba import njit
 
 from physics.elastic.edge_pair import add_block, edge_pair_geom, edge_pair_result
-from physics.frames import dot3, vcross, vec
+from physics.model.frames import dot3, vcross, vec
 
 
 @njit(cache=True)

@@ -12,7 +12,7 @@ nodes ``x0, x1, x2`` with edges ``e = x1 - x0``, ``f = x2 - x1`` and local DOF o
 - :func:`add_block`, :func:`add_block2`: 3x3 block updates of ``Hy`` with one
   read-modify-write per entry.
 
-3-vectors are 3-tuples of floats (see ``physics.frames.vcross``); only
+3-vectors are 3-tuples of floats (see ``physics.model.frames.vcross``); only
 :func:`edge_pair_result` allocates.
 """
 
@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit
 
 from physics.elastic.banded import add_band
-from physics.frames import dot3, vcross
+from physics.model.frames import dot3, vcross
 
 # Column c of the (8, 11) map dy/dq_local: up to two (row, coefficient) pairs.
 _MAP_ROW = np.array(

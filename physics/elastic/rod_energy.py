@@ -23,7 +23,7 @@ from physics.elastic.bend import bend_into, material_curvatures
 from physics.elastic.edge_pair import edge_pair_geom, edge_pair_scatter
 from physics.elastic.stretch import stretch_into
 from physics.elastic.twist import twist_into
-from physics.frames import (
+from physics.model.frames import (
     material_frames,
     reference_twist,
     row3,
@@ -94,7 +94,7 @@ def rod_frames(
     Returns ``(t, d1, d2, ref_twist, m1, m2)``.
 
     Same results as ``tangents``, ``time_parallel_transport``, ``reference_twist`` and
-    ``material_frames`` in sequence (see :func:`physics.frames.update_frames`).
+    ``material_frames`` in sequence (see :func:`physics.model.frames.update_frames`).
     """
     return update_frames(q, d1_old, t_old, ref_twist_old)
 

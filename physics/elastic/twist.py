@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from physics.elastic.edge_pair import add_block2, edge_pair_geom, edge_pair_result
-from physics.frames import vcross, vec
+from physics.model.frames import vcross, vec
 
 
 @njit(cache=True)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from physics.elastic.rod_energy import rod_frames
-from physics.frames import reference_twist
+from physics.model.frames import reference_twist
 
 
 def unit(v: np.ndarray) -> np.ndarray:

@@ -12,7 +12,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from physics.elastic.bend import bend_energy_grad_hess, material_curvatures
-from physics.frames import tangents
+from physics.model.frames import tangents
 from tests.physics.der_helpers import (
     RandomEdgePair,
     assert_node_forces_rotate,

@@ -1,4 +1,4 @@
-"""physics/body_frame.py: the compiled transport of the head's body frame against its defining properties."""
+"""physics/model/body_frame.py: the compiled transport of the head's body frame against its defining properties."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from physics.body_frame import rotate_about, transport, transported_body_frame
+from physics.model.body_frame import rotate_about, transport, transported_body_frame
 
 
 def test_transport_is_the_minimal_rotation_and_rotate_about_is_rodrigues():

@@ -1,4 +1,4 @@
-"""The compiled chord iteration (physics/chord_iteration.py) against the Python iteration it replaces
+"""The compiled chord iteration (physics/solvers/chord_iteration.py) against the Python iteration it replaces
 (``Simulator._chord_python``), bit for bit, from the same step set-up: a steady step on the kept inverse, a step
 whose resistance forms its inverse inside the iteration, a stall (refactorisation, then resumed), a stall that
 ends in failure, and a buckled step with contact; and the BLAS / LAPACK calls of compiled code against NumPy's
@@ -14,8 +14,8 @@ import scipy.linalg
 from scipy.linalg import lapack
 
 from physics import Simulator, advance, configure
-from physics.chord_iteration import chord_solve, compiled_chord_applies
-from physics.compiled_lapack import NUMPY_BLAS, getrs, numpy_dot, numpy_matvec, potrs_upper
+from physics.solvers.chord_iteration import chord_solve, compiled_chord_applies
+from physics.linalg.compiled_lapack import NUMPY_BLAS, getrs, numpy_dot, numpy_matvec, potrs_upper
 from physics.errors import StepFailed
 from physics.params import RPM_TO_RAD_S
 

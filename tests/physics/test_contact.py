@@ -1,4 +1,4 @@
-"""Contact energies (physics/contact.py): derivatives against finite differences, the broad
+"""Contact energies (physics/forces/contact.py): derivatives against finite differences, the broad
 phase against brute force, and swimmers pushed onto the head and onto themselves keeping
 their gap."""
 
@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from physics.contact import ContactModel, add_blocks_to_dense, candidate_pairs, contact_kernel
+from physics.forces.contact import ContactModel, add_blocks_to_dense, candidate_pairs, contact_kernel
 
 R0 = 1e-3
 EPS = 0.25 * R0
@@ -118,7 +118,7 @@ def test_broad_phase_finds_every_pair_within_reach():
 
 def test_straight_swimmer_has_no_contact_work():
     """The undeformed helix: no candidate pair, no head candidate, no energy."""
-    from physics.geometry import initial_nodes
+    from physics.model.geometry import initial_nodes
     from physics.params import SwimmerParams
 
     p = SwimmerParams()
@@ -139,7 +139,7 @@ class _Pulled:
 
     @staticmethod
     def make(i: int, j: int, force: float, contact: bool):
-        from physics.geometry import nodes_of
+        from physics.model.geometry import nodes_of
         from physics.params import NumericsConfig, SwimmerParams
         from physics.simulator import Simulator
 
@@ -189,7 +189,7 @@ def test_rod_pulled_onto_itself_keeps_its_gap():
 
 def _within_reach_reference(x, pairs, reach):
     """``within_reach`` as first written (closest points of every pair, no box bound): the reference."""
-    from physics.contact import _closest_params
+    from physics.forces.contact import _closest_params
 
     keep = np.zeros(pairs.shape[0], dtype=bool)
     for p, (i, j) in enumerate(pairs):
@@ -205,7 +205,7 @@ def test_within_reach_with_its_box_bound_keeps_exactly_the_pairs_of_the_closest_
     axis-aligned at reach x (1 +- 1e-7, 1e-12), where the box bound is as tight as it gets), far from the origin too:
     the box lower bound never drops a pair the closest-point test keeps, in ``within_reach`` or in
     ``contact_kernel``."""
-    from physics.contact import within_reach
+    from physics.forces.contact import within_reach
 
     rng = np.random.default_rng(11)
     reach = 2.75e-3
@@ -242,7 +242,7 @@ def test_within_reach_with_its_box_bound_keeps_exactly_the_pairs_of_the_closest_
 def test_buffered_pair_and_head_distances_are_the_array_expressions_bit_for_bit():
     """``_pair_sq_distance`` / ``_head_sq_distance`` (the rejection tests of ``contact_kernel`` in buffers) give
     exactly what the array expressions they replaced give: (s, t, |w|^2) and (t, |w|^2)."""
-    from physics.contact import _closest_params, _head_sq_distance, _pair_sq_distance
+    from physics.forces.contact import _closest_params, _head_sq_distance, _pair_sq_distance
 
     rng = np.random.default_rng(12)
     x = np.ascontiguousarray(np.cumsum(rng.normal(size=(25, 3)) * 1.2e-3, axis=0) + 0.3)

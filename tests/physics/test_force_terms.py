@@ -1,4 +1,4 @@
-"""The force terms of eqn (6) behind one interface (physics/force_terms.py): each term's Jacobian action against
+"""The force terms of eqn (6) behind one interface (physics/forces/force_terms.py): each term's Jacobian action against
 central differences of its force on bent, buckled configurations; the scene's residual against the fused compiled
 kernels the solvers run (bit for bit) with and without contact, head, LSBT and RFT; the scene's Jacobian action
 against the direct solver's assembled dense Jacobian, the mobility form's Jacobian-vector product and the RFT
@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 from physics import Simulator, advance, configure
-from physics.force_terms import Contact, Elastic, Hydrodynamics, Inertia, Scene, StepResistance, scene_for
-from physics.implicit_residual import (assemble_residual, generalised_velocity, internal_forces_at,
+from physics.forces.force_terms import Contact, Elastic, Hydrodynamics, Inertia, Scene, StepResistance, scene_for
+from physics.solvers.implicit_residual import (assemble_residual, generalised_velocity, internal_forces_at,
                                        rotate_dense_blocks)
-from physics.newton_krylov import head_flow_apply
+from physics.solvers.newton_krylov import head_flow_apply
 from physics.params import RPM_TO_RAD_S
-from physics.step_context import compiled_contact_args
+from physics.forces.step_context import compiled_contact_args
 
 CASES = {
     # name: (overrides, rpm, seconds); N = 40 nodes, the faithful preset (BDF3, Newton-Krylov where the shape changes)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from physics.frames import (
+from physics.model.frames import (
     material_frames,
     parallel_transport,
     reference_twist,

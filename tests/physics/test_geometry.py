@@ -1,4 +1,4 @@
-"""physics/geometry.py: the compiled edge-stretch check the step uses to reject a step, against NumPy."""
+"""physics/model/geometry.py: the compiled edge-stretch check the step uses to reject a step, against NumPy."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from physics.geometry import edge_stretch_extremes, nodes_of
+from physics.model.geometry import edge_stretch_extremes, nodes_of
 
 
 def test_edge_stretch_extremes_match_numpy():

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from physics.geometry import initial_nodes
-from physics.higdon_head import head_flow_operators, head_spin_map
-from physics.hydrodynamics import resistance_matrix
+from physics.model.geometry import initial_nodes
+from physics.hydro.higdon_head import head_flow_operators, head_spin_map
+from physics.hydro.hydrodynamics import resistance_matrix
 from physics.params import SwimmerParams
 
 P = SwimmerParams()

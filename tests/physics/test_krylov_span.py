@@ -1,5 +1,5 @@
-"""The compiled Newton-Krylov span (physics/krylov_span.py) against the Python step it replaces, bit for bit: whole
-runs with and without it (burst and relaxation, a fixed head in contact with rejected steps, collapsed BDF3 steps
+"""The compiled Newton-Krylov span (physics/solvers/krylov_span.py) against the Python step it replaces, bit for bit:
+whole runs with and without it (burst and relaxation, a fixed head in contact with rejected steps, collapsed BDF3 steps
 handed back for the order reduction), a failing attempt handed back to Python, and where the span applies."""
 
 from __future__ import annotations
@@ -11,9 +11,9 @@ import pytest
 
 import physics.simulator as simulator_module
 from physics import Simulator, SimulationError, configure
-from physics.compiled_lapack import NUMPY_BLAS
-from physics.hydrodynamics import ResistanceOperator
-from physics.krylov_span import (SPAN_AFTER_ACCEPT, SPAN_CHORD, SPAN_COUNTERS, SPAN_DONE, SPAN_FAILED,
+from physics.linalg.compiled_lapack import NUMPY_BLAS
+from physics.hydro.hydrodynamics import ResistanceOperator
+from physics.solvers.krylov_span import (SPAN_AFTER_ACCEPT, SPAN_CHORD, SPAN_COUNTERS, SPAN_DONE, SPAN_FAILED,
                                  krylov_span_applies)
 from physics.params import RPM_TO_RAD_S
 

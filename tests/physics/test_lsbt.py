@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from physics.geometry import initial_nodes
-from physics.hydrodynamics import resistance_matrix
-from physics.lsbt import mobility_for
+from physics.model.geometry import initial_nodes
+from physics.hydro.hydrodynamics import resistance_matrix
+from physics.hydro.lsbt import mobility_for
 from physics.params import SwimmerParams
 
 P = SwimmerParams()
@@ -85,7 +85,7 @@ def test_lower_blocks_are_the_upper_blocks_and_tangents_are_normalised_edge_sums
     itself, not its transpose (bit for bit, also in the near field, where c_iso I + c_rr r r is symmetric only
     up to rounding; every entry is written, the matrix starts uninitialised); ``node_tangents`` is the normalised
     sum of the adjacent unit edges."""
-    from physics.lsbt import lsbt_mobility, node_tangents
+    from physics.hydro.lsbt import lsbt_mobility, node_tangents
 
     r0 = P.rod_radius
     m = 40

@@ -1,5 +1,5 @@
-"""The near-field kernel of the LSBT mobility (physics/lsbt.py) and the head forms as printed
-(physics/higdon_head.py): positive definite wherever contact lets the rod go, unchanged where
+"""The near-field kernel of the LSBT mobility (physics/hydro/lsbt.py) and the head forms as printed
+(physics/hydro/higdon_head.py): positive definite wherever contact lets the rod go, unchanged where
 strands stay apart."""
 
 from __future__ import annotations
@@ -9,10 +9,10 @@ import math
 import numpy as np
 import pytest
 
-from physics.geometry import initial_nodes
-from physics.higdon_head import head_flow_operators, head_operators_as_printed
-from physics.hydrodynamics import resistance_matrix
-from physics.lsbt import mobility_for, near_field_weight, rpy_coefficients
+from physics.model.geometry import initial_nodes
+from physics.hydro.higdon_head import head_flow_operators, head_operators_as_printed
+from physics.hydro.hydrodynamics import resistance_matrix
+from physics.hydro.lsbt import mobility_for, near_field_weight, rpy_coefficients
 from physics.params import SwimmerParams
 
 P = SwimmerParams()

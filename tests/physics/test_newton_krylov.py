@@ -1,4 +1,4 @@
-"""Newton-Krylov in the mobility form (physics/newton_krylov.py): the matrix-free Jacobian against the
+"""Newton-Krylov in the mobility form (physics/solvers/newton_krylov.py): the matrix-free Jacobian against the
 assembled direct-solver Jacobian and against central differences of the residual, GMRES on buckled
 snapshots with and without contact, the step it takes against the direct step, the compiled banded LU
 against LAPACK, and a diverging run still ending in SimulationError."""
@@ -12,9 +12,9 @@ import pytest
 from scipy.linalg import lapack
 
 from physics import Simulator, SimulationError, advance, configure
-from physics.banded_lu import banded_lu, banded_solve
+from physics.linalg.banded_lu import banded_lu, banded_solve
 from physics.elastic import elastic_gradient_kernel, elastic_hessian_banded_kernel
-from physics.newton_krylov import banded_matvec_add, head_flow_apply
+from physics.solvers.newton_krylov import banded_matvec_add, head_flow_apply
 from physics.params import RPM_TO_RAD_S
 
 
@@ -120,8 +120,8 @@ def test_gmres_converges_on_a_buckled_snapshot(contact):
 def _python_iteration(ms, q, y, h):
     """The Newton-Krylov iteration as it was written in Python before it was compiled (one direction per
     ``ms.direction`` call, the residual by ``ms.residual``): the reference of the compiled loop."""
-    from physics.implicit_residual import block_max_abs
-    from physics.newton_krylov import GMRES_RTOL
+    from physics.solvers.implicit_residual import block_max_abs
+    from physics.solvers.newton_krylov import GMRES_RTOL
 
     sim = ms.state  # the simulator (MobilityStep.state)
     nm, p = sim.numerics, sim.params
@@ -212,7 +212,7 @@ def test_compiled_banded_lu_is_lapacks():
 def test_compiled_banded_cholesky_is_lapacks():
     from scipy.linalg import cho_solve_banded, cholesky_banded
 
-    from physics.banded_cholesky import banded_cholesky, banded_cholesky_solve
+    from physics.linalg.banded_cholesky import banded_cholesky, banded_cholesky_solve
 
     rng = np.random.default_rng(5)
     n, kd = 150, 10
@@ -230,8 +230,8 @@ def test_compiled_banded_cholesky_is_lapacks():
 
 
 def test_in_place_banded_solves_are_the_allocating_ones_bit_for_bit():
-    from physics.banded_cholesky import banded_cholesky, banded_cholesky_solve, banded_cholesky_solve_in_place
-    from physics.newton_krylov import factor_solve, factor_solve_in_place, factor_symmetric_band
+    from physics.linalg.banded_cholesky import banded_cholesky, banded_cholesky_solve, banded_cholesky_solve_in_place
+    from physics.solvers.newton_krylov import factor_solve, factor_solve_in_place, factor_symmetric_band
 
     rng = np.random.default_rng(7)
     n, kd = 120, 10
@@ -272,7 +272,7 @@ def test_banded_matvec_adds_in_the_order_of_a_column_by_column_product():
 
 
 def test_a_symmetric_band_that_is_not_positive_definite_is_factorised_by_lu():
-    from physics.newton_krylov import factor_solve, factor_symmetric_band
+    from physics.solvers.newton_krylov import factor_solve, factor_symmetric_band
 
     rng = np.random.default_rng(6)
     n, bw = 60, 10

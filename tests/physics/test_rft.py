@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from physics.params import RPM_TO_RAD_S, NumericsConfig, SwimmerParams
-from physics.rft import apply_blocks, rft_blocks, rft_coefficients
+from physics.hydro.rft import apply_blocks, rft_blocks, rft_coefficients
 from physics.simulator import Simulator
 
 P = SwimmerParams()

@@ -8,10 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from physics.geometry import initial_nodes
-from physics.hydrodynamics import resistance_matrix
+from physics.model.geometry import initial_nodes
+from physics.hydro.hydrodynamics import resistance_matrix
 from physics.params import RPM_TO_RAD_S, NumericsConfig, SwimmerParams
-from physics.rft import apply_blocks, rft_blocks, rft_coefficients
+from physics.hydro.rft import apply_blocks, rft_blocks, rft_coefficients
 from physics.simulator import Simulator
 
 STIFF = SwimmerParams(head_radius=0.0, youngs_modulus=1e9, shear_modulus=1e9 / 3)

@@ -28,7 +28,7 @@ from physics.elastic import (
     stretch_energy_grad_hess,
     twist_energy_grad_hess,
 )
-from physics.frames import material_frames, reference_twist, tangents
+from physics.model.frames import material_frames, reference_twist, tangents
 
 N_NODES = 12
 SCALE = 0.01  # m, helix radius

@@ -1,4 +1,4 @@
-"""When the dense chord solver refactorises its kept LU (physics/step_solvers.py): once the residuals its chord
+"""When the dense chord solver refactorises its kept LU (physics/solvers/step_solvers.py): once the residuals its chord
 iterations took beyond two per step add up to ``LU_REFRESH_BUDGET`` (the cost of a refactorisation), e.g. after a
 Newton-Krylov step replaced the resistance the LU was built from, and not before."""
 
@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-import physics.step_solvers as step_solvers
+import physics.solvers.step_solvers as step_solvers
 from physics import Simulator, advance, configure
 from physics.params import RPM_TO_RAD_S
 

@@ -1,4 +1,4 @@
-"""Time integration (physics/time_integrator.py and the simulator's adaptive steps): the BDF2 formulas,
+"""Time integration (physics/integrate/time_integrator.py and the simulator's adaptive steps): the BDF2 formulas,
 the error estimate and controller, the order of each scheme on a burst, exact switch times, the Newton
 Jacobian against finite differences, and SimulationError when the step cannot be made small enough."""
 
@@ -12,7 +12,7 @@ import pytest
 from physics.elastic import banded_to_dense, elastic_hessian_banded_kernel
 from physics import MotorSchedule, Simulator, SimulationError, advance, configure, run_simulation
 from physics.params import RPM_TO_RAD_S
-from physics.time_integrator import (GROW_MAX, History, error_norm, extrapolate, next_step, split_remaining,
+from physics.integrate.time_integrator import (GROW_MAX, History, error_norm, extrapolate, next_step, split_remaining,
                                      step_base, step_spans, velocity_of)
 
 
@@ -258,8 +258,8 @@ def test_step_duration_is_checked():
 def test_compiled_jacobian_assembly_is_bit_identical_to_the_numpy_form():
     """``assemble_dense_jacobian`` replaced banded_to_dense + diagonal + np.ix_ (an exact rewrite), and
     ``rotate_dense_blocks`` replaced T R T^T with block-diagonal T (the same sums in another order)."""
-    from physics.implicit_residual import assemble_dense_jacobian, rotate_dense_blocks
-    from physics.rigid_alignment import best_fit_rotation
+    from physics.solvers.implicit_residual import assemble_dense_jacobian, rotate_dense_blocks
+    from physics.model.rigid_alignment import best_fit_rotation
 
     rng = np.random.default_rng(0)
     nd = 4 * 12 - 1
@@ -346,7 +346,7 @@ def _bdf_coefficients_python(t_new, times):
 
 def _step_base_python(history, h, scheme):
     """``step_base`` as it was written in Python before it was compiled (``base_kernel``): the reference."""
-    from physics.time_integrator import StepBase, scheme_order
+    from physics.integrate.time_integrator import StepBase, scheme_order
 
     pts = history.points
     order = scheme_order(scheme, len(pts))
@@ -401,7 +401,7 @@ def test_compiled_step_base_is_the_python_one_bit_for_bit(scheme):
 
 def test_error_norm_is_numpys_weighted_max():
     rng = np.random.default_rng(8)
-    from physics.time_integrator import weighted_max_abs_diff
+    from physics.integrate.time_integrator import weighted_max_abs_diff
     a, b, w = rng.normal(size=487), rng.normal(size=487), rng.uniform(0.5, 1e3, size=487)
     assert weighted_max_abs_diff(a, b, w) == float(np.max(np.abs(a - b) * w))
     a[100] = np.nan

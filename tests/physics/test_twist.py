@@ -12,7 +12,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from physics.elastic.twist import twist_energy_grad_hess
-from physics.frames import reference_twist
+from physics.model.frames import reference_twist
 from tests.physics.der_helpers import (
     RandomEdgePair,
     assert_node_forces_rotate,

@@ -1,4 +1,4 @@
-"""The small frozen descriptions the force terms and the solvers work from (``physics.force_terms``).
+"""The small frozen descriptions the force terms and the solvers work from (``physics.forces.force_terms``).
 
 ``SystemDescription``: the system being stepped, nothing that changes during a run (masses, DOF sets, rest arrays,
 parameters). ``StepContext``: the step being taken (the time integrator's base values, the frames and configuration
@@ -13,9 +13,9 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from physics.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS, contact_kernel
+from physics.forces.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS, contact_kernel
 from physics.elastic import rod_frames
-from physics.geometry import nodes_array
+from physics.model.geometry import nodes_array
 from physics.params import NumericsConfig, SwimmerParams
 
 _EYE = np.eye(3)

@@ -22,7 +22,7 @@ import math
 import numpy as np
 from numba import njit
 
-from physics.lsbt import node_tangent
+from physics.hydro.lsbt import node_tangent
 from physics.params import SwimmerParams
 
 

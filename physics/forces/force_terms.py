@@ -1,7 +1,7 @@
 """The force terms of the implicit step behind one interface, and the scene that sums them.
 
 Each step of the simulator solves the residual of eqn (6) of Huang & Jawed 2020 with the hydrodynamic force
-implicit in the velocity (``physics.simulator``, ``physics.implicit_residual``), divided by h^2:
+implicit in the velocity (``physics.simulator``, ``physics.solvers.implicit_residual``), divided by h^2:
 
     r(q) = M (q - q^ - h v^) / h^2  +  grad E_el(q)  +  grad E_c(q)  -  P^T G(q),   G = -R V,
            inertia                    elastic           contact          hydrodynamics
@@ -41,16 +41,16 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 from numba import njit
 
-from physics.contact import contact_kernel
+from physics.forces.contact import contact_kernel
 from physics.elastic import elastic_gradient_kernel, elastic_hessian_banded_kernel, rod_frames
-from physics.geometry import nodes_array
-from physics.hydrodynamics import ResistanceOperator
-from physics.implicit_residual import (block_max_abs, contact_state_at, generalised_force, generalised_velocity,
+from physics.model.geometry import nodes_array
+from physics.hydro.hydrodynamics import ResistanceOperator
+from physics.solvers.implicit_residual import (block_max_abs, contact_state_at, generalised_force, generalised_velocity,
                                        inertia_force)
-from physics.newton_krylov import banded_matvec_add, contact_matvec_add
+from physics.solvers.newton_krylov import banded_matvec_add, contact_matvec_add
 from physics.params import NumericsConfig, SwimmerParams
-from physics.rft import apply_blocks, rft_blocks, rft_coefficients
-from physics.step_context import (NO_BLOCKS, NO_NODES, StepContext, StepResistance, SystemDescription,
+from physics.hydro.rft import apply_blocks, rft_blocks, rft_coefficients
+from physics.forces.step_context import (NO_BLOCKS, NO_NODES, StepContext, StepResistance, SystemDescription,
                                   active_contacts, compiled_contact_args, frames_at)
 
 _EYE = np.eye(3)

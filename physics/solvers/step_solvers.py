@@ -33,18 +33,18 @@ from typing import Any, Protocol
 import numpy as np
 from scipy.linalg import lapack, lu_factor, solve_banded
 
-from physics.banded_jacobian import add_banded_drag, add_blocks_to_banded, banded_dirichlet
-from physics.contact import add_blocks_to_dense
+from physics.linalg.banded_jacobian import add_banded_drag, add_blocks_to_banded, banded_dirichlet
+from physics.forces.contact import add_blocks_to_dense
 from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel
-from physics.force_terms import Hydrodynamics, LocalResistance
-from physics.geometry import nodes_of
-from physics.hydrodynamics import HydroError, ResistanceOperator
+from physics.forces.force_terms import Hydrodynamics, LocalResistance
+from physics.model.geometry import nodes_of
+from physics.hydro.hydrodynamics import HydroError, ResistanceOperator
 from physics.errors import StepFailed
-from physics.newton_krylov import KrylovFailed, MobilityStep
-from physics.implicit_residual import assemble_dense_jacobian, rotate_dense_blocks, rotate_node_blocks
-from physics.rft import rft_coefficients
-from physics.rigid_alignment import best_fit_rotation
-from physics.step_context import StepContext, StepResistance, SystemDescription, active_contacts, frames_at
+from physics.solvers.newton_krylov import KrylovFailed, MobilityStep
+from physics.solvers.implicit_residual import assemble_dense_jacobian, rotate_dense_blocks, rotate_node_blocks
+from physics.hydro.rft import rft_coefficients
+from physics.model.rigid_alignment import best_fit_rotation
+from physics.forces.step_context import StepContext, StepResistance, SystemDescription, active_contacts, frames_at
 
 
 class StepState(Protocol):

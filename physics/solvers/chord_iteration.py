@@ -29,13 +29,13 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from physics.compiled_lapack import NUMPY_BLAS, getrs, numpy_dot, numpy_matvec, potrs_upper
+from physics.linalg.compiled_lapack import NUMPY_BLAS, getrs, numpy_dot, numpy_matvec, potrs_upper
 from physics.errors import StepFailed
-from physics.hydrodynamics import _INVERSE_AFTER_SOLVES, HydroError
-from physics.implicit_residual import (assemble_residual, block_max_abs, forces_converged, generalised_velocity,
+from physics.hydro.hydrodynamics import _INVERSE_AFTER_SOLVES, HydroError
+from physics.solvers.implicit_residual import (assemble_residual, block_max_abs, forces_converged, generalised_velocity,
                                        internal_forces_at, rotate_node_blocks)
-from physics.step_context import compiled_contact_args
-from physics.time_integrator import contraction_update
+from physics.forces.step_context import compiled_contact_args
+from physics.integrate.time_integrator import contraction_update
 
 #: outcome codes of ``chord_loop``
 CONVERGED, NONFINITE_RESIDUAL, NEWTON_FAILED, STALL, NEED_INVERSE, HYDRO_FAILED, GETRS_FAILED = range(7)

@@ -32,9 +32,9 @@ import numpy as np
 from numba import njit
 from scipy.linalg import lapack
 
-from physics.higdon_head import (head_flow_operators, head_operators_as_printed, head_spin_map,
+from physics.hydro.higdon_head import (head_flow_operators, head_operators_as_printed, head_spin_map,
                                  sphere_rotational_drag, sphere_translational_drag)
-from physics.lsbt import lsbt_mobility, node_tangents
+from physics.hydro.lsbt import lsbt_mobility, node_tangents
 
 
 @njit(cache=True)

@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from physics.contact import contact_broad_phase, contact_kernel
+from physics.forces.contact import contact_broad_phase, contact_kernel
 from physics.elastic.rod_energy import banded_to_dense, elastic_gradient_kernel, rod_frames
-from physics.geometry import nodes_array
+from physics.model.geometry import nodes_array
 
 
 @njit(cache=True)

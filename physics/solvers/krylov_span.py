@@ -34,19 +34,20 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from physics.body_frame import transported_body_frame
-from physics.compiled_lapack import NUMPY_BLAS, numpy_dot
-from physics.contact import contact_broad_phase, contact_kernel
-from physics.geometry import edge_stretch_extremes, nodes_array
-from physics.higdon_head import head_flow_operators
-from physics.hydrodynamics import ResistanceOperator
-from physics.implicit_residual import block_max_abs
-from physics.lsbt import lsbt_mobility, node_tangents
-from physics.newton_krylov import CONVERGED, GMRES_MAX_ITER, GMRES_RTOL, newton_krylov_loop, preconditioner_factors
-from physics.rigid_alignment import best_fit_rotation
-from physics.step_context import NO_BLOCKS, NO_NODES
-from physics.step_solvers import H_REUSE, CALM_STEPS_FOR_LU
-from physics.time_integrator import (COLLAPSED_STEPS, EXTRAPOLATION_POINTS, MAX_STEPS_PER_SPAN, SAFETY,
+from physics.model.body_frame import transported_body_frame
+from physics.linalg.compiled_lapack import NUMPY_BLAS, numpy_dot
+from physics.forces.contact import contact_broad_phase, contact_kernel
+from physics.model.geometry import edge_stretch_extremes, nodes_array
+from physics.hydro.higdon_head import head_flow_operators
+from physics.hydro.hydrodynamics import ResistanceOperator
+from physics.solvers.implicit_residual import block_max_abs
+from physics.hydro.lsbt import lsbt_mobility, node_tangents
+from physics.solvers.newton_krylov import (CONVERGED, GMRES_MAX_ITER, GMRES_RTOL, newton_krylov_loop,
+                                           preconditioner_factors)
+from physics.model.rigid_alignment import best_fit_rotation
+from physics.forces.step_context import NO_BLOCKS, NO_NODES
+from physics.solvers.step_solvers import H_REUSE, CALM_STEPS_FOR_LU
+from physics.integrate.time_integrator import (COLLAPSED_STEPS, EXTRAPOLATION_POINTS, MAX_STEPS_PER_SPAN, SAFETY,
                                      SCHEME_ORDER, SHRINK_MIN, base_kernel, extrapolate_kernel, next_step,
                                      order_after, split_remaining, weighted_max_abs_diff)
 

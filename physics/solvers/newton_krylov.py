@@ -47,17 +47,17 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from physics.banded_jacobian import add_banded_drag, add_blocks_to_banded, banded_dirichlet
-from physics.banded_cholesky import banded_cholesky, banded_cholesky_solve_in_place, lower_band
-from physics.banded_lu import banded_lu, banded_solve
+from physics.linalg.banded_jacobian import add_banded_drag, add_blocks_to_banded, banded_dirichlet
+from physics.linalg.banded_cholesky import banded_cholesky, banded_cholesky_solve_in_place, lower_band
+from physics.linalg.banded_lu import banded_lu, banded_solve
 from physics.errors import StepFailed
-from physics.geometry import nodes_array
+from physics.model.geometry import nodes_array
 from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel, rod_frames
-from physics.implicit_residual import (assemble_residual, block_max_abs, forces_converged, generalised_velocity,
+from physics.solvers.implicit_residual import (assemble_residual, block_max_abs, forces_converged, generalised_velocity,
                                        internal_forces_at)
-from physics.rft import rft_blocks
-from physics.step_context import SystemDescription, active_contacts, compiled_contact_args, frames_at
-from physics.time_integrator import ContractionRate, contraction_update
+from physics.hydro.rft import rft_blocks
+from physics.forces.step_context import SystemDescription, active_contacts, compiled_contact_args, frames_at
+from physics.integrate.time_integrator import ContractionRate, contraction_update
 
 #: relative residual reduction asked of GMRES for each Newton direction
 GMRES_RTOL = 1e-4
