@@ -25,6 +25,10 @@ The run loop holds BLAS at one thread while it steps (``physics.threads``, with 
 importing the package changes no environment variable.
 
 The names load on first use, so ``import physics`` stays light (no NumPy, no Numba).
+
+The model and the numerics behind the API are in subpackages: ``model`` (geometry, frames), ``elastic`` (rod
+energies), ``hydro`` (LSBT, RFT, the head), ``forces`` (force terms, step context, contact), ``linalg`` (banded
+factorisations, compiled LAPACK), ``solvers`` (the implicit step's nonlinear solve), ``integrate`` (Euler / BDF).
 """
 
 #: Public name -> module that defines it (imported on first access, PEP 562).
