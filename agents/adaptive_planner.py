@@ -35,7 +35,7 @@ import numpy as np
 
 from agents.online_turn_map import GAUSS_HERMITE_3, OnlineMapConfig, OnlineTurnMap
 from agents.turn_map import TurnMap
-from agents.turn_planner import (PlannerConfig, RulePlanner, _Episode, graded_line_miss, line_distance, pick_turn,
+from agents.turn_planner import (PlannerConfig, RulePlanner, PlannerEpisode, graded_line_miss, line_distance, pick_turn,
                                  turn_ends)
 from agents.turn_geometry import angle_between, azimuth, perpendicular_basis, wrap_angle
 from agents.turn_measurement import CruiseObservables, cruise_observables, summarise_cruise
@@ -100,7 +100,7 @@ def segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.nda
 
 
 @dataclass
-class _AdaptiveEpisode(_Episode):
+class AdaptiveEpisode(PlannerEpisode):
     online: OnlineTurnMap | None = None
     observed: int = 0                             # turns of ``turns`` already learnt from
     swim_until: np.ndarray | None = None          # swimming on (``AdaptiveConfig.swim_on_m``) until past this point
@@ -169,14 +169,14 @@ class AdaptivePlanner(RulePlanner):
         """The first env's current correction (for reports), or None before an episode."""
         return self._episodes[0].online if self._episodes else None  # type: ignore[attr-defined]
 
-    def _new_episode(self) -> _AdaptiveEpisode:
+    def _new_episode(self) -> AdaptiveEpisode:
         if self.carry_over:
             if self._shared is None:
                 self._shared = OnlineTurnMap(self.turn_map, self.online_config)
-            return _AdaptiveEpisode(online=self._shared)
-        return _AdaptiveEpisode(online=OnlineTurnMap(self.turn_map, self.online_config))
+            return AdaptiveEpisode(online=self._shared)
+        return AdaptiveEpisode(online=OnlineTurnMap(self.turn_map, self.online_config))
 
-    def _decide(self, ep: _AdaptiveEpisode, obs: np.ndarray) -> float:
+    def _decide(self, ep: AdaptiveEpisode, obs: np.ndarray) -> float:
         if self.end_slice is not None and not ep.turns and ep.mode == "cruise" and not ep.cruise_used:
             lay = self.layout
             rot = obs[lay.orientation].reshape(3, 3).T  # columns X_b, Y_b, Z_b in the start frame
@@ -192,7 +192,7 @@ class AdaptivePlanner(RulePlanner):
         # a target behind may take several bursts: each must count as progress
         return graded_line_miss(starts, directions, target)
 
-    def _continue_burst(self, ep: _AdaptiveEpisode, obs: np.ndarray) -> bool:
+    def _continue_burst(self, ep: AdaptiveEpisode, obs: np.ndarray) -> bool:
         turn = ep.turns[-1]
         clock_t = turn.get("clock_map_t")
         if clock_t is None or self.end_slice is None:
@@ -261,7 +261,7 @@ class AdaptivePlanner(RulePlanner):
         return plan
 
     @staticmethod
-    def _record_cruise(ep: _AdaptiveEpisode, plan: dict) -> None:
+    def _record_cruise(ep: AdaptiveEpisode, plan: dict) -> None:
         if not ep.turns and ep.cruise_reading is not None:  # the first turn records what the cruise read
             plan.update(cruise={k: ep.cruise_reading[k] for k in ("strain_relative_change", "rate_relative_change",
                                                                    "shift_reading_s", "cruise_matched")})
@@ -271,7 +271,7 @@ class AdaptivePlanner(RulePlanner):
         a = self.adaptive
         return max(a.miss_scale_m, a.miss_scale_fraction * miss0) if math.isfinite(miss0) else a.miss_scale_m
 
-    def _best_turn(self, head: np.ndarray, d: np.ndarray, target: np.ndarray, ep: _AdaptiveEpisode,
+    def _best_turn(self, head: np.ndarray, d: np.ndarray, target: np.ndarray, ep: AdaptiveEpisode,
                    miss0: float, scale_m: float) -> dict | None:
         """The candidate (burst x phase) of least expected saturated miss (``saturating_miss`` at ``scale_m``),
         or None if it does not beat the straight line's (``miss0``, m) by ``PlannerConfig.improvement_m``."""
@@ -321,7 +321,7 @@ class AdaptivePlanner(RulePlanner):
         ep.swim_until, ep.swim_heading = head + best_c * d, d.copy()
         return True
 
-    def _turn_settled(self, ep: _AdaptiveEpisode) -> None:
+    def _turn_settled(self, ep: AdaptiveEpisode) -> None:
         if ep.observed >= len(ep.turns):
             return
         turn = ep.turns[-1]

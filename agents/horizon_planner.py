@@ -54,7 +54,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from agents.adaptive_planner import AdaptivePlanner, _AdaptiveEpisode, segment_distance
+from agents.adaptive_planner import AdaptivePlanner, AdaptiveEpisode, segment_distance
 from agents.online_turn_map import OnlineMapConfig, OnlineTurnMap
 from agents.turn_map import TurnMap
 from agents.turn_geometry import perpendicular_basis, wrap_angle
@@ -447,7 +447,7 @@ def search(sit: Situation, model: TurnModel, cfg: HorizonConfig) -> MoveChoice:
 HORIZON_ONLINE = OnlineMapConfig(prior_bias_std_s=0.15)
 
 @dataclass
-class _HorizonEpisode(_AdaptiveEpisode):
+class HorizonEpisode(AdaptiveEpisode):
     next_search: int = 0                          # env step of the next search while cruising
     targets: np.ndarray | None = None             # (2, 3) next waypoints, start frame, m
     segment_start: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -473,9 +473,9 @@ class HorizonPlanner(AdaptivePlanner):
         return cls(turn_map, base.layout, base.control_dt, base.reach_radius_m, base.action_of, config, online,
                    carry_over, base.end_slice, base.reference, horizon=horizon)
 
-    def _new_episode(self) -> _HorizonEpisode:
+    def _new_episode(self) -> HorizonEpisode:
         ep = super()._new_episode()
-        return _HorizonEpisode(online=ep.online)
+        return HorizonEpisode(online=ep.online)
 
     @property
     def search_stats(self) -> dict:
@@ -483,7 +483,7 @@ class HorizonPlanner(AdaptivePlanner):
         ep = self._episodes[0] if self._episodes else None
         return {"searches": ep.searches, "search_s": ep.search_s} if ep is not None else {}
 
-    def _decide(self, ep: _HorizonEpisode, obs: np.ndarray) -> float:
+    def _decide(self, ep: HorizonEpisode, obs: np.ndarray) -> float:
         lay = self.layout
         rot = obs[lay.orientation].reshape(3, 3).T
         rel = (obs[lay.waypoints].reshape(-1, 3) * lay.length_scale_m) @ rot.T

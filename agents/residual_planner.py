@@ -47,7 +47,7 @@ from agents.adaptive_planner import AdaptiveConfig, AdaptivePlanner
 from agents.controller_spec import controller_kind, controller_options
 from agents.online_turn_map import OnlineMapConfig, OnlineTurnMap
 from agents.turn_map import TurnMap
-from agents.turn_planner import PlannerConfig, RulePlanner, _Episode
+from agents.turn_planner import PlannerConfig, RulePlanner, PlannerEpisode
 from physics.validation import require_finite
 
 #: Length of the feature vector the residual policy of the rule planner sees.
@@ -201,7 +201,7 @@ class ResidualDecisions:
         self._decision = np.asarray(action, dtype=np.float64).reshape(-1)
         self.awaiting = None
 
-    def _review_plan(self, ep: _Episode, plan: dict, obs: np.ndarray) -> dict | None:
+    def _review_plan(self, ep: PlannerEpisode, plan: dict, obs: np.ndarray) -> dict | None:
         if self._decision is not None:
             action, self._decision = self._decision, None
             return self._corrected(ep, plan, action)
@@ -211,12 +211,12 @@ class ResidualDecisions:
             return None  # cruise on for this step; the next one flies the decided turn
         return self._corrected(ep, plan, self.policy(features))
 
-    def _turn_features(self, ep: _Episode, plan: dict, obs: np.ndarray) -> np.ndarray:
+    def _turn_features(self, ep: PlannerEpisode, plan: dict, obs: np.ndarray) -> np.ndarray:
         return turn_features(plan, ep.prev_rel, self.reach_radius_m, float(obs[self.end_slice][0]),
                              float(obs[self.time_slice][0]), ep.turns[-1] if ep.turns else None, len(ep.turns),
                              self.turn_map.max_theta_deg)
 
-    def _corrected(self, ep: _Episode, plan: dict, action: np.ndarray) -> dict:
+    def _corrected(self, ep: PlannerEpisode, plan: dict, action: np.ndarray) -> dict:
         return corrected_plan(plan, action, self.turn_map, self.limits)
 
 

@@ -87,7 +87,7 @@ class ObservationLayout:
 
 
 @dataclass
-class _Episode:
+class PlannerEpisode:
     """What the planner remembers within one episode."""
 
     step: int = 0
@@ -158,7 +158,7 @@ class RulePlanner:
         self.config = config or PlannerConfig()
         self.period_steps = max(2, round(turn_map.period_s / self.control_dt))
         self.min_turn_rad = math.radians(max(self.config.min_turn_deg, 0.0))
-        self._episodes: list[_Episode] = []
+        self._episodes: list[PlannerEpisode] = []
 
     @classmethod
     def for_env(cls, env, turn_map: TurnMap, config: PlannerConfig | None = None) -> RulePlanner:
@@ -227,7 +227,7 @@ class RulePlanner:
         return self._episodes[0].turns if self._episodes else []
 
     # --- the rules -------------------------------------------------------------------------
-    def _decide(self, ep: _Episode, obs: np.ndarray) -> float:
+    def _decide(self, ep: PlannerEpisode, obs: np.ndarray) -> float:
         """Motor speed (rpm) for the next control step."""
         lay, tm = self.layout, self.turn_map
         rot = obs[lay.orientation].reshape(3, 3).T  # columns X_b, Y_b, Z_b in the start frame
@@ -300,19 +300,19 @@ class RulePlanner:
         ep.target_phase, ep.prev_phase, ep.hover_steps, ep.hover_travel = plan["burst_phase"], azimuth(node, d), 0, 0.0
         return wl
 
-    def _new_episode(self) -> _Episode:
+    def _new_episode(self) -> PlannerEpisode:
         """The memory of a new episode (subclasses may remember more)."""
-        return _Episode()
+        return PlannerEpisode()
 
     @staticmethod
-    def _track_segment(ep: _Episode, target: np.ndarray) -> None:
+    def _track_segment(ep: PlannerEpisode, target: np.ndarray) -> None:
         """Keep ``ep.segment`` the (start, target) of the path segment being followed (start frame, m)."""
         if ep.segment is None:
             ep.segment = (np.zeros(3), target.copy())  # the path starts at the head's start
         elif float(np.linalg.norm(target - ep.segment[1])) > 1e-3:
             ep.segment = (ep.segment[1].copy(), target.copy())  # the target switched: the old one starts the segment
 
-    def _continue_burst(self, ep: _Episode, obs: np.ndarray) -> bool:
+    def _continue_burst(self, ep: PlannerEpisode, obs: np.ndarray) -> bool:
         """During a burst: True to stay at omega_h for the next control step. The rule planner
         flies the planned number of steps; ``agents.adaptive_planner`` watches L'/L."""
         if ep.burst_left > 0:
@@ -320,20 +320,20 @@ class RulePlanner:
             return True
         return False
 
-    def _turn_settled(self, ep: _Episode) -> None:
+    def _turn_settled(self, ep: PlannerEpisode) -> None:
         """Called once the heading after the last turn (``ep.turns[-1]``) is steady (or the wait
         ran out); ``_heading(ep)`` is then the new heading. The rule planner does not learn from it;
         ``agents.adaptive_planner`` corrects its map."""
 
-    def _review_plan(self, ep: _Episode, plan: dict, obs: np.ndarray) -> dict | None:
+    def _review_plan(self, ep: PlannerEpisode, plan: dict, obs: np.ndarray) -> dict | None:
         """Last look at a planned turn before the hover starts: the plan to fly, or None to keep
         cruising this step. The rule planner flies its plan; ``agents.residual_planner`` adjusts it."""
         return plan
 
-    def _heading(self, ep: _Episode) -> np.ndarray:
+    def _heading(self, ep: PlannerEpisode) -> np.ndarray:
         return unit(ep.heads[-1] - ep.heads[-1 - self.period_steps])
 
-    def _heading_steady(self, ep: _Episode) -> bool:
+    def _heading_steady(self, ep: PlannerEpisode) -> bool:
         k = self.period_steps
         if len(ep.heads) < 2 * k + 1:
             return False
@@ -342,12 +342,12 @@ class RulePlanner:
         return math.degrees(angle_between(a, b)) < self.config.settle_tol_deg
 
     def _plan_turn(self, head: np.ndarray, d: np.ndarray, target: np.ndarray, node: np.ndarray,
-                   ep: _Episode | None = None) -> dict | None:
+                   ep: PlannerEpisode | None = None) -> dict | None:
         """The next turn (burst length, phase to burst at), or None to keep swimming straight
         (``rule_plan`` with this planner's miss of a line)."""
         return self.rule_plan(head, d, target, ep, self._line_miss)
 
-    def rule_plan(self, head: np.ndarray, d: np.ndarray, target: np.ndarray, ep: _Episode | None,
+    def rule_plan(self, head: np.ndarray, d: np.ndarray, target: np.ndarray, ep: PlannerEpisode | None,
                   line_miss) -> dict | None:
         """The paper's rule: the next turn (burst length, phase to burst at), or None to keep swimming straight.
 
@@ -404,7 +404,7 @@ class RulePlanner:
         """How far each straight line misses the target, (k,) m (``_line_miss``)."""
         return _line_miss(starts, directions, target)
 
-    def _candidate_turns(self, ep: _Episode | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def _candidate_turns(self, ep: PlannerEpisode | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The turns a plan chooses from in this episode: (t_c s, theta rad, psi rad, offset (T, 3) m)."""
         return self._candidates
 
