@@ -24,6 +24,7 @@ from typing import Any
 from agents.assets import package_file
 from agents.evaluation_report import load_results
 from agents.turn_map import PLANNER_OMEGA_H_RPM
+from physics.presets import DEFAULT_PRESET, configure
 
 TEMPLATE = Path(__file__).with_name("templates") / "control.md"
 #: What each reading of the head means, in the words of docs/validation.md.
@@ -141,6 +142,7 @@ def heldout_notes(summary: dict[str, Any]) -> str:
 
 def agent_facts() -> tuple[str, str, dict[str, Any]]:
     meta = json.loads(package_file(*AGENT, "meta.json").read_text(encoding="utf-8"))
+    default_head = configure(DEFAULT_PRESET)[0].head_rotation
     mk = meta["make_kwargs"]
     rnd = mk["env_kwargs"].get("randomize", {})
     rp = mk["random_path"]
@@ -150,7 +152,9 @@ def agent_facts() -> tuple[str, str, dict[str, Any]]:
              f"planner, {meta['decisions']} decisions (planned turns) in {meta['wall_time_s'] / 60:.0f} min of wall "
              f"time with {meta['n_envs']} env workers on this 2-core machine"
              f"{', stopped by its wall-time budget' if meta.get('stopped_by_wall_time_budget') else ''}, on the "
-             f"swimmer with `head_rotation={meta['head_rotation']}` ({HEAD_READINGS[meta['head_rotation']]}).")
+             f"swimmer with `head_rotation={meta['head_rotation']}` ({HEAD_READINGS[meta['head_rotation']]})"
+             + ("." if meta["head_rotation"] == default_head else
+                f"; the table above flies it on the default swimmer (`head_rotation={default_head}`)."))
     training = (f"It was trained on randomised swimmers (E ±{100 * rnd.get('youngs_modulus', 0):g} %, μ "
                 f"±{100 * rnd.get('viscosity', 0):g} %, b ±{100 * rnd.get('head_radius', 0):g} %, the helix "
                 f"±{100 * rnd.get('geometry', 0):g} %, drawn per episode) on paths of {rp['n_waypoints'][0]}-"
