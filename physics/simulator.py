@@ -59,7 +59,7 @@ from physics.model.geometry import edge_stretch_extremes, initial_nodes, layout_
 from physics.solvers.anderson import AndersonMixing
 from physics.model.body_frame import transported_body_frame
 from physics.solvers.chord_iteration import chord_solve, compiled_chord_applies
-from physics.forces.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS, ContactModel
+from physics.forces.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS, ContactModel, ContactParams, ContactState
 from physics.forces.force_terms import scene_for
 from physics.hydro.higdon_head import head_spin_map
 from physics.hydro.hydrodynamics import HydroError
@@ -379,21 +379,20 @@ class Simulator:
                                              self.numerics.contact_margin, self.numerics.contact_stiffness)
         return model.gaps(self.nodes)
 
-    def contact_state(self, q: np.ndarray) -> tuple[tuple, tuple]:
-        """(contact model, contact state) as the compiled kernels take them (``internal_forces_at``): the model
-        tuple and (q of the broad phase, its pad m, candidate pairs, head edges, none active); placeholders
+    def contact_state(self, q: np.ndarray) -> tuple[ContactParams, ContactState]:
+        """(contact model, contact state) as the compiled kernels take them (``internal_forces_at``); placeholders
         without contact (q: the iterate)."""
         if self.contact is None:
-            return NO_CONTACT_MODEL, (q, 0.0, NO_PAIRS, NO_EDGES, True)
-        return self.contact.model, (self._contact_q, self._contact_pad, *self._contact_candidates,
-                                    self._contact_none)
+            return NO_CONTACT_MODEL, ContactState(q, 0.0, NO_PAIRS, NO_EDGES, True)
+        pairs, head = self._contact_candidates
+        return self.contact.model, ContactState(self._contact_q, self._contact_pad, pairs, head, self._contact_none)
 
-    def keep_contact_state(self, cstate: tuple, energy: float, count: int) -> None:
+    def keep_contact_state(self, cstate: ContactState, energy: float, count: int) -> None:
         """Store the contact state a compiled kernel returns and the last evaluation's contact energy (J) and
         number of active interactions (no-op without contact)."""
         if self.contact is not None:
-            self._contact_q, self._contact_pad, pairs, head, self._contact_none = cstate
-            self._contact_candidates = (pairs, head)
+            self._contact_q, self._contact_pad, self._contact_none = cstate.q, cstate.pad, cstate.none
+            self._contact_candidates = (cstate.pairs, cstate.head_edges)
             self._last_contact = (energy, count)
 
     nodes_at = staticmethod(nodes_of)

@@ -38,6 +38,7 @@ pairs; a scene with no near pair does no narrow-phase work.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -389,16 +390,38 @@ def add_blocks_to_dense(J: np.ndarray, nodes: np.ndarray, blocks: np.ndarray, st
                             J[stride * ip + k, stride * iq + m] += v
 
 
+class ContactParams(NamedTuple):
+    """What the compiled contact kernels take of a ``ContactModel`` (SI)."""
+
+    arc: np.ndarray  # (n,) arc length of each node along the rest rod from the first node, m
+    first_rod_edge: int  # the first edge taking part in rod-rod contact
+    min_arc_gap: float  # m: edges closer than this along the rod are never a pair
+    head_radius: float  # b, m (0: no head)
+    first_head_edge: int  # the first edge tested against the head
+    r0: float  # rod radius, m
+    eps: float  # activation margin, m
+    stiffness: float  # k: contact force at zero gap, N
+
+
+class ContactState(NamedTuple):
+    """The contact broad phase a step's iterates use (``implicit_residual.contact_state_at``)."""
+
+    q: np.ndarray  # (ndof,) the configuration of the broad phase
+    pad: float  # m: how far the boxes were padded
+    pairs: np.ndarray  # (P, 2) int64 candidate edge pairs
+    head_edges: np.ndarray  # (H,) int64 candidate edges for the head
+    none: bool  # no candidates at all
+
+
 @njit(cache=True)
-def contact_broad_phase(x: np.ndarray, model: tuple, pad: float) -> tuple[np.ndarray, np.ndarray]:
+def contact_broad_phase(x: np.ndarray, model: ContactParams, pad: float) -> tuple[np.ndarray, np.ndarray]:
     """The broad phase: (rod-rod candidate pairs (P, 2), head candidate edges (H,)) at x (n, 3), m, with boxes
-    padded by the contact distance, the activation margin and ``pad`` (m). model = ``ContactModel.model``:
-    (arc, first_rod_edge, min_arc_gap, b, first_head_edge, r0, eps, k)."""
-    arc, first_rod_edge, min_arc_gap, b, first_head_edge, r0, eps = model[:7]
+    padded by the contact distance, the activation margin and ``pad`` (m). model = ``ContactModel.model``."""
+    b, r0, eps = model.head_radius, model.r0, model.eps
     reach = 2.0 * r0 + eps + pad
-    pairs = within_reach(x, candidate_pairs(x, arc, first_rod_edge, min_arc_gap, reach), reach)
+    pairs = within_reach(x, candidate_pairs(x, model.arc, model.first_rod_edge, model.min_arc_gap, reach), reach)
     if b > 0.0:
-        head = head_candidates(x, first_head_edge, b + r0 + eps + pad)
+        head = head_candidates(x, model.first_head_edge, b + r0 + eps + pad)
     else:
         head = np.zeros(0, dtype=np.int64)
     return pairs, head
@@ -407,7 +430,7 @@ def contact_broad_phase(x: np.ndarray, model: tuple, pad: float) -> tuple[np.nda
 #: what the compiled kernels take for a scene without contact: no pairs, no head edges, a placeholder model
 NO_PAIRS = np.zeros((0, 2), dtype=np.int64)
 NO_EDGES = np.zeros(0, dtype=np.int64)
-NO_CONTACT_MODEL = (np.zeros(1), 0, 0.0, 0.0, 0, 0.0, 0.0, 0.0)
+NO_CONTACT_MODEL = ContactParams(np.zeros(1), 0, 0.0, 0.0, 0, 0.0, 0.0, 0.0)
 
 
 class ContactModel:
@@ -432,10 +455,11 @@ class ContactModel:
         self.min_arc_gap = math.pi * self.r0
 
     @property
-    def model(self) -> tuple:
-        """(arc, first_rod_edge, min_arc_gap, b, first_head_edge, r0, eps, k): what the compiled kernels take."""
-        return (self.arc, self.first_rod_edge, self.min_arc_gap, self.b, self.first_head_edge, self.r0, self.eps,
-                self.k)
+    def model(self) -> ContactParams:
+        """What the compiled kernels take of this model."""
+        return ContactParams(arc=self.arc, first_rod_edge=self.first_rod_edge, min_arc_gap=self.min_arc_gap,
+                             head_radius=self.b, first_head_edge=self.first_head_edge, r0=self.r0, eps=self.eps,
+                             stiffness=self.k)
 
     def broad_phase(self, x: np.ndarray, pad: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """(rod-rod candidate pairs (P,2), head candidate edges (H,)) at x (n,3), m, with boxes

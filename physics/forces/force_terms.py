@@ -168,11 +168,12 @@ class Contact(_Term):
 
     def evaluate(self, q: np.ndarray, ctx: StepContext) -> tuple[np.ndarray, tuple]:
         m, cstate = self.model, ctx.contact
-        if block_max_abs(q - cstate[0], self.pos) > 0.5 * cstate[1]:  # the test of contact_state_at, uncompiled
+        if block_max_abs(q - cstate.q, self.pos) > 0.5 * cstate.pad:  # the test of contact_state_at, uncompiled
             cstate = contact_state_at(q, m, cstate, ctx.q_start, self.pos, ctx.first_step)  # a new broad phase
-        if cstate[4]:  # no candidates: no contact
+        if cstate.none:  # no candidates: no contact
             return np.zeros(q.shape[0]), (cstate, 0.0, NO_NODES, NO_BLOCKS)
-        out, e_c, nodes_c, blocks_c = contact_force(q, cstate[2], cstate[3], m[3], m[5], m[6], m[7])
+        out, e_c, nodes_c, blocks_c = contact_force(q, cstate.pairs, cstate.head_edges, m.head_radius, m.r0, m.eps,
+                                                    m.stiffness)
         return out, (cstate, e_c, nodes_c, blocks_c)
 
     def jacobian_action(self, q: np.ndarray, ctx: StepContext, v: np.ndarray) -> np.ndarray:

@@ -13,7 +13,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from physics.forces.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS, contact_kernel
+from physics.forces.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS, ContactParams, ContactState, contact_kernel
 from physics.elastic import rod_frames
 from physics.model.geometry import nodes_array
 from physics.params import NumericsConfig, SwimmerParams
@@ -41,7 +41,7 @@ class SystemDescription:
     weights: np.ndarray  # (ndof,) 1/r0 on positions, 1 on twists: correction sizes in r0 and rad
     rest: tuple  # (l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ): the rest arrays of eqns (5a)-(5c)
     f_floor: float  # N: force scale below which the convergence test counts a force block as zero
-    contact_model: tuple | None  # ``ContactModel.model`` when contact is on, else None
+    contact_model: ContactParams | None  # ``ContactModel.model`` when contact is on, else None
 
     @property
     def ndof(self) -> int:
@@ -72,7 +72,7 @@ class StepContext(NamedTuple):
     frames: tuple  # (d1 (n-1, 3), t (n-1, 3), ref_twist (n-2,)) at the step's start (``rod_frames``)
     q_start: np.ndarray  # (ndof,) configuration at the step's start
     first_step: bool  # the run's first step (the contact broad phase pads by nothing then)
-    contact: tuple | None  # (q of the broad phase, pad m, pairs (P, 2), head edges (H,), none) or None
+    contact: ContactState | None  # the contact broad phase of the step (None: no contact)
     resistance: StepResistance | None  # the resistance of this step (None: no hydrodynamic term)
 
 
@@ -85,15 +85,17 @@ def active_contacts(q: np.ndarray, ctx: StepContext, system: SystemDescription) 
     """Active contact interactions at q over the context's broad-phase candidates as they are (the caller knows
     them valid at q): node quadruples (A, 4) and Hessian blocks (A, 12, 12) N/m; none without contact or
     candidates."""
-    if ctx.contact is None or ctx.contact[4]:
+    if ctx.contact is None or ctx.contact.none:
         return NO_NODES, NO_BLOCKS
     m = system.contact_model
-    return contact_kernel(nodes_array(q), ctx.contact[2], m[3], ctx.contact[3], m[5], m[6], m[7])[2:]
+    return contact_kernel(nodes_array(q), ctx.contact.pairs, m.head_radius, ctx.contact.head_edges, m.r0, m.eps,
+                          m.stiffness)[2:]
 
 
-def compiled_contact_args(q: np.ndarray, ctx: StepContext, system: SystemDescription) -> tuple[bool, tuple, tuple]:
+def compiled_contact_args(q: np.ndarray, ctx: StepContext,
+                          system: SystemDescription) -> tuple[bool, ContactParams, ContactState]:
     """(contact on, model, contact state) as the compiled kernels take them (``implicit_residual.internal_forces_at``):
     placeholders without contact (the state's q: the iterate q)."""
     if ctx.contact is None:
-        return False, NO_CONTACT_MODEL, (q, 0.0, NO_PAIRS, NO_EDGES, True)
+        return False, NO_CONTACT_MODEL, ContactState(q, 0.0, NO_PAIRS, NO_EDGES, True)
     return True, system.contact_model, ctx.contact

@@ -24,7 +24,7 @@ iteration per step and a NumPy without its bundled OpenBLAS keep the Python iter
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -43,6 +43,105 @@ CONVERGED, NONFINITE_RESIDUAL, NEWTON_FAILED, STALL, NEED_INVERSE, HYDRO_FAILED,
 #: residual of an iterate accepted by the contraction-rate test
 AT_RESIDUAL, AT_INCREMENT, AT_FINAL_RESIDUAL = range(3)
 _NO_MATRIX = np.asfortranarray(np.zeros((2, 2)))  # stands for the inverse or the factor not (yet) there
+
+
+class SchemeBase(NamedTuple):
+    """The scheme's base values of a step (``time_integrator.StepBase``): q^, v^ (ndof,) and h_e (s)."""
+
+    q_hat: np.ndarray
+    v_hat: np.ndarray
+    h_eff: float
+
+
+class ChordSystem(NamedTuple):
+    """The system as the chord iteration reads it (``step_context.SystemDescription``) and the motor speed."""
+
+    mass: np.ndarray  # (ndof,) kg / kg m^2
+    vdofs: np.ndarray  # (nv,) the DOFs of the generalised velocities
+    prescribed: np.ndarray  # Dirichlet DOFs
+    head_spins: bool
+    omega: float  # motor speed, rad/s
+    pos: np.ndarray  # position DOFs
+    twist: np.ndarray  # twist DOFs
+    weights: np.ndarray  # (ndof,) 1/r0 on positions, 1 on twists
+    free_twist: np.ndarray  # twist DOFs that are not prescribed
+
+
+class ChordHydro(NamedTuple):
+    """The resistance of a chord step (``ResistanceOperator``): the kept inverse C (or a placeholder), the upper
+    Cholesky factor (or a placeholder), the head's flow H (3M, 3), spin flow g (3M,), force map K (3, 3M; printed
+    head), drags N s/m and N m s, the head flags, and Qh (3, 3) from the resistance's frame to the lab."""
+
+    inv: np.ndarray
+    chol: np.ndarray
+    H: np.ndarray
+    g: np.ndarray
+    K: np.ndarray
+    drag_t: float
+    drag_r: float
+    has_head: bool
+    spin: bool
+    printed: bool
+    Qh: np.ndarray
+
+
+class InverseState(NamedTuple):
+    """Whether the resistance applies its kept inverse, its Cholesky solves so far, and the solves after which it
+    forms the inverse (``ResistanceOperator.solve``)."""
+
+    use_inv: bool
+    applies: int
+    applies_max: int
+
+
+class ChordLinear(NamedTuple):
+    """The kept chord Jacobian: LU (ndof, ndof) F order, 1-based pivots int32, the rotation Qj (3, 3) of its node
+    blocks, and whether it was factorised in this step."""
+
+    lu: np.ndarray
+    piv1: np.ndarray
+    Qj: np.ndarray
+    jac_fresh: bool
+
+
+class ChordTols(NamedTuple):
+    """The iteration's tolerances (``NumericsConfig``): newton_tol, newton_max_iter, step_tol, the force floor f_floor
+    (N), r0 (m) and the step's own displacement (m, the increment criterion's scale)."""
+
+    newton_tol: float
+    max_iter: int
+    step_tol: float
+    f_floor: float
+    r0: float
+    step_scale: float
+
+
+class RateState(NamedTuple):
+    """The ``ContractionRate`` of the chord iteration: rho, the previous correction's size / step_tol (-1: none),
+    age in steps."""
+
+    rho: float
+    prev: float
+    age: int
+
+
+class ResidualHistory(NamedTuple):
+    """The last two max force residuals of the iteration (N / N m), newest first."""
+
+    newest: float
+    previous: float
+
+
+class Carried(NamedTuple):
+    """What an iterate carries across a return to Python: r, grad, f (ndof,), the frames at it (``rod_frames``), the
+    contact energy (J) and active interactions."""
+
+    r: np.ndarray
+    grad: np.ndarray
+    f: np.ndarray
+    frames: tuple
+    energy: float
+    count: int
 
 
 @njit(cache=True)
@@ -91,112 +190,113 @@ def resistance_apply(V: np.ndarray, inv: np.ndarray, chol: np.ndarray, use_inv: 
 
 
 @njit(cache=True)
-def chord_residual(q: np.ndarray, h: float, q_start: np.ndarray, frames_old: tuple, rest: tuple, base: tuple,
-                   system: tuple, hydro: tuple, use_inv: bool, contact_on: bool, model: tuple, cstate: tuple,
-                   first_step: bool):
+def chord_residual(q: np.ndarray, h: float, q_start: np.ndarray, frames_old: tuple, rest: tuple, base: SchemeBase,
+                   system: ChordSystem, hydro: ChordHydro, use_inv: bool, contact_on: bool, model: tuple,
+                   cstate: tuple, first_step: bool):
     """``Simulator._residual`` of a chord step: (r, grad, f, inertia (ndof,) N / N m, frames, contact state,
     contact energy J, active contacts, dpotrs info). Arguments as in ``chord_loop``."""
-    q_hat, v_hat, h_eff = base
-    mass, vdofs, prescribed, head_spins, omega = system[:5]
-    pos = system[5]
-    inv, chol, H, g, K, drag_t, drag_r, has_head, spin, printed, Qh = hydro
     grad, fr, cstate, e_c, nodes_c, _ = internal_forces_at(q, frames_old, rest, contact_on, model, cstate, q_start,
-                                                           pos, first_step)
-    V = generalised_velocity(q, q_hat, h, vdofs, head_spins, omega, Qh)
-    RV, info = resistance_apply(V, inv, chol, use_inv, H, g, K, drag_t, drag_r, has_head, spin, printed)
-    r, f, inertia = assemble_residual(q, q_hat, v_hat, h_eff, mass, grad, -RV, Qh, vdofs, head_spins, prescribed)
+                                                           system.pos, first_step)
+    V = generalised_velocity(q, base.q_hat, h, system.vdofs, system.head_spins, system.omega, hydro.Qh)
+    RV, info = resistance_apply(V, hydro.inv, hydro.chol, use_inv, hydro.H, hydro.g, hydro.K, hydro.drag_t,
+                                hydro.drag_r, hydro.has_head, hydro.spin, hydro.printed)
+    r, f, inertia = assemble_residual(q, base.q_hat, base.v_hat, base.h_eff, system.mass, grad, -RV, hydro.Qh,
+                                      system.vdofs, system.head_spins, system.prescribed)
     return r, grad, f, inertia, fr, cstate, e_c, nodes_c.shape[0], info
 
 
 @njit(cache=True)
-def chord_loop(q: np.ndarray, h: float, it: int, phase: int, hist: tuple, carried: tuple, q_start: np.ndarray,
-               frames_old: tuple, rest: tuple, base: tuple, system: tuple, hydro: tuple, inverse_state: tuple,
-               contact_on: bool, model: tuple, cstate: tuple, first_step: bool, lin: tuple, tols: tuple,
-               rate: tuple):
+def chord_loop(q: np.ndarray, h: float, it: int, phase: int, hist: ResidualHistory, carried: Carried,
+               q_start: np.ndarray, frames_old: tuple, rest: tuple, base: SchemeBase, system: ChordSystem,
+               hydro: ChordHydro, inverse_state: InverseState, contact_on: bool, model: tuple, cstate: tuple,
+               first_step: bool, lin: ChordLinear, tols: ChordTols, rate: RateState):
     """The chord iteration of one step (``Simulator._chord_python``), compiled, from iteration ``it`` at ``phase``
     (AT_RESIDUAL, or after a return: AT_INCREMENT with ``carried`` = (r, grad, f, frames, contact energy,
     count) of the iterate, AT_FINAL_RESIDUAL).
 
-    q (ndof,) the iterate, h the effective step s; hist = (the last two max force residuals, newest first);
-    frames_old = (d1, t, ref_twist) of the step's start; rest = the 7 rest arrays; base = (q^, v^, h_e);
-    system = (mass, vdofs, prescribed, head_spins, omega, pos, twist, weights, free_twist); hydro = (inverse C,
-    Cholesky factor, H, g, K, drag_t, drag_r, has_head, spin, printed, Qh); inverse_state = (use the inverse,
-    Cholesky solves so far, solves before the inverse is formed); cstate as in ``internal_forces_at``;
-    lin = (LU (ndof, ndof) F order, 1-based pivots int32, Qj, factorised this step); tols = (newton_tol,
-    newton_max_iter, step_tol, f_floor, r0, step_scale); rate = (rho, previous correction / step_tol or -1,
-    age) of the ``ContractionRate``.
+    q (ndof,) the iterate, h the effective step s; frames_old = (d1, t, ref_twist) of the step's start; rest = the
+    7 rest arrays; cstate as in ``internal_forces_at``; the other arguments: the named tuples above.
 
-    Returns (code, q, it, phase, hist, (r, grad, f, frames, contact energy, count), cstate, (rho, prev, age),
-    Cholesky solves, residuals evaluated, value): value = the max force residual (NEWTON_FAILED) or a LAPACK
+    Returns (code, q, it, phase, ``ResidualHistory``, ``Carried``, cstate, ``RateState``, Cholesky solves,
+    residuals evaluated, value): value = the max force residual (NEWTON_FAILED) or a LAPACK
     info (HYDRO_FAILED: dpotrs, GETRS_FAILED: dgetrs). STALL: the caller refactorises the Jacobian and resumes
     at ``phase``; NEED_INVERSE: the caller forms the inverse and resumes."""
-    weights, free_twist = system[7], system[8]
-    pos, twist = system[5], system[6]
-    use_inv, applies, applies_max = inverse_state
-    lu, piv1, Qj, jac_fresh = lin
-    newton_tol, max_iter, step_tol, f_floor, r0, step_scale = tols
-    rho, prev, age = rate
-    h1, h2 = hist
-    r, grad, f, fr, e_c, count = carried
+    pos, twist = system.pos, system.twist
+    use_inv, applies = inverse_state.use_inv, inverse_state.applies
+    newton_tol, max_iter, step_tol, r0 = tols.newton_tol, tols.max_iter, tols.step_tol, tols.r0
+    rho, prev, age = rate.rho, rate.prev, rate.age
+    h1, h2 = hist.newest, hist.previous
+    r, grad, f, fr, e_c, count = carried.r, carried.grad, carried.f, carried.frames, carried.energy, carried.count
     adaptive = step_tol > 0.0
     evaluated = 0
     norm = 0.0
     while it < 2 * max_iter:
         if phase != AT_INCREMENT:
             if not use_inv:
-                if applies + 1 > applies_max:
-                    return (NEED_INVERSE, q, it, phase, (h1, h2), (r, grad, f, fr, e_c, count), cstate,
-                            (rho, prev, age), applies, evaluated, 0.0)
+                if applies + 1 > inverse_state.applies_max:
+                    return (NEED_INVERSE, q, it, phase, ResidualHistory(h1, h2),
+                            Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
+                            0.0)
                 applies += 1
             r, grad, f, inertia, fr, cstate, e_c, count, info = chord_residual(
                 q, h, q_start, frames_old, rest, base, system, hydro, use_inv, contact_on, model, cstate, first_step)
             if info != 0:
-                return (HYDRO_FAILED, q, it, phase, (h1, h2), (r, grad, f, fr, e_c, count), cstate, (rho, prev, age),
-                        applies, evaluated, float(info))
+                return (HYDRO_FAILED, q, it, phase, ResidualHistory(h1, h2),
+                        Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
+                        float(info))
             evaluated += 1
             if phase == AT_FINAL_RESIDUAL:  # the forces at the accepted iterate
-                return (CONVERGED, q, it, phase, (h1, h2), (r, grad, f, fr, e_c, count), cstate, (rho, prev, age),
-                        applies, evaluated, 0.0)
+                return (CONVERGED, q, it, phase, ResidualHistory(h1, h2),
+                        Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
+                        0.0)
             if not np.all(np.isfinite(r)):
-                return (NONFINITE_RESIDUAL, q, it, phase, (h1, h2), (r, grad, f, fr, e_c, count), cstate,
-                        (rho, prev, age), applies, evaluated, 0.0)
-            if forces_converged(r, grad, f, inertia, pos, free_twist, newton_tol, f_floor, r0):
-                return (CONVERGED, q, it, phase, (h1, h2), (r, grad, f, fr, e_c, count), cstate, (rho, prev, age),
-                        applies, evaluated, 0.0)
+                return (NONFINITE_RESIDUAL, q, it, phase, ResidualHistory(h1, h2),
+                        Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
+                        0.0)
+            if forces_converged(r, grad, f, inertia, pos, system.free_twist, newton_tol, tols.f_floor, r0):
+                return (CONVERGED, q, it, phase, ResidualHistory(h1, h2),
+                        Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
+                        0.0)
             norm = np.abs(r).max()
             if it >= max_iter or (it >= 8 and norm > 0.5 * h2):
-                if not jac_fresh:  # the caller refactorises at q (``on_stall``) and resumes at the increment
-                    return (STALL, q, it, AT_INCREMENT, (h1, h2), (r, grad, f, fr, e_c, count), cstate,
-                            (rho, prev, age), applies, evaluated, 0.0)
+                if not lin.jac_fresh:  # the caller refactorises at q (``on_stall``) and resumes at the increment
+                    return (STALL, q, it, AT_INCREMENT, ResidualHistory(h1, h2),
+                            Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
+                            0.0)
                 if it >= max_iter:
-                    return (NEWTON_FAILED, q, it, phase, (h1, h2), (r, grad, f, fr, e_c, count), cstate,
-                            (rho, prev, age), applies, evaluated, norm)
+                    return (NEWTON_FAILED, q, it, phase, ResidualHistory(h1, h2),
+                            Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
+                            norm)
         else:
             norm = np.abs(r).max()
             phase = AT_RESIDUAL
         h2 = h1
         h1 = norm
-        x, info = getrs(lu, piv1, rotate_node_blocks(r, Qj, True))
+        x, info = getrs(lin.lu, lin.piv1, rotate_node_blocks(r, lin.Qj, True))
         if info != 0:
-            return (GETRS_FAILED, q, it, phase, (h1, h2), (r, grad, f, fr, e_c, count), cstate, (rho, prev, age),
-                    applies, evaluated, float(info))
-        z = rotate_node_blocks(x, Qj, False)
+            return (GETRS_FAILED, q, it, phase, ResidualHistory(h1, h2),
+                    Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
+                    float(info))
+        z = rotate_node_blocks(x, lin.Qj, False)
         q = q - z
         # increment criterion: the iteration contracts, so an increment far below the step's own displacement
         # (and the twist resolution) means the residual is at tolerance
         dz = block_max_abs(z, pos)
-        if (it >= 1 and dz <= max(newton_tol * step_scale, 1e-10 * r0)
+        if (it >= 1 and dz <= max(newton_tol * tols.step_scale, 1e-10 * r0)
                 and block_max_abs(z, twist) <= max(newton_tol, 1e-10)):
-            return (CONVERGED, q, it, phase, (h1, h2), (r, grad, f, fr, e_c, count), cstate, (rho, prev, age),
-                    applies, evaluated, 0.0)
+            return (CONVERGED, q, it, phase, ResidualHistory(h1, h2),
+                    Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
+                    0.0)
         if adaptive:  # ContractionRate.converged
-            converged, rho, prev, age = contraction_update(np.max(np.abs(z) * weights) / step_tol, rho, prev, age)
+            converged, rho, prev, age = contraction_update(np.max(np.abs(z) * system.weights) / step_tol, rho,
+                                                           prev, age)
             if converged:
                 phase = AT_FINAL_RESIDUAL
                 continue
         it += 1
-    return (NEWTON_FAILED, q, it - 1, phase, (h1, h2), (r, grad, f, fr, e_c, count), cstate, (rho, prev, age),
-            applies, evaluated, np.abs(r).max())
+    return (NEWTON_FAILED, q, it - 1, phase, ResidualHistory(h1, h2),
+            Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
+            np.abs(r).max())
 
 
 def compiled_chord_applies(sim: Any) -> bool:
@@ -229,13 +329,15 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
     rate = sim.contraction
     if nm.step_tol > 0.0:
         rate.start()
-    rstate = (rate.rho, -1.0 if rate._prev is None else rate._prev, rate._age)
+    rstate = RateState(rho=rate.rho, prev=-1.0 if rate._prev is None else rate._prev, age=rate._age)
     contact_on, model, cstate = compiled_contact_args(q, ctx, system)
-    base = (ctx.q_hat, ctx.v_hat, ctx.h)
-    arrays = (system.mass, system.vdofs, system.prescribed, system.head_spins, ctx.omega, system.pos, system.twist,
-              system.weights, system.free_twist)
+    base = SchemeBase(q_hat=ctx.q_hat, v_hat=ctx.v_hat, h_eff=ctx.h)
+    arrays = ChordSystem(mass=system.mass, vdofs=system.vdofs, prescribed=system.prescribed,
+                         head_spins=system.head_spins, omega=ctx.omega, pos=system.pos, twist=system.twist,
+                         weights=system.weights, free_twist=system.free_twist)
     frames_old = ctx.frames
-    tols = (nm.newton_tol, nm.newton_max_iter, nm.step_tol, system.f_floor, p.rod_radius, step_scale)
+    tols = ChordTols(newton_tol=nm.newton_tol, max_iter=nm.newton_max_iter, step_tol=nm.step_tol,
+                     f_floor=system.f_floor, r0=p.rod_radius, step_scale=step_scale)
     if hyd.has_head:  # K only for the printed head (a C-contiguous placeholder otherwise: one compiled variant)
         H, g, K, drag_t = hyd.H, hyd.g, (hyd.K if hyd.printed else _NO_K), hyd.drag_t
         drag_r = hyd.drag_r if hyd.spin else 0.0
@@ -243,26 +345,27 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
         H, g, K, drag_t, drag_r = _NO_HEAD_H, _NO_HEAD_G, _NO_K, 0.0, 0.0
     # placeholders of the types the loop's residual returns (read only when resuming at an increment)
     d1_old, t_old, rt_old = ctx.frames
-    carried = (q, q, q, (t_old, d1_old, d1_old, rt_old, d1_old, d1_old), 0.0, 0)
-    it, phase, hist = 0, AT_RESIDUAL, (np.inf, np.inf)
+    carried = Carried(r=q, grad=q, f=q, frames=(t_old, d1_old, d1_old, rt_old, d1_old, d1_old), energy=0.0, count=0)
+    it, phase, hist = 0, AT_RESIDUAL, ResidualHistory(newest=np.inf, previous=np.inf)
     while True:
         use_inv = hyd._inv is not None
-        hydro = (hyd._inv if use_inv else _NO_MATRIX, _NO_MATRIX if use_inv else hyd._chol[0], H, g, K, drag_t,
-                 drag_r, hyd.has_head, hyd.spin, hyd.printed, np.ascontiguousarray(solver.Qh))
-        lin = (solver.lu[0], solver.piv1, np.ascontiguousarray(solver.Qj), solver.jac_fresh)
+        hydro = ChordHydro(inv=hyd._inv if use_inv else _NO_MATRIX, chol=_NO_MATRIX if use_inv else hyd._chol[0],
+                           H=H, g=g, K=K, drag_t=drag_t, drag_r=drag_r, has_head=hyd.has_head, spin=hyd.spin,
+                           printed=hyd.printed, Qh=np.ascontiguousarray(solver.Qh))
+        lin = ChordLinear(lu=solver.lu[0], piv1=solver.piv1, Qj=np.ascontiguousarray(solver.Qj),
+                          jac_fresh=solver.jac_fresh)
         (code, q, it, phase, hist, carried, cstate, rstate, applies, evaluated, value) = chord_loop(
             q, h, it, phase, hist, carried, ctx.q_start, frames_old, system.rest, base, arrays, hydro,
-            (use_inv, hyd._applies, _INVERSE_AFTER_SOLVES), contact_on, model, cstate,
-            ctx.first_step, lin, tols, rstate)
+            InverseState(use_inv=use_inv, applies=hyd._applies, applies_max=_INVERSE_AFTER_SOLVES), contact_on,
+            model, cstate, ctx.first_step, lin, tols, rstate)
         hyd._applies = applies
         sim.stats.newton_iterations += evaluated
-        r, grad, f, fr, e_c, count = carried
-        sim.keep_contact_state(cstate, e_c, count)
-        rate.rho, prev, rate._age = rstate
-        rate._prev = None if prev < 0.0 else prev
+        sim.keep_contact_state(cstate, carried.energy, carried.count)
+        rate.rho, rate._age = rstate.rho, rstate.age
+        rate._prev = None if rstate.prev < 0.0 else rstate.prev
         if code == CONVERGED:
-            t, d1, d2, rt, m1, m2 = fr
-            return q, r, grad, f, (t, d1, rt)
+            t, d1, d2, rt, m1, m2 = carried.frames
+            return q, carried.r, carried.grad, carried.f, (t, d1, rt)
         if code == STALL:
             solver.on_stall(q, h)  # refactorises (the loop returns only when the Jacobian is not fresh)
         elif code == NEED_INVERSE:  # ResistanceOperator.solve's switch to the explicit inverse

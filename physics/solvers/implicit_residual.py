@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from physics.forces.contact import contact_broad_phase, contact_kernel
+from physics.forces.contact import ContactParams, ContactState, contact_broad_phase, contact_kernel
 from physics.elastic.rod_energy import banded_to_dense, elastic_gradient_kernel, rod_frames
 from physics.model.geometry import nodes_array
 
@@ -158,31 +158,31 @@ def rotate_dense_blocks(R: np.ndarray, Q: np.ndarray, spin: bool) -> np.ndarray:
 
 
 @njit(cache=True)
-def contact_state_at(q: np.ndarray, model: tuple, cstate: tuple, q_start: np.ndarray, pos: np.ndarray,
-                     first_step: bool) -> tuple:
-    """The contact state valid at q (ndof,): ``cstate`` = (q of the broad phase, its pad m, pairs (P, 2), head edges
-    (H,), none active) itself while q stays within half the pad of the broad phase's q, else a new broad phase at
-    q padded by twice the step's motion so far (at least r0 / 2; model = ``ContactModel.model``)."""
-    cq, pad, pairs, head, none = cstate
+def contact_state_at(q: np.ndarray, model: ContactParams, cstate: ContactState, q_start: np.ndarray, pos: np.ndarray,
+                     first_step: bool) -> ContactState:
+    """The contact state valid at q (ndof,): ``cstate`` itself while q stays within half the pad of the broad
+    phase's q, else a new broad phase at q padded by twice the step's motion so far (at least r0 / 2; model =
+    ``ContactModel.model``)."""
+    cq, pad, pairs, head, none = cstate.q, cstate.pad, cstate.pairs, cstate.head_edges, cstate.none
     if block_max_abs(q - cq, pos) > 0.5 * pad:  # the iterate left the padded boxes: redo the broad phase
         x = nodes_array(q)
         move = 0.0 if first_step else block_max_abs(q - q_start, pos)
-        pad = max(0.5 * model[5], 2.0 * move)
+        pad = max(0.5 * model.r0, 2.0 * move)
         pairs, head = contact_broad_phase(x, model, pad)
         none = pairs.shape[0] == 0 and head.shape[0] == 0
         cq = q.copy()
-    return cq, pad, pairs, head, none
+    return ContactState(cq, pad, pairs, head, none)
 
 
 @njit(cache=True)
-def internal_forces_at(q: np.ndarray, frames_old: tuple, rest: tuple, contact_on: bool, model: tuple,
-                       cstate: tuple, q_start: np.ndarray, pos: np.ndarray, first_step: bool):
+def internal_forces_at(q: np.ndarray, frames_old: tuple, rest: tuple, contact_on: bool, model: ContactParams,
+                       cstate: ContactState, q_start: np.ndarray, pos: np.ndarray, first_step: bool):
     """``Simulator.internal_forces`` from compiled code: the gradient of the elastic (eqns 5a-5c) and contact
     energies at q (ndof,) N and N m, the frames of q, the contact state (redone when q left the padded
     broad-phase boxes) and the active contacts (energy J, nodes (A, 4), Hessian blocks (A, 12, 12) N/m).
 
-    frames_old = (d1, t, ref_twist) of the step's start; rest = the 7 rest arrays; cstate = (q of the
-    broad phase, its pad m, pairs, head edges, none active)."""
+    frames_old = (d1, t, ref_twist) of the step's start; rest = the 7 rest arrays; model, cstate: the
+    ``contact.ContactParams`` and ``contact.ContactState`` (placeholders without contact)."""
     d1_old, t_old, rt_old = frames_old
     l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ = rest
     t, d1, d2, rt, m1, m2 = rod_frames(q, d1_old, t_old, rt_old)
@@ -192,10 +192,9 @@ def internal_forces_at(q: np.ndarray, frames_old: tuple, rest: tuple, contact_on
     blocks_c = np.zeros((0, 12, 12))
     if contact_on:
         cstate = contact_state_at(q, model, cstate, q_start, pos, first_step)
-        cq, pad, pairs, head, none = cstate
-        if not none:
-            e_c, g_c, nodes_c, blocks_c = contact_kernel(nodes_array(q), pairs, model[3], head, model[5],
-                                                         model[6], model[7])
+        if not cstate.none:
+            e_c, g_c, nodes_c, blocks_c = contact_kernel(nodes_array(q), cstate.pairs, model.head_radius,
+                                                         cstate.head_edges, model.r0, model.eps, model.stiffness)
             if nodes_c.shape[0]:
                 for k in range(3):
                     grad[k::4] += g_c[k::3]

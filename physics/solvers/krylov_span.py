@@ -29,14 +29,14 @@ solved by Newton-Krylov, no restart pending. The timings of ``StepStats`` (``tim
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
 
 from physics.model.body_frame import transported_body_frame
 from physics.linalg.compiled_lapack import NUMPY_BLAS, numpy_dot
-from physics.forces.contact import contact_broad_phase, contact_kernel
+from physics.forces.contact import ContactParams, ContactState, contact_broad_phase, contact_kernel
 from physics.model.geometry import edge_stretch_extremes, nodes_array
 from physics.hydro.higdon_head import head_flow_operators
 from physics.hydro.hydrodynamics import ResistanceOperator
@@ -59,6 +59,176 @@ SPAN_COUNTERS = ("substeps", "newton_iterations", "krylov_iterations", "krylov_s
 HISTORY_POINTS = 5  # ``time_integrator.History`` keeps five
 
 
+class SpanStatic(NamedTuple):
+    """What a span does not change: the system (``step_context.SystemDescription``) and the motor."""
+
+    rest: tuple  # (l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ): the rest arrays of eqns (5a)-(5c)
+    mass: np.ndarray  # (ndof,) lumped masses, kg / kg m^2
+    vdofs: np.ndarray  # (nv,) the DOFs of the generalised velocities
+    prescribed: np.ndarray  # Dirichlet DOFs (the motor's twist when the head does not spin)
+    head_spins: bool  # the head's spin rate is the last generalised velocity
+    pos: np.ndarray  # position DOFs
+    twist: np.ndarray  # twist DOFs
+    free_twist: np.ndarray  # twist DOFs that are not prescribed
+    weights: np.ndarray  # (ndof,) 1/r0 on positions, 1 on twists
+    contact_on: bool  # contact is modelled
+    model: ContactParams  # ``contact.ContactModel.model`` (or ``NO_CONTACT_MODEL``)
+    first_step: bool  # the run's first step (the broad phase pads by nothing then)
+    omega: float  # motor speed, rad/s
+
+
+class SpanConsts(NamedTuple):
+    """The constants of a span's steps: the LSBT resistance (``lsbt``, ``higdon_head``), the preconditioner
+    (``MobilityStep``), the controller and the iteration's tolerances (``NumericsConfig``)."""
+
+    mu: float  # viscosity, Pa s
+    delta: float  # LSBT cutoff length, m
+    head_radius: float  # b, m
+    smoothing: float  # ``NumericsConfig.lsbt_smoothing``
+    near_radius: float  # LSBT near-field radius, m
+    drag_t: float  # head translational drag, N s/m
+    drag_r: float  # head rotational drag, N m s (0 unless the head spins)
+    sigma: float  # scale of the mobility rows, Pa s m (``MobilityStep.sigma``)
+    zeta_perp: float  # local resistance coefficients of the preconditioner, N s/m^2
+    zeta_par: float
+    abw: int  # half bandwidth of the preconditioner's mobility band
+    step_tol: float  # ``NumericsConfig.step_tol`` (r0 or rad)
+    h_min: float  # smallest step, s
+    refresh_dev: float  # non-rigid shape change that rebuilds the resistance, m
+    refresh_steps: int  # steps after which the resistance is rebuilt anyway
+    newton_tol: float
+    newton_max_iter: int
+    f_floor: float  # N: force scale below which the convergence test counts a block as zero
+    r0: float  # rod radius, m
+    top_order: int  # the scheme's largest order (2 while capped)
+    gmres_rtol: float
+    gmres_max_iter: int
+    has_head: bool
+    first: int  # 1 with a head (the flagellum's first node), else 0
+    keep_h: bool  # ``next_step``'s band in which h is kept (False for Newton-Krylov steps)
+
+
+class ContactPlaceholders(NamedTuple):
+    """No active contacts: node quadruples (0, 4) and Hessian blocks (0, 12, 12) (``step_context``)."""
+
+    nodes: np.ndarray
+    blocks: np.ndarray
+
+
+class SpanClock(NamedTuple):
+    """The controller's clock: time and the span's end t_end (s), the span dt (s), the next step h (s), the last
+    attempt rejected, steps accepted in this dt, the last accepted step h_prev (s, -1: none)."""
+
+    time: float
+    t_end: float
+    dt: float
+    h: float
+    rejected: bool
+    accepted: int
+    h_prev: float
+
+
+class RodState(NamedTuple):
+    """The rod's state (``Simulator``): q, v (ndof,) m / rad and per s, the frames d1, tangent (n-1, 3),
+    ref_twist (n-2,) rad, the head's body frame (3, 3) and the motor angle (rad)."""
+
+    q: np.ndarray
+    v: np.ndarray
+    d1: np.ndarray
+    tangent: np.ndarray
+    ref_twist: np.ndarray
+    body_frame: np.ndarray
+    motor_angle: float
+
+
+class SpanHistory(NamedTuple):
+    """The accepted points (``time_integrator.History``), oldest first: t (HISTORY_POINTS,) s, q and v
+    (HISTORY_POINTS, ndof); the first ``count`` rows are used."""
+
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    count: int
+
+
+class ForcePoints(NamedTuple):
+    """The flagellum's node forces at the last accepted points (``AdaptiveState.force_points``): t
+    (EXTRAPOLATION_POINTS,) s, y (EXTRAPOLATION_POINTS, 3n) N, the first ``count`` rows used; and the last
+    step's node forces (n, 3) N."""
+
+    t: np.ndarray
+    y: np.ndarray
+    count: int
+    node_forces: np.ndarray
+
+
+class SpanSolver(NamedTuple):
+    """The solvers' state a span starts from: the geometry of the resistance x_hyd (M+1, 3) m and the steps since
+    it was built; the Newton-Krylov contraction rate (rho, age); the resistance's parts (a, H, g)
+    (``_mobility_parts``) and the preconditioner (ab, lu, piv, alu, apiv, h_e); the calm attempts; the kept chord
+    LU's h_e (s, -1: none) and whether a rebuilt resistance makes it stale (``DenseChordSolver.begin_step``)."""
+
+    x_hyd: np.ndarray
+    since_hydro: int
+    rho: float
+    age: int
+    parts: tuple
+    pre: tuple
+    calm: int
+    lu_h: float
+    lu_after_rebuild: bool
+
+
+class SpanSolverOut(NamedTuple):
+    """The solvers' state a span leaves (``SpanSolver``'s fields; ``rebuilt``: the resistance was rebuilt in the
+    span, its parts and preconditioner are new)."""
+
+    rebuilt: bool
+    x_hyd: np.ndarray
+    since_hydro: int
+    rho: float
+    age: int
+    parts: tuple
+    pre: tuple
+    calm: int
+
+
+class LastContact(NamedTuple):
+    """Contact energy (J) and active interactions of the last evaluation and of the last accepted step."""
+
+    e_last: float
+    count_last: int
+    e_commit: float
+    count_commit: int
+
+
+class SpanPoints(NamedTuple):
+    """How many rows of ``SpanHistory`` and ``ForcePoints`` a span leaves, and the node forces (n, 3) N of its
+    last accepted step."""
+
+    history_count: int
+    force_count: int
+    node_forces: np.ndarray
+
+
+class SpanCommit(NamedTuple):
+    """What the last accepted step leaves besides the state: the velocity before it (ndof,), whether it had the
+    length of the one before it (``AdaptiveState.v_prev``), the motor torque and the head's axial torque (N m)."""
+
+    v_before: np.ndarray
+    same_h: bool
+    motor_torque: float
+    head_torque: float
+
+
+class LastStep(NamedTuple):
+    """The last accepted step of a span: its length h (s), error ratio and order."""
+
+    h: float
+    err: float
+    order: int
+
+
 @njit(cache=True)
 def _mobility_parts(x: np.ndarray, mu: float, delta: float, b: float, smoothing: float, near_radius: float):
     """What ``ResistanceOperator(..., factorize_lazily=True)`` builds for a head with the reciprocal Higdon forms at
@@ -73,23 +243,28 @@ def _mobility_parts(x: np.ndarray, mu: float, delta: float, b: float, smoothing:
 
 
 @njit(cache=True)
-def krylov_span(static: tuple, consts: tuple, placeholders: tuple, work: tuple, clock: tuple, state: tuple,
-                history: tuple, forces: tuple, solver: tuple, cstate: tuple, last_contact: tuple, counters: np.ndarray):
+def krylov_span(static: SpanStatic, consts: SpanConsts, placeholders: ContactPlaceholders, work: tuple,
+                clock: SpanClock, state: RodState, history: SpanHistory, forces: ForcePoints, solver: SpanSolver,
+                cstate: ContactState, last_contact: LastContact, counters: np.ndarray):
     """Error-controlled Newton-Krylov steps from the simulator's state until t_end or a return to Python (module
     doc). ``counters`` (len(SPAN_COUNTERS),) int64 is advanced in place (restored on ``SPAN_FAILED`` and
-    ``SPAN_CHORD`` to its value before the returning attempt). Argument and result tuples: ``run_krylov_span``."""
-    (rest, mass, vdofs, prescribed, head_spins, pos, twist, free_twist, weights, contact_on, model, first_step,
-     omega) = static
-    (mu, delta, b, smoothing, near_radius, drag_t, drag_r, sigma, zeta_perp, zeta_par, abw, step_tol, h_min,
-     refresh_dev, refresh_steps, newton_tol, newton_max_iter, f_floor, r0, top_order, gmres_rtol, gmres_max_iter,
-     has_head, first, keep_h) = consts
-    no_nodes, no_blocks = placeholders
-    time, t_end, dt, h_ctl, rejected, accepted, h_prev = clock
-    q_cur, v_cur, d1, tangent, ref_twist, body_frame, motor_angle = state
-    ht, hq, hv, npts = history
-    ft, fy, nfp, node_forces = forces
-    x_hyd, since_hydro, rho, age, parts, pre, calm, lu_h, lu_after_rebuild = solver
-    e_last, count_last, e_commit, count_commit = last_contact
+    ``SPAN_CHORD`` to its value before the returning attempt); ``work``: GMRES's arrays
+    (``newton_krylov.krylov_workspace``); the other arguments: the named tuples above and in ``contact``.
+    Returns (code, ``SpanClock``, ``RodState``, ``SpanPoints``, ``SpanSolverOut``, ``ContactState``,
+    ``LastContact``, ``SpanCommit``, ``LastStep``)."""
+    rest, prescribed, contact_on, model, omega = (static.rest, static.prescribed, static.contact_on, static.model,
+                                                  static.omega)
+    time, t_end, dt, h_ctl, rejected, accepted, h_prev = (clock.time, clock.t_end, clock.dt, clock.h, clock.rejected,
+                                                          clock.accepted, clock.h_prev)
+    q_cur, v_cur, d1, tangent, ref_twist, body_frame, motor_angle = (state.q, state.v, state.d1, state.tangent,
+                                                                     state.ref_twist, state.body_frame,
+                                                                     state.motor_angle)
+    ht, hq, hv, npts = history.t, history.q, history.v, history.count
+    ft, fy, nfp, node_forces = forces.t, forces.y, forces.count, forces.node_forces
+    x_hyd, since_hydro, rho, age, parts, pre, calm = (solver.x_hyd, solver.since_hydro, solver.rho, solver.age,
+                                                      solver.parts, solver.pre, solver.calm)
+    e_last, count_last, e_commit, count_commit = (last_contact.e_last, last_contact.count_last,
+                                                  last_contact.e_commit, last_contact.count_commit)
     v_before = v_cur
     same_h = False  # the last accepted step had the length of the one before it (Simulator._v_prev)
     motor_torque = 0.0
@@ -108,7 +283,7 @@ def krylov_span(static: tuple, consts: tuple, placeholders: tuple, work: tuple, 
         rejected = True  # until the step is accepted
         last = h == t_end - time
         # the step's base (Simulator._base_for; step_base)
-        order = order_after(top_order, npts)
+        order = order_after(consts.top_order, npts)
         m = min(npts, order + 1)
         q_hat, v_hat, h_eff, q_pred, ratio = base_kernel(ht[npts - m:npts].copy(), hq[npts - m:npts],
                                                          hv[npts - m:npts], h, order)
@@ -118,39 +293,40 @@ def krylov_span(static: tuple, consts: tuple, placeholders: tuple, work: tuple, 
             q[k] = q_cur[k] + h * omega
         x_pred = nodes_array(q)
         if contact_on:
-            move = 0.0 if first_step else block_max_abs(q - q_cur, pos)
-            pad = max(0.5 * r0, 2.0 * move)
+            move = 0.0 if static.first_step else block_max_abs(q - q_cur, static.pos)
+            pad = max(0.5 * consts.r0, 2.0 * move)
             pairs, head = contact_broad_phase(x_pred, model, pad)
-            cstate = (q.copy(), pad, pairs, head, pairs.shape[0] == 0 and head.shape[0] == 0)
+            cstate = ContactState(q.copy(), pad, pairs, head, pairs.shape[0] == 0 and head.shape[0] == 0)
         else:
-            cstate = (q, 0.0, cstate[2], cstate[3], True)
+            cstate = ContactState(q, 0.0, cstate.pairs, cstate.head_edges, True)
         # the resistance: rebuilt where the shape has changed, or where a chord step would need a new LU before
         # the swimmer cruises (DenseChordSolver.begin_step, lu_stale); else the chord step
         dev = best_fit_rotation(x_hyd, x_pred)[1]
-        changed = since_hydro >= refresh_steps or dev > refresh_dev
+        changed = since_hydro >= consts.refresh_steps or dev > consts.refresh_dev
         calm = 0 if changed else calm + 1
-        stale = (lu_h < 0.0 or not H_REUSE[0] <= h_eff / lu_h <= H_REUSE[1]
-                 or (since_hydro == 0 and lu_after_rebuild))
+        stale = (solver.lu_h < 0.0 or not H_REUSE[0] <= h_eff / solver.lu_h <= H_REUSE[1]
+                 or (since_hydro == 0 and solver.lu_after_rebuild))
         if not (changed or (calm < CALM_STEPS_FOR_LU and stale)):
             code = SPAN_CHORD
             break
-        parts = _mobility_parts(x_pred, mu, delta, b, smoothing, near_radius)
+        parts = _mobility_parts(x_pred, consts.mu, consts.delta, consts.head_radius, consts.smoothing,
+                                consts.near_radius)
         x_hyd = x_pred
         since_hydro = 0
         rebuilt = True
         counters[4] += 1
         a, H, g = parts
-        if not head_spins:  # MobilityStep.begin: no spin flow without a spinning head
+        if not static.head_spins:  # MobilityStep.begin: no spin flow without a spinning head
             g = np.zeros(a.shape[0])
         Kh = np.ascontiguousarray(-H.T)
         # the preconditioner (MobilityStep.begin)
-        nodes_c, blocks_c = no_nodes, no_blocks
-        if contact_on and not cstate[4]:
-            nodes_c, blocks_c = contact_kernel(x_pred, cstate[2], model[3], cstate[3], model[5], model[6],
-                                               model[7])[2:]
+        nodes_c, blocks_c = placeholders.nodes, placeholders.blocks
+        if contact_on and not cstate.none:
+            nodes_c, blocks_c = contact_kernel(x_pred, cstate.pairs, model.head_radius, cstate.head_edges, model.r0,
+                                               model.eps, model.stiffness)[2:]
         ab, (lu, piv, info), (alu, apiv, ainfo) = preconditioner_factors(
-            q, (d1, tangent, ref_twist), rest, mass, h_eff, zeta_perp, zeta_par, first, drag_t, drag_r, nodes_c,
-            blocks_c, prescribed, a, abw)
+            q, (d1, tangent, ref_twist), rest, static.mass, h_eff, consts.zeta_perp, consts.zeta_par, consts.first,
+            consts.drag_t, consts.drag_r, nodes_c, blocks_c, prescribed, a, consts.abw)
         if info != 0 or ainfo != 0:
             code = SPAN_FAILED
             break
@@ -165,10 +341,13 @@ def krylov_span(static: tuple, consts: tuple, placeholders: tuple, work: tuple, 
         y0 = -start[3:]
         (nk_code, q, y, r, grad, f, frames, cstate, (e_c, count), (evaluated, its), (rho, age), value) = (
             newton_krylov_loop(q, y0, h_eff, q_cur, (d1, tangent, ref_twist), rest, (q_hat, v_hat, h_eff),
-                               (mass, vdofs, prescribed, head_spins, omega, pos, twist, free_twist, weights),
-                               (a, H, g, Kh, drag_t, drag_r, has_head, head_spins, sigma), contact_on, model, cstate,
-                               first_step, (lu, piv, alu, apiv, abw), ab,
-                               (newton_tol, newton_max_iter, step_tol, f_floor, r0, gmres_rtol, gmres_max_iter),
+                               (static.mass, static.vdofs, prescribed, static.head_spins, omega, static.pos,
+                                static.twist, static.free_twist, static.weights),
+                               (a, H, g, Kh, consts.drag_t, consts.drag_r, consts.has_head, static.head_spins,
+                                consts.sigma), contact_on, model, cstate, static.first_step,
+                               (lu, piv, alu, apiv, consts.abw), ab,
+                               (consts.newton_tol, consts.newton_max_iter, consts.step_tol, consts.f_floor,
+                                consts.r0, consts.gmres_rtol, consts.gmres_max_iter),
                                (rho, age), work))
         counters[1] += evaluated
         counters[2] += its
@@ -182,11 +361,12 @@ def krylov_span(static: tuple, consts: tuple, placeholders: tuple, work: tuple, 
         if not finite or r_min < 0.2 or r_max > 5.0:
             code = SPAN_FAILED
             break
-        err = 0.0 if ratio < 0.0 else weighted_max_abs_diff(q, q_pred, weights) * (ratio / (1.0 + ratio)) / step_tol
+        err = (0.0 if ratio < 0.0 else weighted_max_abs_diff(q, q_pred, static.weights) * (ratio / (1.0 + ratio))
+               / consts.step_tol)
         if err > 1.0:  # Simulator._reject
             h_new = h * max(SHRINK_MIN, SAFETY * err ** (-1.0 / (order + 1)))
             counters[6] += 1
-            if h_new < h_min:
+            if h_new < consts.h_min:
                 code = SPAN_FAILED
                 break
             h_ctl = h_new
@@ -227,26 +407,28 @@ def krylov_span(static: tuple, consts: tuple, placeholders: tuple, work: tuple, 
         ft[nfp] = time
         fy[nfp] = node_forces.ravel()
         nfp += 1
-        head_torque = f[3] if head_spins else 0.0
+        head_torque = f[3] if static.head_spins else 0.0
         motor_torque = grad[3]
-        body_frame = transported_body_frame(body_frame, q[0:3], q[4:7], dq[3] - h * omega, head_spins)
+        body_frame = transported_body_frame(body_frame, q[0:3], q[4:7], dq[3] - h * omega,
+                                           static.head_spins)
         e_commit, count_commit = e_last, count_last
         accepted += 1
         if (accepted == COLLAPSED_STEPS and order > 2) or accepted >= MAX_STEPS_PER_SPAN:
             code = SPAN_AFTER_ACCEPT
             break
         # Simulator._after_accept (a Newton-Krylov step: no band in which h is kept)
-        proposal = next_step(h, err, order, keep_h)
+        proposal = next_step(h, err, order, consts.keep_h)
         if h < h_ctl and proposal >= h:
             proposal = max(proposal, h_ctl)
         h_ctl = min(proposal, dt)
     if code == SPAN_CHORD or code == SPAN_FAILED:  # the returning attempt is Python's to take
         rebuilt, x_hyd, since_hydro, rho, age, parts, pre, calm, cstate, e_last, count_last, kept, rejected = saved
         counters[:] = kept
-    return (code, (time, h_ctl, rejected, accepted, h_prev), (q_cur, v_cur, d1, tangent, ref_twist, body_frame,
-            motor_angle), (npts, nfp, node_forces), (rebuilt, x_hyd, since_hydro, rho, age, parts, pre, calm), cstate,
-            (e_last, count_last, e_commit, count_commit), (v_before, same_h, motor_torque, head_torque),
-            (h, err, order))
+    return (code, SpanClock(time, t_end, dt, h_ctl, rejected, accepted, h_prev),
+            RodState(q_cur, v_cur, d1, tangent, ref_twist, body_frame, motor_angle),
+            SpanPoints(npts, nfp, node_forces), SpanSolverOut(rebuilt, x_hyd, since_hydro, rho, age, parts, pre, calm),
+            cstate, LastContact(e_last, count_last, e_commit, count_commit),
+            SpanCommit(v_before, same_h, motor_torque, head_torque), LastStep(h, err, order))
 
 
 def krylov_span_applies(sim: Any) -> bool:
@@ -261,24 +443,31 @@ def krylov_span_applies(sim: Any) -> bool:
             and solver.mobility.hyd is not None)
 
 
-def run_krylov_span(sim: Any, t_end: float, dt: float, accepted: int, rejected: bool) -> tuple[int, int, bool, tuple]:
+def run_krylov_span(sim: Any, t_end: float, dt: float, accepted: int,
+                    rejected: bool) -> tuple[int, int, bool, LastStep]:
     """Run ``krylov_span`` from the simulator's state and write the state it returns back into the simulator, its
-    solver and its counters. Returns (code, accepted steps in this dt, rejected flag, (h, err, order) of the last
-    accepted step: read on ``SPAN_AFTER_ACCEPT``)."""
+    solver and its counters. Returns (code, accepted steps in this dt, rejected flag, the last accepted step: read
+    on ``SPAN_AFTER_ACCEPT``)."""
     nm, p, system = sim.numerics, sim.params, sim.system
     solver, mob = sim._solver, sim._solver.mobility
     hyd = solver.hyd
     contact_on = sim.contact is not None
     model, cstate = sim.contact_state(sim.q)
-    static = (system.rest, system.mass, system.vdofs, system.prescribed, system.head_spins, system.pos, system.twist,
-              system.free_twist, system.weights, contact_on, model, sim.step_count == 0, sim.omega)
-    consts = (p.viscosity, p.cutoff_length, p.head_radius, nm.lsbt_smoothing, nm.near_field_radius * p.rod_radius,
-              hyd.drag_t, hyd.drag_r if hyd.spin else 0.0, mob.sigma, *mob.zeta, mob.abw, nm.step_tol, nm.h_min,
-              nm.hydro_refresh_tol * p.rod_radius, nm.hydro_refresh_max_steps, nm.newton_tol, nm.newton_max_iter,
-              system.f_floor, p.rod_radius, 2 if sim._order_capped else SCHEME_ORDER[nm.integrator],
-              # as values, not compile-time literals: the kernels called inside are the specialisations the Python
-              # step compiled (one compile, one cache entry each)
-              GMRES_RTOL, GMRES_MAX_ITER, True, 1, False)
+    static = SpanStatic(rest=system.rest, mass=system.mass, vdofs=system.vdofs, prescribed=system.prescribed,
+                        head_spins=system.head_spins, pos=system.pos, twist=system.twist,
+                        free_twist=system.free_twist, weights=system.weights, contact_on=contact_on, model=model,
+                        first_step=sim.step_count == 0, omega=sim.omega)
+    zeta_perp, zeta_par = mob.zeta
+    consts = SpanConsts(
+        mu=p.viscosity, delta=p.cutoff_length, head_radius=p.head_radius, smoothing=nm.lsbt_smoothing,
+        near_radius=nm.near_field_radius * p.rod_radius, drag_t=hyd.drag_t, drag_r=hyd.drag_r if hyd.spin else 0.0,
+        sigma=mob.sigma, zeta_perp=zeta_perp, zeta_par=zeta_par, abw=mob.abw, step_tol=nm.step_tol, h_min=nm.h_min,
+        refresh_dev=nm.hydro_refresh_tol * p.rod_radius, refresh_steps=nm.hydro_refresh_max_steps,
+        newton_tol=nm.newton_tol, newton_max_iter=nm.newton_max_iter, f_floor=system.f_floor, r0=p.rod_radius,
+        top_order=2 if sim._order_capped else SCHEME_ORDER[nm.integrator],
+        # as values, not compile-time literals: the kernels called inside are the specialisations the Python
+        # step compiled (one compile, one cache entry each)
+        gmres_rtol=GMRES_RTOL, gmres_max_iter=GMRES_MAX_ITER, has_head=True, first=1, keep_h=False)
     pts = sim._history.points
     nd = sim.q.shape[0]
     ht, hq, hv = np.zeros(HISTORY_POINTS), np.zeros((HISTORY_POINTS, nd)), np.zeros((HISTORY_POINTS, nd))
@@ -290,48 +479,52 @@ def run_krylov_span(sim: Any, t_end: float, dt: float, accepted: int, rejected: 
         ft[j], fy[j] = t, y.ravel()
     counters = np.array([getattr(sim.stats, k) for k in SPAN_COUNTERS], dtype=np.int64)
     rate = mob.contraction
-    (code, (time, h_ctl, rejected, accepted, h_prev), (q, v, d1, tangent, ref_twist, body_frame, motor_angle),
-     (npts, nfp, node_forces), (rebuilt, x_hyd, since_hydro, rho, age, parts, pre, calm), cstate,
-     (e_last, c_last, e_commit, c_commit), (v_before, same_h, motor_torque, head_torque), last_step) = krylov_span(
-        static, consts, (NO_NODES, NO_BLOCKS), mob._workspace(GMRES_MAX_ITER),
-        (sim.time, t_end, dt, sim._h, rejected, accepted, sim._h_prev),
-        (sim.q, sim.v, sim.d1, sim.tangent, sim.ref_twist, sim.body_frame, sim.motor_angle),
-        (ht, hq, hv, len(pts)), (ft, fy, len(sim._force_points), sim.node_forces),
-        (solver.x_hyd, solver.since_hydro, rate.rho, rate._age, (hyd.a, hyd.H, hyd.g),
-         (mob.ab, mob.lu, mob.piv, mob.alu, mob.apiv, mob.h), solver.calm_steps,
-         solver.lu_h if solver.lu is not None else -1.0, nm.jacobian_refresh == "resistance"),
-        _contact_arrays(cstate), (*sim._last_contact, sim.contact_energy, sim.contact_count), counters)
+    code, clock, state, points, out, cstate, contact, commit, last_step = krylov_span(
+        static, consts, ContactPlaceholders(NO_NODES, NO_BLOCKS), mob._workspace(GMRES_MAX_ITER),
+        SpanClock(time=sim.time, t_end=t_end, dt=dt, h=sim._h, rejected=rejected, accepted=accepted,
+                  h_prev=sim._h_prev),
+        RodState(q=sim.q, v=sim.v, d1=sim.d1, tangent=sim.tangent, ref_twist=sim.ref_twist,
+                 body_frame=sim.body_frame, motor_angle=sim.motor_angle),
+        SpanHistory(t=ht, q=hq, v=hv, count=len(pts)),
+        ForcePoints(t=ft, y=fy, count=len(sim._force_points), node_forces=sim.node_forces),
+        SpanSolver(x_hyd=solver.x_hyd, since_hydro=solver.since_hydro, rho=rate.rho, age=rate._age,
+                   parts=(hyd.a, hyd.H, hyd.g), pre=(mob.ab, mob.lu, mob.piv, mob.alu, mob.apiv, mob.h),
+                   calm=solver.calm_steps, lu_h=solver.lu_h if solver.lu is not None else -1.0,
+                   lu_after_rebuild=nm.jacobian_refresh == "resistance"),
+        _contact_arrays(cstate),
+        LastContact(e_last=sim._last_contact[0], count_last=sim._last_contact[1], e_commit=sim.contact_energy,
+                    count_commit=sim.contact_count),
+        counters)
     steps = counters[0] - sim.stats.substeps
     for k, value in zip(SPAN_COUNTERS, counters):
         setattr(sim.stats, k, int(value))
-    sim.time, sim._h, sim._h_prev = time, h_ctl, h_prev
+    sim.time, sim._h, sim._h_prev = clock.time, clock.h, clock.h_prev
     if steps:
-        sim._v_prev = v_before if same_h else None
-        sim._history.points = [(float(ht[j]), hq[j].copy(), hv[j].copy()) for j in range(npts)]
+        sim._v_prev = commit.v_before if commit.same_h else None
+        sim._history.points = [(float(ht[j]), hq[j].copy(), hv[j].copy()) for j in range(points.history_count)]
         # the newest point holds the state's own arrays, as History.push does (q and v returned are equal to them)
         sim.q, sim.v = sim._history.points[-1][1:]
-        sim.d1, sim.tangent, sim.ref_twist = d1, tangent, ref_twist
-        sim.body_frame, sim.motor_angle = body_frame, motor_angle
-        sim._force_points = [(float(ft[j]), fy[j].reshape(n_nodes, 3).copy()) for j in range(nfp)]
-        sim.node_forces, sim.motor_torque = node_forces, float(motor_torque)
-        sim.head_axial_torque = float(head_torque)
+        sim.d1, sim.tangent, sim.ref_twist = state.d1, state.tangent, state.ref_twist
+        sim.body_frame, sim.motor_angle = state.body_frame, state.motor_angle
+        sim._force_points = [(float(ft[j]), fy[j].reshape(n_nodes, 3).copy()) for j in range(points.force_count)]
+        sim.node_forces, sim.motor_torque = points.node_forces, float(commit.motor_torque)
+        sim.head_axial_torque = float(commit.head_torque)
         if sim.contact is not None:
-            sim.contact_energy, sim.contact_count = e_commit, int(c_commit)
-    sim.keep_contact_state(cstate, e_last, int(c_last))
-    if rebuilt:  # the resistance was rebuilt in the span: the operator and preconditioner it left
-        a, H, g = parts
+            sim.contact_energy, sim.contact_count = contact.e_commit, int(contact.count_commit)
+    sim.keep_contact_state(cstate, contact.e_last, int(contact.count_last))
+    if out.rebuilt:  # the resistance was rebuilt in the span: the operator and preconditioner it left
+        a, H, g = out.parts
         solver.hyd = mob.hyd = ResistanceOperator.from_parts(a, H, g, hyd.drag_t, hyd.drag_r, hyd.spin,
                                                              nm.lsbt_smoothing)
-        solver.x_hyd = x_hyd
+        solver.x_hyd = out.x_hyd
         mob.H, mob.g, mob.Kh = H, (g if hyd.spin else np.zeros(a.shape[0])), np.ascontiguousarray(-H.T)
-        mob.ab, mob.lu, mob.piv, mob.alu, mob.apiv, mob.h = pre
-    solver.since_hydro, solver.calm_steps = since_hydro, calm
-    rate.rho, rate._age = rho, age
-    return code, accepted, rejected, last_step
+        mob.ab, mob.lu, mob.piv, mob.alu, mob.apiv, mob.h = out.pre
+    solver.since_hydro, solver.calm_steps = out.since_hydro, out.calm
+    rate.rho, rate._age = out.rho, out.age
+    return code, clock.accepted, clock.rejected, last_step
 
 
-def _contact_arrays(cstate: tuple) -> tuple:
+def _contact_arrays(cstate: ContactState) -> ContactState:
     """The contact state with its candidate arrays C-contiguous (one compiled variant of ``krylov_span``)."""
-    q, pad, pairs, head, none = cstate
-    return q, float(pad), np.ascontiguousarray(pairs, dtype=np.int64), np.ascontiguousarray(head, dtype=np.int64), \
-        bool(none)
+    return ContactState(cstate.q, float(cstate.pad), np.ascontiguousarray(cstate.pairs, dtype=np.int64),
+                        np.ascontiguousarray(cstate.head_edges, dtype=np.int64), bool(cstate.none))

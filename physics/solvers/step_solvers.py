@@ -221,7 +221,7 @@ class DenseChordSolver:
 
     def _contacts_changed(self, q: np.ndarray, h: float) -> bool:
         ctx = self.state.step_context(h)
-        if ctx.contact is None or ctx.contact[4]:  # no candidates: no contact at all (an empty signature)
+        if ctx.contact is None or ctx.contact.none:  # no candidates: no contact at all (an empty signature)
             return False
         # a contact the Jacobian lacks: its stiffness would be missing from the chord iteration. One
         # that has ended only leaves extra stiffness (slower, still contracting): no refresh for that
