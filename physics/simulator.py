@@ -69,8 +69,9 @@ from physics.params import NumericsConfig, SwimmerParams, check_combination
 from physics.forces.step_context import StepContext, SystemDescription
 from physics.solvers.step_solvers import BandedNewtonSolver, DenseChordSolver
 from physics.threads import one_blas_thread
+from physics.integrate.adaptive_state import AdaptiveState
 from physics.integrate.time_integrator import (COLLAPSED_STEPS, EXTRAPOLATION_POINTS, MAX_STEPS_PER_SPAN, SAFETY,
-                                     SCHEME_ORDER, SHRINK_MIN, ContractionRate, History, StepBase, error_norm,
+                                     SCHEME_ORDER, SHRINK_MIN, ContractionRate, StepBase, error_norm,
                                      extrapolate, next_step, split_remaining, step_base, step_spans, velocity_of)
 
 
@@ -197,17 +198,10 @@ class Simulator:
         self.motor_angle = 0.0
         self.body_frame = np.eye(3)  # columns X_b, Y_b, Z_b in the lab frame
         self.stats = StepStats()
-        self._v_prev: np.ndarray | None = None
-        self._h_prev = -1.0
-        # time integration (physics.integrate.time_integrator): the history of accepted points for BDF2 and the
-        # error estimate, restarted at every kink of the motion (a start or a motor-speed change)
-        self._history = History()
-        self._restart = True
-        self._order_capped = False  # BDF2 until the next motor-speed change (``COLLAPSED_STEPS``)
-        # the flagellum's node forces at the last accepted points since the restart (t s, (n, 3) N), oldest first, at
-        # most EXTRAPOLATION_POINTS: the Newton-Krylov step starts its force unknowns from their extrapolation
-        self._force_points: list[tuple[float, np.ndarray]] = []
-        self._h = self.numerics.h_start  # the adaptive controller's next step, s
+        #: the step-size controller's state between steps (``physics.integrate.adaptive_state``): the accepted
+        #: points for BDF and the error estimate, restarted at every kink of the motion, the next step, the force
+        #: points; read and written by the Python step and by the compiled span (``krylov_span``)
+        self.adaptive = AdaptiveState(h=self.numerics.h_start)
         self._base: StepBase | None = None
         self.contraction = ContractionRate()  # the nonlinear iteration's convergence test (adaptive steps)
         # observables of the last step
@@ -219,7 +213,7 @@ class Simulator:
                                      self.numerics.contact_stiffness) if self.numerics.contact else None)
         self.contact_energy = 0.0  # J, at the last step
         self.contact_count = 0  # active contact interactions at the last step
-        self._last_contact = (0.0, 0)
+        self.last_contact = (0.0, 0)  # (J, count) of the last evaluation (``contact_energy``: the last step's)
         self._f_floor = 1e-9 * p.bending_stiffness / p.axial_length**2
         #: the static description of the system that the force terms and the solvers read
         self.system = SystemDescription(
@@ -229,9 +223,9 @@ class Simulator:
             contact_model=self.contact.model if self.contact is not None else None)
         #: the force terms of eqn (6) this configuration needs (``physics.forces.force_terms``)
         self.scene = scene_for(self.system)
-        # chord-iteration caches
+        #: the step's solver (``step_solvers``): the chord iteration's caches, the resistance, Newton-Krylov's step
         solver = DenseChordSolver if self.numerics.hydro_model == "lsbt" else BandedNewtonSolver
-        self._solver = solver(self.system, self, self.scene.term("hydrodynamics"))
+        self.solver = solver(self.system, self, self.scene.term("hydrodynamics"))
         #: steady steps by the compiled chord iteration where it applies (False: always the Python reference)
         self.compiled_chord = True
         #: runs of Newton-Krylov steps in one compiled call where it applies (False: always the Python step)
@@ -249,9 +243,7 @@ class Simulator:
             raise ValueError(f"motor speed {omega_rad_s!r} rad/s is not allowed; allowed: a finite speed >= 0 and "
                              f"<= {MAX_RPM * RPM_TO_RAD_S:.6g} rad/s ({MAX_RPM:g} rpm)")
         if float(omega_rad_s) != self.omega:
-            self._restart = True  # the motion has a kink here: no multistep formula may cross it
-            self._order_capped = False
-            self._force_points = []  # nor may the forces' extrapolation
+            self.adaptive.kink()  # the motion has a kink here: no multistep formula may cross it
         self.omega = float(omega_rad_s)
 
     @one_blas_thread
@@ -303,13 +295,8 @@ class Simulator:
             v = state[k]
             setattr(self, k, np.array(v, dtype=float) if isinstance(v, np.ndarray) else v)
         self.step_count = int(self.step_count)
-        self._solver.reset()  # factorisations are rebuilt at the next step
-        self._v_prev = None
-        self._h_prev = -1.0
-        self._restart = True
-        self._order_capped = False
-        self._force_points = []
-        self._h = self.numerics.h_start
+        self.solver.reset()  # factorisations are rebuilt at the next step
+        self.adaptive.reset(self.numerics.h_start)
 
     @property
     def nodes(self) -> np.ndarray:
@@ -393,7 +380,7 @@ class Simulator:
         if self.contact is not None:
             self._contact_q, self._contact_pad, self._contact_none = cstate.q, cstate.pad, cstate.none
             self._contact_candidates = (cstate.pairs, cstate.head_edges)
-            self._last_contact = (energy, count)
+            self.last_contact = (energy, count)
 
     nodes_at = staticmethod(nodes_of)
 
@@ -409,7 +396,7 @@ class Simulator:
         b = self._base
         return StepContext(b.q_hat, b.v_hat, h, self.omega, (self.d1, self.tangent, self.ref_twist), self.q,
                            self.step_count == 0, self.contact_state(self.q)[1] if self.contact is not None else None,
-                           self._solver.resistance())
+                           self.solver.resistance())
 
     def _residual(self, q: np.ndarray, h: float):
         """The residual of eqn (6) at q (ndof,) through the scene's force terms: (r, grad of the elastic and contact
@@ -438,7 +425,8 @@ class Simulator:
     def _euler_base(self, h: float) -> StepBase:
         """Implicit Euler from the current state, started from the constant-acceleration predictor of the
         last two steps (first step: constant velocity)."""
-        q = self.q + h * (2.0 * self.v - self._v_prev) if self._v_prev is not None else self.q + h * self.v
+        v_prev = self.adaptive.v_prev
+        q = self.q + h * (2.0 * self.v - v_prev) if v_prev is not None else self.q + h * self.v
         return StepBase(h, h, self.q, self.v, q, 1, None)
 
     def _step_start(self, base: StepBase) -> np.ndarray:
@@ -456,13 +444,13 @@ class Simulator:
         p = self.params
         q = self._step_start(base)
         h = base.h_eff  # the solvers see the effective step of the scheme (physics.integrate.time_integrator)
-        self._solver.begin_step(q, h)
-        if self._solver.krylov:  # the resistance was rebuilt: Newton-Krylov in the mobility form
+        self.solver.begin_step(q, h)
+        if self.solver.krylov:  # the resistance was rebuilt: Newton-Krylov in the mobility form
             self.stats.krylov_steps += 1
             first = 1 if p.has_head else 0
-            forces = (extrapolate(self._force_points, self.time + base.h) if self._force_points
+            forces = (extrapolate(self.adaptive.force_points, self.time + base.h) if self.adaptive.force_points
                       else self.node_forces)  # the last forces where no accepted point since the restart
-            return self._solver.mobility.solve(q, -forces[first:].ravel(), h)
+            return self.solver.mobility.solve(q, -forces[first:].ravel(), h)
         if self.compiled_chord and compiled_chord_applies(self):
             return chord_solve(self, q, h)  # the iteration below, compiled (bit-identical)
         return self._chord_python(q, h)
@@ -490,11 +478,11 @@ class Simulator:
             # stalled: a refactorisation costs ~20 iterations, so only after many iterations or
             # when two iterations together reduce the residual by less than 2x
             if it >= nm.newton_max_iter or (it >= 8 and norm > 0.5 * hist[-2]):
-                if not self._solver.on_stall(q, h) and it >= nm.newton_max_iter:
+                if not self.solver.on_stall(q, h) and it >= nm.newton_max_iter:
                     break
             hist.append(norm)
             t0 = time.perf_counter()
-            z = self._solver.increment(r, q, h)
+            z = self.solver.increment(r, q, h)
             self.stats.time_linear_solve += time.perf_counter() - t0
             q_plain = q - z
             if nm.single_iteration:  # linearly implicit Euler: one solve from the predictor
@@ -514,13 +502,13 @@ class Simulator:
                                    f"(max force residual {np.abs(r).max():.3e})")
 
     def _base_for(self, h: float) -> StepBase:
-        if self._restart:
-            self._history.restart(self.time, self.q, self.v)
-            self._restart = False
+        if self.adaptive.restart:
+            self.adaptive.history.restart(self.time, self.q, self.v)
+            self.adaptive.restart = False
         scheme = self.numerics.integrator
-        if self._order_capped and SCHEME_ORDER[scheme] > 2:
+        if self.adaptive.order_capped and SCHEME_ORDER[scheme] > 2:
             scheme = "bdf2"
-        return step_base(self._history, h, scheme)
+        return step_base(self.adaptive.history, h, scheme)
 
     def _advance(self, h: float, level: int) -> None:
         """Fixed steps: one step of h, halved (recursively) on failure."""
@@ -553,9 +541,9 @@ class Simulator:
                     self._after_accept(h, err, order, accepted, dt, t_end)
                 if code in (SPAN_DONE, SPAN_AFTER_ACCEPT):
                     continue
-            if self._restart:
-                self._h = min(nm.h_start, dt)
-            h = split_remaining(self._h, t_end - self.time, stretch=not rejected)
+            if self.adaptive.restart:
+                self.adaptive.h = min(nm.h_start, dt)
+            h = split_remaining(self.adaptive.h, t_end - self.time, stretch=not rejected)
             rejected = True  # until the step is accepted
             last = h == t_end - self.time
             base = self._base_for(h)
@@ -582,24 +570,24 @@ class Simulator:
         if accepted == COLLAPSED_STEPS and order > 2:
             # BDF3/4 are not A-stable (``COLLAPSED_STEPS``): restart (implicit Euler at h_start damps what the
             # collapse excited) and go on with BDF2, A-stable, until the motor speed changes
-            self._order_capped = self._restart = True
-            self._h = nm.h_start
-            self._force_points = []
+            self.adaptive.order_capped = self.adaptive.restart = True
+            self.adaptive.h = nm.h_start
+            self.adaptive.force_points = []
             self.stats.order_reductions += 1
         elif accepted >= MAX_STEPS_PER_SPAN:
             raise SimulationError(f"too much work: {accepted} steps in {self.time - (t_end - dt):.3g} s of a "
                                   f"{dt:g} s span (last step {h:.3g} s)", self.step_count, self.time, "step size")
-        proposal = next_step(h, err, order, keep=not self._solver.krylov)
-        if h < self._h and proposal >= h:  # a step shortened to land on t_end says nothing against h
-            proposal = max(proposal, self._h)
-        self._h = min(proposal, dt)
+        proposal = next_step(h, err, order, keep=not self.solver.krylov)
+        if h < self.adaptive.h and proposal >= h:  # a step shortened to land on t_end says nothing against h
+            proposal = max(proposal, self.adaptive.h)
+        self.adaptive.h = min(proposal, dt)
 
     def _reject(self, h_new: float, quantity: str, why: str) -> None:
         self.stats.rejected_steps += 1
         if h_new < self.numerics.h_min:
             raise SimulationError(f"{why}; the step would fall below h_min = {self.numerics.h_min:g} s",
                                   self.step_count, self.time, quantity)
-        self._h = h_new
+        self.adaptive.h = h_new
 
     def _spin_from_balance(self, q: np.ndarray) -> float:
         """The head's spin rate (rad/s) of eqn (13) at the accepted q for the flagellum's hydrodynamic forces of the
@@ -621,19 +609,20 @@ class Simulator:
     def _commit(self, q, base: StepBase, grad, f, t, d1, rt, t_new: float | None = None) -> None:
         h = base.h
         dq = q - self.q
-        self._v_prev = self.v if h == self._h_prev else None
-        self._h_prev = h
+        self.adaptive.v_prev = self.v if h == self.adaptive.h_prev else None
+        self.adaptive.h_prev = h
         self.v = dq / h if base.order == 1 and base.h_eff == h else velocity_of(q, base)
         self.q = q
         self.tangent, self.d1, self.ref_twist = t, d1, rt
         self.time = self.time + h if t_new is None else t_new
         self.stats.substeps += 1
         if self.numerics.integrator != "euler" or self.numerics.step_tol > 0.0:
-            self._history.push(self.time, self.q, self.v)
+            self.adaptive.history.push(self.time, self.q, self.v)
         self.motor_angle += h * self.omega
-        self._solver.end_step()
+        self.solver.end_step()
         self.node_forces = nodes_of(f)  # the (n, 3) node blocks of f
-        self._force_points = [*self._force_points[1 - EXTRAPOLATION_POINTS:], (self.time, self.node_forces)]
+        points = self.adaptive.force_points
+        self.adaptive.force_points = [*points[1 - EXTRAPOLATION_POINTS:], (self.time, self.node_forces)]
         self.head_axial_torque = float(f[3]) if self.head_spins else 0.0
         self.motor_torque = float(grad[3])
         if self.head_spins_from_balance:
@@ -645,4 +634,4 @@ class Simulator:
         self.body_frame = transported_body_frame(self.body_frame, q[0:3], q[4:7], dpsi,
                                                  self.head_spins or self.head_spins_from_balance)
         if self.contact is not None:
-            self.contact_energy, self.contact_count = self._last_contact
+            self.contact_energy, self.contact_count = self.last_contact

@@ -82,8 +82,8 @@ class ResistanceOperator:
         a = lsbt_mobility(flag, node_tangents(flag), mu, delta, smoothing, near_radius)
         self.m3 = a.shape[0]
         self.a = a  # the mobility A_reg (3M, 3M), m/(N s): all that the mobility form needs
-        self._inv: np.ndarray | None = None
-        self._chol: tuple[np.ndarray, bool] | None = None
+        self.inv: np.ndarray | None = None  # the explicit inverse of a, once formed (``inverse``)
+        self.chol: tuple[np.ndarray, bool] | None = None  # (Cholesky factor of a, lower), once ``factorize``d
         self._smoothing = smoothing
         if self.lab_spin:  # A' = A + g w^T (module doc): g is the rotlet's flow, w eqn (13) solved for the spin
             e0 = nodes[1] - nodes[0]
@@ -92,7 +92,7 @@ class ResistanceOperator:
             self.spin_map = head_spin_map(flag, nodes[0].copy(), axis, head_radius, mu)
             self.a = a + np.outer(g_spin, self.spin_map)
         if not factorize_lazily:
-            self._factorize()
+            self.factorize()
         if self.has_head:
             e0 = nodes[1] - nodes[0]
             axis = e0 / math.sqrt(e0 @ e0)
@@ -109,7 +109,7 @@ class ResistanceOperator:
             self.drag_t = sphere_translational_drag(mu, head_radius)
             self.drag_r = sphere_rotational_drag(mu, head_radius)
         self.nv = self.m3 + (3 if self.has_head else 0) + (1 if self.spin else 0)
-        self._applies = 0
+        self.applies = 0  # Cholesky solves so far (the inverse is formed after _INVERSE_AFTER_SOLVES)
 
     @classmethod
     def from_parts(cls, a: np.ndarray, H: np.ndarray, g: np.ndarray, drag_t: float, drag_r: float, spin: bool,
@@ -120,49 +120,49 @@ class ResistanceOperator:
         op = cls.__new__(cls)
         op.has_head, op.spin, op.printed, op.lab_spin = True, spin, False, False
         op.m3 = a.shape[0]
-        op.a, op._inv, op._chol, op._smoothing = a, None, None, smoothing
+        op.a, op.inv, op.chol, op._smoothing = a, None, None, smoothing
         op.H, op.g, op.K = H, g, -H.T
         op.drag_t, op.drag_r = drag_t, drag_r
         op.nv = op.m3 + 3 + (1 if spin else 0)
-        op._applies = 0
+        op.applies = 0
         return op
 
-    def _factorize(self) -> None:
+    def factorize(self) -> None:
         """Cholesky of A_reg (or, for the indefinite plain eqn (8) and the non-symmetric A' of the literal reading,
         its explicit inverse)."""
         if self._smoothing > 0.0 and not self.lab_spin:
             c, info = lapack.dpotrf(self.a, lower=0, clean=1, overwrite_a=0)
             if info != 0:
                 raise HydroError(f"LSBT mobility is not positive definite (Cholesky failed at pivot {info})")
-            self._chol = (c, False)
+            self.chol = (c, False)
         else:  # plain eqn (8): indefinite, use an explicit inverse
-            self._inv = np.linalg.inv(self.a)
+            self.inv = np.linalg.inv(self.a)
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """C b = A_reg^{-1} b (two triangular solves; a matvec once the inverse is kept)."""
-        if self._inv is None and self._chol is None:
-            self._factorize()
-        if self._inv is not None:
-            return self._inv @ b
-        self._applies += 1
-        if self._applies > _INVERSE_AFTER_SOLVES:
+        if self.inv is None and self.chol is None:
+            self.factorize()
+        if self.inv is not None:
+            return self.inv @ b
+        self.applies += 1
+        if self.applies > _INVERSE_AFTER_SOLVES:
             return self.inverse() @ b
         # LAPACK potrs directly: what cho_solve calls, without its wrapper (~5 % of a step)
-        x, info = lapack.dpotrs(self._chol[0], b, lower=self._chol[1])
+        x, info = lapack.dpotrs(self.chol[0], b, lower=self.chol[1])
         if info != 0:
             raise HydroError(f"LSBT mobility solve failed (potrs info {info})")
         return x
 
     def inverse(self) -> np.ndarray:
         """C = A_reg^{-1}, (3M,3M); computed once and kept (matvecs are cheaper than solves)."""
-        if self._inv is None and self._chol is None:
-            self._factorize()
-        if self._inv is None:
-            inv, info = lapack.dpotri(self._chol[0], lower=0)
+        if self.inv is None and self.chol is None:
+            self.factorize()
+        if self.inv is None:
+            inv, info = lapack.dpotri(self.chol[0], lower=0)
             if info != 0:
                 raise HydroError(f"LSBT mobility inversion failed (potri info {info})")
-            self._inv = _mirror_upper(inv)
-        return self._inv
+            self.inv = _mirror_upper(inv)
+        return self.inv
 
     def apply(self, V: np.ndarray) -> np.ndarray:
         """R V for generalised velocities V (nv,); returns minus the hydrodynamic generalised force."""

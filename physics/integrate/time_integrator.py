@@ -324,21 +324,21 @@ class ContractionRate:
 
     def __init__(self) -> None:
         self.rho = 1.0
-        self._prev: float | None = None
-        self._age = self.MAX_AGE
+        self.prev: float | None = None  # the last correction's size in this step (None: none yet)
+        self.age = self.MAX_AGE  # steps since the rate was last measured
 
     def start(self) -> None:
         """A new step's iteration begins (its first correction cannot measure a rate)."""
-        self._prev = None
-        self._age += 1
+        self.prev = None
+        self.age += 1
 
     def converged(self, dz_over_tol: float) -> bool:
         """After a correction of weighted size ``dz_over_tol`` (in units of step_tol): is the iterate converged?"""
-        if self._prev is not None and self._prev > 0.0:
-            self.rho = max(0.3 * self.rho, dz_over_tol / self._prev)
-            self._age = 0
-        self._prev = dz_over_tol
-        rho = self.rho if self._age < self.MAX_AGE else 1.0
+        if self.prev is not None and self.prev > 0.0:
+            self.rho = max(0.3 * self.rho, dz_over_tol / self.prev)
+            self.age = 0
+        self.prev = dz_over_tol
+        rho = self.rho if self.age < self.MAX_AGE else 1.0
         return dz_over_tol * min(1.0, rho) <= NONLINEAR_ERROR_FRACTION
 
 

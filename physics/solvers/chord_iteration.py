@@ -303,7 +303,7 @@ def compiled_chord_applies(sim: Any) -> bool:
     """Whether ``chord_solve`` can take this step: the dense chord solver with a factorised Jacobian, no
     Anderson mixing, more than one iteration per step, and NumPy's own BLAS reachable from compiled code."""
     nm = sim.numerics
-    solver = sim._solver
+    solver = sim.solver
     return (NUMPY_BLAS and nm.anderson_depth == 0 and not nm.single_iteration
             and getattr(solver, "lu", None) is not None and getattr(solver, "hyd", None) is not None)
 
@@ -317,19 +317,19 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
     the loop returns."""
     system = sim.system
     nm, p = system.numerics, system.params
-    solver = sim._solver
+    solver = sim.solver
     hyd = solver.hyd
     ctx = sim.step_context(h)
-    if hyd._inv is None and hyd._chol is None:  # what the first solve would do (a lazily built operator)
+    if hyd.inv is None and hyd.chol is None:  # what the first solve would do (a lazily built operator)
         try:
-            hyd._factorize()
+            hyd.factorize()
         except HydroError as exc:
             raise StepFailed("hydrodynamic mobility", str(exc)) from None
     step_scale = max(block_max_abs(q - ctx.q_start, system.pos), 1e-6 * p.rod_radius)
     rate = sim.contraction
     if nm.step_tol > 0.0:
         rate.start()
-    rstate = RateState(rho=rate.rho, prev=-1.0 if rate._prev is None else rate._prev, age=rate._age)
+    rstate = RateState(rho=rate.rho, prev=-1.0 if rate.prev is None else rate.prev, age=rate.age)
     contact_on, model, cstate = compiled_contact_args(q, ctx, system)
     base = SchemeBase(q_hat=ctx.q_hat, v_hat=ctx.v_hat, h_eff=ctx.h)
     arrays = ChordSystem(mass=system.mass, vdofs=system.vdofs, prescribed=system.prescribed,
@@ -348,28 +348,28 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
     carried = Carried(r=q, grad=q, f=q, frames=(t_old, d1_old, d1_old, rt_old, d1_old, d1_old), energy=0.0, count=0)
     it, phase, hist = 0, AT_RESIDUAL, ResidualHistory(newest=np.inf, previous=np.inf)
     while True:
-        use_inv = hyd._inv is not None
-        hydro = ChordHydro(inv=hyd._inv if use_inv else _NO_MATRIX, chol=_NO_MATRIX if use_inv else hyd._chol[0],
+        use_inv = hyd.inv is not None
+        hydro = ChordHydro(inv=hyd.inv if use_inv else _NO_MATRIX, chol=_NO_MATRIX if use_inv else hyd.chol[0],
                            H=H, g=g, K=K, drag_t=drag_t, drag_r=drag_r, has_head=hyd.has_head, spin=hyd.spin,
                            printed=hyd.printed, Qh=np.ascontiguousarray(solver.Qh))
         lin = ChordLinear(lu=solver.lu[0], piv1=solver.piv1, Qj=np.ascontiguousarray(solver.Qj),
                           jac_fresh=solver.jac_fresh)
         (code, q, it, phase, hist, carried, cstate, rstate, applies, evaluated, value) = chord_loop(
             q, h, it, phase, hist, carried, ctx.q_start, frames_old, system.rest, base, arrays, hydro,
-            InverseState(use_inv=use_inv, applies=hyd._applies, applies_max=_INVERSE_AFTER_SOLVES), contact_on,
+            InverseState(use_inv=use_inv, applies=hyd.applies, applies_max=_INVERSE_AFTER_SOLVES), contact_on,
             model, cstate, ctx.first_step, lin, tols, rstate)
-        hyd._applies = applies
+        hyd.applies = applies
         sim.stats.newton_iterations += evaluated
         sim.keep_contact_state(cstate, carried.energy, carried.count)
-        rate.rho, rate._age = rstate.rho, rstate.age
-        rate._prev = None if rstate.prev < 0.0 else rstate.prev
+        rate.rho, rate.age = rstate.rho, rstate.age
+        rate.prev = None if rstate.prev < 0.0 else rstate.prev
         if code == CONVERGED:
             t, d1, d2, rt, m1, m2 = carried.frames
             return q, carried.r, carried.grad, carried.f, (t, d1, rt)
         if code == STALL:
             solver.on_stall(q, h)  # refactorises (the loop returns only when the Jacobian is not fresh)
         elif code == NEED_INVERSE:  # ResistanceOperator.solve's switch to the explicit inverse
-            hyd._applies += 1
+            hyd.applies += 1
             try:
                 hyd.inverse()
             except HydroError as exc:

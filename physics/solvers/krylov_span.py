@@ -266,7 +266,7 @@ def krylov_span(static: SpanStatic, consts: SpanConsts, placeholders: ContactPla
     e_last, count_last, e_commit, count_commit = (last_contact.e_last, last_contact.count_last,
                                                   last_contact.e_commit, last_contact.count_commit)
     v_before = v_cur
-    same_h = False  # the last accepted step had the length of the one before it (Simulator._v_prev)
+    same_h = False  # the last accepted step had the length of the one before it (AdaptiveState.v_prev)
     motor_torque = 0.0
     head_torque = 0.0
     err = 0.0
@@ -435,11 +435,11 @@ def krylov_span_applies(sim: Any) -> bool:
     """Does ``krylov_span`` take the simulator's next attempt? (module doc: the configurations it covers, and the
     previous attempt solved by Newton-Krylov with no restart pending)."""
     nm, p = sim.numerics, sim.params
-    solver = sim._solver
+    solver = sim.solver
     return (sim.compiled_span and NUMPY_BLAS and nm.step_tol > 0.0 and nm.newton_krylov and not nm.single_iteration
             and nm.hydro_model == "lsbt" and nm.head_model == "higdon" and p.has_head
             and p.head_rotation in ("torque_free", "fixed")
-            and not sim._restart and getattr(solver, "krylov", False) and solver.hyd is not None
+            and not sim.adaptive.restart and getattr(solver, "krylov", False) and solver.hyd is not None
             and solver.mobility.hyd is not None)
 
 
@@ -449,7 +449,7 @@ def run_krylov_span(sim: Any, t_end: float, dt: float, accepted: int,
     solver and its counters. Returns (code, accepted steps in this dt, rejected flag, the last accepted step: read
     on ``SPAN_AFTER_ACCEPT``)."""
     nm, p, system = sim.numerics, sim.params, sim.system
-    solver, mob = sim._solver, sim._solver.mobility
+    solver, mob, st = sim.solver, sim.solver.mobility, sim.adaptive
     hyd = solver.hyd
     contact_on = sim.contact is not None
     model, cstate = sim.contact_state(sim.q)
@@ -464,49 +464,49 @@ def run_krylov_span(sim: Any, t_end: float, dt: float, accepted: int,
         sigma=mob.sigma, zeta_perp=zeta_perp, zeta_par=zeta_par, abw=mob.abw, step_tol=nm.step_tol, h_min=nm.h_min,
         refresh_dev=nm.hydro_refresh_tol * p.rod_radius, refresh_steps=nm.hydro_refresh_max_steps,
         newton_tol=nm.newton_tol, newton_max_iter=nm.newton_max_iter, f_floor=system.f_floor, r0=p.rod_radius,
-        top_order=2 if sim._order_capped else SCHEME_ORDER[nm.integrator],
+        top_order=2 if st.order_capped else SCHEME_ORDER[nm.integrator],
         # as values, not compile-time literals: the kernels called inside are the specialisations the Python
         # step compiled (one compile, one cache entry each)
         gmres_rtol=GMRES_RTOL, gmres_max_iter=GMRES_MAX_ITER, has_head=True, first=1, keep_h=False)
-    pts = sim._history.points
+    pts = st.history.points
     nd = sim.q.shape[0]
     ht, hq, hv = np.zeros(HISTORY_POINTS), np.zeros((HISTORY_POINTS, nd)), np.zeros((HISTORY_POINTS, nd))
     for j, (t, q, v) in enumerate(pts):
         ht[j], hq[j], hv[j] = t, q, v
     n_nodes = sim.node_forces.shape[0]
     ft, fy = np.zeros(EXTRAPOLATION_POINTS), np.zeros((EXTRAPOLATION_POINTS, 3 * n_nodes))
-    for j, (t, y) in enumerate(sim._force_points):
+    for j, (t, y) in enumerate(st.force_points):
         ft[j], fy[j] = t, y.ravel()
     counters = np.array([getattr(sim.stats, k) for k in SPAN_COUNTERS], dtype=np.int64)
     rate = mob.contraction
     code, clock, state, points, out, cstate, contact, commit, last_step = krylov_span(
-        static, consts, ContactPlaceholders(NO_NODES, NO_BLOCKS), mob._workspace(GMRES_MAX_ITER),
-        SpanClock(time=sim.time, t_end=t_end, dt=dt, h=sim._h, rejected=rejected, accepted=accepted,
-                  h_prev=sim._h_prev),
+        static, consts, ContactPlaceholders(NO_NODES, NO_BLOCKS), mob.workspace(GMRES_MAX_ITER),
+        SpanClock(time=sim.time, t_end=t_end, dt=dt, h=st.h, rejected=rejected, accepted=accepted,
+                  h_prev=st.h_prev),
         RodState(q=sim.q, v=sim.v, d1=sim.d1, tangent=sim.tangent, ref_twist=sim.ref_twist,
                  body_frame=sim.body_frame, motor_angle=sim.motor_angle),
         SpanHistory(t=ht, q=hq, v=hv, count=len(pts)),
-        ForcePoints(t=ft, y=fy, count=len(sim._force_points), node_forces=sim.node_forces),
-        SpanSolver(x_hyd=solver.x_hyd, since_hydro=solver.since_hydro, rho=rate.rho, age=rate._age,
+        ForcePoints(t=ft, y=fy, count=len(st.force_points), node_forces=sim.node_forces),
+        SpanSolver(x_hyd=solver.x_hyd, since_hydro=solver.since_hydro, rho=rate.rho, age=rate.age,
                    parts=(hyd.a, hyd.H, hyd.g), pre=(mob.ab, mob.lu, mob.piv, mob.alu, mob.apiv, mob.h),
                    calm=solver.calm_steps, lu_h=solver.lu_h if solver.lu is not None else -1.0,
                    lu_after_rebuild=nm.jacobian_refresh == "resistance"),
         _contact_arrays(cstate),
-        LastContact(e_last=sim._last_contact[0], count_last=sim._last_contact[1], e_commit=sim.contact_energy,
+        LastContact(e_last=sim.last_contact[0], count_last=sim.last_contact[1], e_commit=sim.contact_energy,
                     count_commit=sim.contact_count),
         counters)
     steps = counters[0] - sim.stats.substeps
     for k, value in zip(SPAN_COUNTERS, counters):
         setattr(sim.stats, k, int(value))
-    sim.time, sim._h, sim._h_prev = clock.time, clock.h, clock.h_prev
+    sim.time, st.h, st.h_prev = clock.time, clock.h, clock.h_prev
     if steps:
-        sim._v_prev = commit.v_before if commit.same_h else None
-        sim._history.points = [(float(ht[j]), hq[j].copy(), hv[j].copy()) for j in range(points.history_count)]
+        st.v_prev = commit.v_before if commit.same_h else None
+        st.history.points = [(float(ht[j]), hq[j].copy(), hv[j].copy()) for j in range(points.history_count)]
         # the newest point holds the state's own arrays, as History.push does (q and v returned are equal to them)
-        sim.q, sim.v = sim._history.points[-1][1:]
+        sim.q, sim.v = st.history.points[-1][1:]
         sim.d1, sim.tangent, sim.ref_twist = state.d1, state.tangent, state.ref_twist
         sim.body_frame, sim.motor_angle = state.body_frame, state.motor_angle
-        sim._force_points = [(float(ft[j]), fy[j].reshape(n_nodes, 3).copy()) for j in range(points.force_count)]
+        st.force_points = [(float(ft[j]), fy[j].reshape(n_nodes, 3).copy()) for j in range(points.force_count)]
         sim.node_forces, sim.motor_torque = points.node_forces, float(commit.motor_torque)
         sim.head_axial_torque = float(commit.head_torque)
         if sim.contact is not None:
@@ -520,7 +520,7 @@ def run_krylov_span(sim: Any, t_end: float, dt: float, accepted: int,
         mob.H, mob.g, mob.Kh = H, (g if hyd.spin else np.zeros(a.shape[0])), np.ascontiguousarray(-H.T)
         mob.ab, mob.lu, mob.piv, mob.alu, mob.apiv, mob.h = out.pre
     solver.since_hydro, solver.calm_steps = out.since_hydro, out.calm
-    rate.rho, rate._age = out.rho, out.age
+    rate.rho, rate.age = out.rho, out.age
     return code, clock.accepted, clock.rejected, last_step
 
 

@@ -561,7 +561,7 @@ class MobilityStep:
         return (q.size, system.vdofs, system.prescribed, system.mass / (h * h), ab, nodes_c, blocks_c, h, self.sigma,
                 hyd.a, self.H, self.g, self.Kh, self.drag_t, self.drag_r, hyd.has_head, hyd.spin)
 
-    def _workspace(self, max_iter: int) -> tuple:
+    def workspace(self, max_iter: int) -> tuple:
         """The kept ``krylov_workspace`` (made anew when the sizes change or more iterations are asked)."""
         sizes = (self.system.ndof, self.hyd.m3, self.system.vdofs.size)
         w = self._work
@@ -572,13 +572,13 @@ class MobilityStep:
     def jacobian_vector(self, q: np.ndarray, h: float, z: np.ndarray) -> np.ndarray:
         """J z at q (the elastic and contact Hessians at q) for z = (dq (ndof,), dy (3M,))."""
         out = np.empty_like(z)
-        jacobian_vector(z, out, self._workspace(GMRES_MAX_ITER), *self._jacobian_arrays(q, h))
+        jacobian_vector(z, out, self.workspace(GMRES_MAX_ITER), *self._jacobian_arrays(q, h))
         return out
 
     def direction(self, q: np.ndarray, h: float, rhs: np.ndarray, rtol: float = GMRES_RTOL,
                   max_iter: int = GMRES_MAX_ITER) -> tuple[np.ndarray, int, float]:
         """GMRES for J z = rhs at q: (z, iterations (-1: not converged), relative residual reached)."""
-        return krylov_direction(rhs, rtol, max_iter, self._workspace(max_iter), *self._jacobian_arrays(q, h),
+        return krylov_direction(rhs, rtol, max_iter, self.workspace(max_iter), *self._jacobian_arrays(q, h),
                                 self.lu, self.piv, self.alu, self.apiv, self.abw)
 
     def solve(self, q: np.ndarray, y: np.ndarray, h: float):
@@ -589,13 +589,13 @@ class MobilityStep:
         ctx = state.step_context(h)
         contact_on, model, cstate = compiled_contact_args(q, ctx, system)
         rate = self.contraction
-        code, q, y, r, grad, f, frames, cstate, (e_c, count), (evaluated, its), (rate.rho, rate._age), value = (
+        code, q, y, r, grad, f, frames, cstate, (e_c, count), (evaluated, its), (rate.rho, rate.age), value = (
             newton_krylov_loop(q, y, h, ctx.q_start, ctx.frames, system.rest,
                                self._base(ctx), self._system(ctx), self._hydro(), contact_on, model, cstate,
                                ctx.first_step, (self.lu, self.piv, self.alu, self.apiv, self.abw), self.ab,
                                (nm.newton_tol, nm.newton_max_iter, nm.step_tol, system.f_floor, p.rod_radius,
                                 GMRES_RTOL, GMRES_MAX_ITER),
-                               (rate.rho, rate._age), self._workspace(GMRES_MAX_ITER)))
+                               (rate.rho, rate.age), self.workspace(GMRES_MAX_ITER)))
         state.stats.newton_iterations += evaluated
         state.stats.krylov_iterations += its
         state.keep_contact_state(cstate, e_c, count)

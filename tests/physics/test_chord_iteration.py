@@ -48,7 +48,7 @@ def _open_chord_step(sim: Simulator, h: float, fresh: bool = False):
     to Newton-Krylov. Returns (q, h_eff)."""
     base = sim._base_for(h)
     q = sim._step_start(base)
-    solver = sim._solver
+    solver = sim.solver
     solver.begin_step(q, base.h_eff)
     if fresh or solver.krylov:
         solver._refresh_jacobian(q, base.h_eff, keep_resistance=False)
@@ -57,26 +57,26 @@ def _open_chord_step(sim: Simulator, h: float, fresh: bool = False):
     return q, base.h_eff
 
 
-_SIM_FIELDS = ("_contact_q", "_contact_pad", "_contact_candidates", "_contact_none", "_last_contact")
+_SIM_FIELDS = ("_contact_q", "_contact_pad", "_contact_candidates", "_contact_none", "last_contact")
 _SOLVER_FIELDS = ("lu", "piv1", "lu_h", "x_jac", "Qj", "jac_fresh", "contact_set")
 
 
 def _snapshot(sim: Simulator) -> dict:
-    solver, hyd, rate = sim._solver, sim._solver.hyd, sim.contraction
+    solver, hyd, rate = sim.solver, sim.solver.hyd, sim.contraction
     return {"sim": {k: getattr(sim, k) for k in _SIM_FIELDS if hasattr(sim, k)},
             "solver": {k: getattr(solver, k) for k in _SOLVER_FIELDS},
-            "hyd": {"_inv": hyd._inv, "_applies": hyd._applies},
-            "rate": (rate.rho, rate._prev, rate._age), "stats": dataclasses.replace(sim.stats)}
+            "hyd": {"inv": hyd.inv, "applies": hyd.applies},
+            "rate": (rate.rho, rate.prev, rate.age), "stats": dataclasses.replace(sim.stats)}
 
 
 def _restore(sim: Simulator, snap: dict) -> None:
     for k, v in snap["sim"].items():
         setattr(sim, k, v)
     for k, v in snap["solver"].items():
-        setattr(sim._solver, k, v)
+        setattr(sim.solver, k, v)
     for k, v in snap["hyd"].items():
-        setattr(sim._solver.hyd, k, v)
-    sim.contraction.rho, sim.contraction._prev, sim.contraction._age = snap["rate"]
+        setattr(sim.solver.hyd, k, v)
+    sim.contraction.rho, sim.contraction.prev, sim.contraction.age = snap["rate"]
     sim.stats = dataclasses.replace(snap["stats"])
 
 
@@ -109,12 +109,12 @@ def _assert_same(ref, got, after_ref, after_got) -> None:
     assert after_got["stats"].newton_iterations == after_ref["stats"].newton_iterations
     assert after_got["stats"].jacobian_factorisations == after_ref["stats"].jacobian_factorisations
     assert after_got["rate"] == after_ref["rate"]
-    assert after_got["hyd"]["_applies"] == after_ref["hyd"]["_applies"]
-    assert (after_got["hyd"]["_inv"] is None) == (after_ref["hyd"]["_inv"] is None)
+    assert after_got["hyd"]["applies"] == after_ref["hyd"]["applies"]
+    assert (after_got["hyd"]["inv"] is None) == (after_ref["hyd"]["inv"] is None)
     for k in ("lu_h", "jac_fresh", "contact_set"):
         assert after_got["solver"][k] == after_ref["solver"][k]
     assert np.array_equal(after_got["solver"]["lu"][0], after_ref["solver"]["lu"][0])
-    for k in ("_contact_pad", "_contact_none", "_last_contact"):
+    for k in ("_contact_pad", "_contact_none", "last_contact"):
         if k in after_ref["sim"]:
             assert after_got["sim"][k] == after_ref["sim"][k]
 
@@ -127,7 +127,7 @@ def steady() -> Simulator:
 def test_a_steady_step_is_the_python_iteration_bit_for_bit(steady):
     sim = steady
     q, h = _open_chord_step(sim, 0.1)
-    assert sim._solver.hyd._inv is not None  # the kept inverse
+    assert sim.solver.hyd.inv is not None  # the kept inverse
     n0 = sim.stats.newton_iterations
     ref, got, a_ref, a_got = _both(sim, q, h)
     assert a_ref["stats"].newton_iterations - n0 >= 2  # at least one increment
@@ -139,11 +139,11 @@ def test_a_step_that_forms_the_inverse_inside_the_iteration_is_the_python_iterat
     ``_INVERSE_AFTER_SOLVES`` forms the inverse (Python enters there) and the iteration goes on with it."""
     sim = steady
     q, h = _open_chord_step(sim, 0.1)
-    hyd = sim._solver.hyd
-    hyd._factorize()
-    hyd._inv, hyd._applies = None, 59  # two Cholesky solves left: the switch comes within the step
+    hyd = sim.solver.hyd
+    hyd.factorize()
+    hyd.inv, hyd.applies = None, 59  # two Cholesky solves left: the switch comes within the step
     ref, got, a_ref, a_got = _both(sim, q, h)
-    assert a_ref["hyd"]["_inv"] is not None and a_ref["hyd"]["_applies"] == 61
+    assert a_ref["hyd"]["inv"] is not None and a_ref["hyd"]["applies"] == 61
     _assert_same(ref, got, a_ref, a_got)
 
 
@@ -154,8 +154,8 @@ def test_a_stall_is_refactorised_and_resumed_as_in_python(steady, max_iter, tol,
     iterate (Python enters), and the compiled loop resumes at the increment; with too few iterations left both end
     in the same StepFailed."""
     sim = steady
-    q, h = _open_chord_step(sim, sim._h)
-    sim._solver.jac_fresh = False  # as if factorised at an earlier step: a stall refactorises
+    q, h = _open_chord_step(sim, sim.adaptive.h)
+    sim.solver.jac_fresh = False  # as if factorised at an earlier step: a stall refactorises
     n0 = sim.stats.jacobian_factorisations
     nm, system = sim.numerics, sim.system
     sim.numerics = dataclasses.replace(nm, newton_max_iter=max_iter, newton_tol=tol, step_tol=0.0)
@@ -174,7 +174,7 @@ def test_a_buckled_step_with_contact_is_the_python_iteration_bit_for_bit():
     q, h = _open_chord_step(sim, 0.005, fresh=True)
     ref, got, a_ref, a_got = _both(sim, q, h)
     assert not isinstance(ref, StepFailed)
-    assert a_ref["sim"]["_last_contact"][1] > 0  # contact was active in the step compared
+    assert a_ref["sim"]["last_contact"][1] > 0  # contact was active in the step compared
     _assert_same(ref, got, a_ref, a_got)
 
 

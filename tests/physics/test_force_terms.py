@@ -48,7 +48,7 @@ def _open_step(sim: Simulator, h: float = 0.01):
     """Set up a step of h from the current state as ``Simulator._try_step`` does; returns (q_pred, context)."""
     base = sim._base_for(h)
     q = sim._step_start(base)
-    sim._solver.begin_step(q, base.h_eff)
+    sim.solver.begin_step(q, base.h_eff)
     return q, sim.step_context(base.h_eff)
 
 
@@ -173,7 +173,7 @@ def test_scene_jacobian_action_is_the_assembled_dense_jacobian_times_v(name):
     rows and columns: compared with v zero there, on the free rows), for the step's resistance, rotated or not."""
     sim = _sim(name)
     q, ctx = _open_step(sim)
-    solver = sim._solver
+    solver = sim.solver
     R = rotate_dense_blocks(solver.hyd.dense(), np.ascontiguousarray(solver.Qh), solver.hyd.spin)
     J = solver.dense_jacobian(q, ctx.h, R)
     free = np.setdiff1d(np.arange(q.size), sim.prescribed)
@@ -193,7 +193,7 @@ def test_scene_jacobian_action_is_the_mobility_form_s_q_part(name):
     Newton-Krylov step built at the predictor."""
     sim = _sim(name)
     q, ctx = _open_step(sim)
-    solver = sim._solver
+    solver = sim.solver
     solver._refresh_hydro(q, lazy=True)
     solver.Qh = np.eye(3)
     ms = solver.mobility
@@ -219,7 +219,7 @@ def test_scene_jacobian_action_is_the_rft_banded_newton_matrix(name):
     q, ctx = _open_step(sim)
     for seed in (8, 9):
         v = _direction(sim, seed)
-        back = sim._solver.increment(sim.scene.jacobian_action(q, ctx, v), q, ctx.h)
+        back = sim.solver.increment(sim.scene.jacobian_action(q, ctx, v), q, ctx.h)
         assert np.abs(back - v).max() <= 1e-9 * np.abs(v).max()
 
 

@@ -39,7 +39,7 @@ def _count_spans(monkeypatch) -> Counter:
 def _observed(sim: Simulator) -> list[np.ndarray]:
     return [sim.q, sim.v, sim.d1, sim.tangent, sim.ref_twist, sim.body_frame, sim.node_forces,
             np.array([sim.time, sim.motor_angle, sim.motor_torque, sim.head_axial_torque, sim.contact_energy,
-                      sim.contact_count, sim._h])]
+                      sim.contact_count, sim.adaptive.h])]
 
 
 def _run(overrides: dict, phases: tuple, compiled: bool) -> tuple[list, dict, Simulator]:
@@ -81,10 +81,11 @@ def test_runs_with_the_span_are_the_python_runs_bit_for_bit(case, monkeypatch):
     for got, want in zip(seen, ref, strict=True):
         for a, b in zip(got, want, strict=True):
             assert np.array_equal(a, b)
-    assert [t for t, _, _ in sim._history.points] == [t for t, _, _ in ref_sim._history.points]
+    assert [t for t, _, _ in sim.adaptive.history.points] == [t for t, _, _ in ref_sim.adaptive.history.points]
     assert all(np.array_equal(a[1], b[1]) and np.array_equal(a[2], b[2])
-               for a, b in zip(sim._history.points, ref_sim._history.points))
-    assert sim._history.points[-1][1] is sim.q  # the state's arrays are the newest point's, as History.push keeps them
+               for a, b in zip(sim.adaptive.history.points, ref_sim.adaptive.history.points))
+    # the state's arrays are the newest point's, as History.push keeps them
+    assert sim.adaptive.history.points[-1][1] is sim.q
 
 
 def test_a_failing_attempt_is_handed_back_to_the_python_step(monkeypatch):

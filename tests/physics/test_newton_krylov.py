@@ -41,7 +41,7 @@ def _open_step(sim: Simulator, h: float = 0.01):
     """Set up the mobility system of a step of h from the current state, as the simulator does."""
     base = sim._base_for(h)
     q = sim._step_start(base)
-    solver = sim._solver
+    solver = sim.solver
     solver._refresh_hydro(q, lazy=True)
     solver.Qh = np.eye(3)
     ms = solver.mobility
@@ -57,16 +57,16 @@ def test_jacobian_vector_product_matches_the_assembled_jacobian(make):
     is the direct solver's Newton system with the forces eliminated."""
     sim = make()
     ms, q, y, h = _open_step(sim)
-    J = sim._solver.dense_jacobian(q, h, sim._solver.hyd.dense())
+    J = sim.solver.dense_jacobian(q, h, sim.solver.hyd.dense())
     rng = np.random.default_rng(1)
     v = rng.normal(size=q.size) * np.where(np.arange(q.size) % 4 == 3, 1.0, sim.params.rod_radius)
     v[sim.prescribed] = 0.0
     V = v[sim.vdofs] / h
-    w = sim._solver.hyd.solve(head_flow_apply(V, ms.H, ms.g, sim._solver.hyd.has_head, sim._solver.hyd.spin))
+    w = sim.solver.hyd.solve(head_flow_apply(V, ms.H, ms.g, sim.solver.hyd.has_head, sim.solver.hyd.spin))
     out = ms.jacobian_vector(q, h, np.concatenate([v, w]))
     ref = J @ v
     assert np.abs(out[:q.size] - ref).max() < 1e-9 * np.abs(ref).max()
-    assert np.abs(out[q.size:]).max() < 1e-9 * ms.sigma * np.abs(sim._solver.hyd.a @ w).max()
+    assert np.abs(out[q.size:]).max() < 1e-9 * ms.sigma * np.abs(sim.solver.hyd.a @ w).max()
 
 
 @pytest.mark.parametrize("contact", [True, False], ids=["contact", "no contact"])
@@ -160,12 +160,12 @@ def test_compiled_iteration_is_the_python_iteration_bit_for_bit(make, h):
     ms, q, y, h = _open_step(sim, h)  # a step the predictor does not solve
     saved = {k: copy.deepcopy(getattr(sim, k)) for k in ("_contact_q", "_contact_pad", "_contact_candidates",
                                                           "_contact_none") if hasattr(sim, k)}
-    rate = (ms.contraction.rho, ms.contraction._age)
+    rate = (ms.contraction.rho, ms.contraction.age)
     n0 = sim.stats.newton_iterations
     ref = _python_iteration(ms, q.copy(), y.copy(), h)
     for k, v in saved.items():
         setattr(sim, k, v)
-    ms.contraction.rho, ms.contraction._age = rate
+    ms.contraction.rho, ms.contraction.age = rate
     got = ms.solve(q.copy(), y.copy(), h)
     assert ref[5] >= 2 and sim.stats.newton_iterations - n0 == ref[5]  # at least one GMRES direction
     for a, b in zip(got[:4], ref[:4]):
@@ -173,7 +173,7 @@ def test_compiled_iteration_is_the_python_iteration_bit_for_bit(make, h):
     for a, b in zip(got[4], ref[4]):
         assert np.array_equal(a, b)
     if make is not _torque_free:
-        assert sim._last_contact[1] > 0  # contact was active in the step compared
+        assert sim.last_contact[1] > 0  # contact was active in the step compared
 
 
 def test_newton_krylov_step_equals_the_direct_step():

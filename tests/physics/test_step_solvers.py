@@ -21,7 +21,7 @@ def _after_a_krylov_step(n_steps: int) -> tuple[list[tuple[int, int]], list[int]
     sim = Simulator(p, n)
     sim.set_motor_speed(10 * RPM_TO_RAD_S)
     advance(sim, 6.0)
-    solver = sim._solver
+    solver = sim.solver
     solver.since_hydro = n.hydro_refresh_max_steps  # the next step rebuilds the resistance by Newton-Krylov
     k0 = sim.stats.krylov_steps
     sim.step()

@@ -166,21 +166,21 @@ def test_newton_krylov_starts_the_forces_from_their_extrapolation_and_not_across
     sim.set_motor_speed(10 * RPM_TO_RAD_S)
     advance(sim, 0.5)
     sim.set_motor_speed(150 * RPM_TO_RAD_S)
-    assert sim._force_points == []
+    assert sim.adaptive.force_points == []
     starts = []
-    solve = sim._solver.mobility.solve
+    solve = sim.solver.mobility.solve
 
     def spy(q, y, h):
-        points = list(sim._force_points)
+        points = list(sim.adaptive.force_points)
         expected = extrapolate(points, sim.time + sim._base.h) if points else sim.node_forces
         starts.append((len(points), np.array_equal(y, -expected[1:].ravel())))
         return solve(q, y, h)
 
-    sim._solver.mobility.solve = spy
+    sim.solver.mobility.solve = spy
     advance(sim, 1.0)
     assert starts and all(same for _, same in starts)
     assert 4 in {k for k, _ in starts}  # the cubic (the first steps after the switch reuse the resistance)
-    assert len(sim._force_points) == 4
+    assert len(sim.adaptive.force_points) == 4
 
 
 def test_newton_jacobian_matches_finite_differences_of_the_bdf2_residual():
@@ -194,7 +194,7 @@ def test_newton_jacobian_matches_finite_differences_of_the_bdf2_residual():
     sim._base = base
     q = base.q_pred.copy()
     q[sim.prescribed] = sim.q[sim.prescribed] + base.h * sim.omega
-    solver = sim._solver
+    solver = sim.solver
     solver.begin_step(q, base.h_eff)
     solver._refresh_hydro(q)
     solver.Qh = np.eye(3)
@@ -425,13 +425,13 @@ def _collapsing_start(monkeypatch=None, **patch):
 
 def test_collapsed_bdf3_steps_continue_at_order_two_from_a_restart(monkeypatch):
     held = _collapsing_start()
-    assert held.stats.order_reductions == 1 and held._order_capped
-    assert held.stats.substeps < 1100 and held._h > 1e-4  # 1000 collapsed steps, then BDF2 at ~0.5 ms
+    assert held.stats.order_reductions == 1 and held.adaptive.order_capped
+    assert held.stats.substeps < 1100 and held.adaptive.h > 1e-4  # 1000 collapsed steps, then BDF2 at ~0.5 ms
     free = _collapsing_start(monkeypatch, COLLAPSED_STEPS=10**9)
-    assert free.stats.order_reductions == 0 and free.stats.substeps > 3000 and free._h < 1e-5
+    assert free.stats.order_reductions == 0 and free.stats.substeps > 3000 and free.adaptive.h < 1e-5
     held.set_motor_speed(held.omega * 1.01)  # a restart lifts the hold
     held.step(0.001)
-    assert not held._order_capped
+    assert not held.adaptive.order_capped
 
 
 def test_too_much_work_in_a_span_raises_simulation_error(monkeypatch):
