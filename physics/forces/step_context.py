@@ -76,6 +76,28 @@ class StepContext(NamedTuple):
     resistance: StepResistance | None  # the resistance of this step (None: no hydrodynamic term)
 
 
+class StepSystem(NamedTuple):
+    """What the compiled step kernels (``chord_iteration.chord_loop``, ``newton_krylov.newton_krylov_loop``) take of
+    the ``SystemDescription``, with the motor speed of the step."""
+
+    mass: np.ndarray  # (ndof,) lumped masses, kg / kg m^2
+    vdofs: np.ndarray  # (nv,) the DOFs of the generalised velocities
+    prescribed: np.ndarray  # Dirichlet DOFs
+    head_spins: bool  # the head's spin rate is the last generalised velocity
+    omega: float  # motor speed, rad/s
+    pos: np.ndarray  # position DOFs
+    twist: np.ndarray  # twist DOFs
+    free_twist: np.ndarray  # twist DOFs that are not prescribed
+    weights: np.ndarray  # (ndof,) 1/r0 on positions, 1 on twists
+
+
+def step_system(system: SystemDescription, omega: float) -> StepSystem:
+    """The ``StepSystem`` of ``system`` at the motor speed omega (rad/s)."""
+    return StepSystem(mass=system.mass, vdofs=system.vdofs, prescribed=system.prescribed, head_spins=system.head_spins,
+                      omega=omega, pos=system.pos, twist=system.twist, free_twist=system.free_twist,
+                      weights=system.weights)
+
+
 def frames_at(q: np.ndarray, ctx: StepContext) -> tuple:
     """(t, d1, d2, ref_twist, m1, m2) of q (ndof,), transported from the frames of the step's start."""
     return rod_frames(q, *ctx.frames)

@@ -34,7 +34,7 @@ from physics.errors import StepFailed
 from physics.hydro.hydrodynamics import _INVERSE_AFTER_SOLVES, HydroError
 from physics.solvers.implicit_residual import (assemble_residual, block_max_abs, forces_converged, generalised_velocity,
                                        internal_forces_at, rotate_node_blocks)
-from physics.forces.step_context import compiled_contact_args
+from physics.forces.step_context import StepSystem, compiled_contact_args, step_system
 from physics.integrate.time_integrator import contraction_update
 
 #: outcome codes of ``chord_loop``
@@ -51,20 +51,6 @@ class SchemeBase(NamedTuple):
     q_hat: np.ndarray
     v_hat: np.ndarray
     h_eff: float
-
-
-class ChordSystem(NamedTuple):
-    """The system as the chord iteration reads it (``step_context.SystemDescription``) and the motor speed."""
-
-    mass: np.ndarray  # (ndof,) kg / kg m^2
-    vdofs: np.ndarray  # (nv,) the DOFs of the generalised velocities
-    prescribed: np.ndarray  # Dirichlet DOFs
-    head_spins: bool
-    omega: float  # motor speed, rad/s
-    pos: np.ndarray  # position DOFs
-    twist: np.ndarray  # twist DOFs
-    weights: np.ndarray  # (ndof,) 1/r0 on positions, 1 on twists
-    free_twist: np.ndarray  # twist DOFs that are not prescribed
 
 
 class ChordHydro(NamedTuple):
@@ -191,7 +177,7 @@ def resistance_apply(V: np.ndarray, inv: np.ndarray, chol: np.ndarray, use_inv: 
 
 @njit(cache=True)
 def chord_residual(q: np.ndarray, h: float, q_start: np.ndarray, frames_old: tuple, rest: tuple, base: SchemeBase,
-                   system: ChordSystem, hydro: ChordHydro, use_inv: bool, contact_on: bool, model: tuple,
+                   system: StepSystem, hydro: ChordHydro, use_inv: bool, contact_on: bool, model: tuple,
                    cstate: tuple, first_step: bool):
     """``Simulator._residual`` of a chord step: (r, grad, f, inertia (ndof,) N / N m, frames, contact state,
     contact energy J, active contacts, dpotrs info). Arguments as in ``chord_loop``."""
@@ -207,7 +193,7 @@ def chord_residual(q: np.ndarray, h: float, q_start: np.ndarray, frames_old: tup
 
 @njit(cache=True)
 def chord_loop(q: np.ndarray, h: float, it: int, phase: int, hist: ResidualHistory, carried: Carried,
-               q_start: np.ndarray, frames_old: tuple, rest: tuple, base: SchemeBase, system: ChordSystem,
+               q_start: np.ndarray, frames_old: tuple, rest: tuple, base: SchemeBase, system: StepSystem,
                hydro: ChordHydro, inverse_state: InverseState, contact_on: bool, model: tuple, cstate: tuple,
                first_step: bool, lin: ChordLinear, tols: ChordTols, rate: RateState):
     """The chord iteration of one step (``Simulator._chord_python``), compiled, from iteration ``it`` at ``phase``
@@ -332,9 +318,7 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
     rstate = RateState(rho=rate.rho, prev=-1.0 if rate.prev is None else rate.prev, age=rate.age)
     contact_on, model, cstate = compiled_contact_args(q, ctx, system)
     base = SchemeBase(q_hat=ctx.q_hat, v_hat=ctx.v_hat, h_eff=ctx.h)
-    arrays = ChordSystem(mass=system.mass, vdofs=system.vdofs, prescribed=system.prescribed,
-                         head_spins=system.head_spins, omega=ctx.omega, pos=system.pos, twist=system.twist,
-                         weights=system.weights, free_twist=system.free_twist)
+    arrays = step_system(system, ctx.omega)
     frames_old = ctx.frames
     tols = ChordTols(newton_tol=nm.newton_tol, max_iter=nm.newton_max_iter, step_tol=nm.step_tol,
                      f_floor=system.f_floor, r0=p.rod_radius, step_scale=step_scale)

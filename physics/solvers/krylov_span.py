@@ -42,10 +42,11 @@ from physics.hydro.higdon_head import head_flow_operators
 from physics.hydro.hydrodynamics import ResistanceOperator
 from physics.solvers.implicit_residual import block_max_abs
 from physics.hydro.lsbt import lsbt_mobility, node_tangents
-from physics.solvers.newton_krylov import (CONVERGED, GMRES_MAX_ITER, GMRES_RTOL, newton_krylov_loop,
+from physics.solvers.newton_krylov import (CONVERGED, GMRES_MAX_ITER, GMRES_RTOL, KrylovRate, KrylovTols,
+                                           MobilityHydro, Preconditioner, newton_krylov_loop,
                                            preconditioner_factors)
 from physics.model.rigid_alignment import best_fit_rotation
-from physics.forces.step_context import NO_BLOCKS, NO_NODES
+from physics.forces.step_context import NO_BLOCKS, NO_NODES, StepSystem
 from physics.solvers.step_solvers import H_REUSE, CALM_STEPS_FOR_LU
 from physics.integrate.time_integrator import (COLLAPSED_STEPS, EXTRAPOLATION_POINTS, MAX_STEPS_PER_SPAN, SAFETY,
                                      SCHEME_ORDER, SHRINK_MIN, base_kernel, extrapolate_kernel, next_step,
@@ -341,14 +342,14 @@ def krylov_span(static: SpanStatic, consts: SpanConsts, placeholders: ContactPla
         y0 = -start[3:]
         (nk_code, q, y, r, grad, f, frames, cstate, (e_c, count), (evaluated, its), (rho, age), value) = (
             newton_krylov_loop(q, y0, h_eff, q_cur, (d1, tangent, ref_twist), rest, (q_hat, v_hat, h_eff),
-                               (static.mass, static.vdofs, prescribed, static.head_spins, omega, static.pos,
-                                static.twist, static.free_twist, static.weights),
-                               (a, H, g, Kh, consts.drag_t, consts.drag_r, consts.has_head, static.head_spins,
-                                consts.sigma), contact_on, model, cstate, static.first_step,
-                               (lu, piv, alu, apiv, consts.abw), ab,
-                               (consts.newton_tol, consts.newton_max_iter, consts.step_tol, consts.f_floor,
-                                consts.r0, consts.gmres_rtol, consts.gmres_max_iter),
-                               (rho, age), work))
+                               StepSystem(static.mass, static.vdofs, prescribed, static.head_spins, omega,
+                                          static.pos, static.twist, static.free_twist, static.weights),
+                               MobilityHydro(a, H, g, Kh, consts.drag_t, consts.drag_r, consts.has_head,
+                                             static.head_spins, consts.sigma), contact_on, model, cstate,
+                               static.first_step, Preconditioner(lu, piv, alu, apiv, consts.abw), ab,
+                               KrylovTols(consts.newton_tol, consts.newton_max_iter, consts.step_tol, consts.f_floor,
+                                          consts.r0, consts.gmres_rtol, consts.gmres_max_iter),
+                               KrylovRate(rho, age), work))
         counters[1] += evaluated
         counters[2] += its
         if contact_on:

@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -56,7 +56,9 @@ from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel, rod_frames
 from physics.solvers.implicit_residual import (assemble_residual, block_max_abs, forces_converged, generalised_velocity,
                                        internal_forces_at)
 from physics.hydro.rft import rft_blocks
-from physics.forces.step_context import SystemDescription, active_contacts, compiled_contact_args, frames_at
+from physics.forces.contact import ContactParams, ContactState
+from physics.forces.step_context import (StepSystem, SystemDescription, active_contacts, compiled_contact_args,
+                                         frames_at, step_system)
 from physics.integrate.time_integrator import ContractionRate, contraction_update
 
 #: relative residual reduction asked of GMRES for each Newton direction
@@ -392,16 +394,63 @@ def krylov_direction(b: np.ndarray, rtol: float, max_iter: int, work: tuple, nd:
     return np.zeros(n), -1, abs(gv[max_iter]) / beta
 
 
+class MobilityHydro(NamedTuple):
+    """The mobility form's operators of a step (``MobilityStep.begin``): the mobility a (3M, 3M) m/(N s), the
+    head's flow H (3M, 3), spin flow g (3M,) and force map Kh (3, 3M), its drags (N s/m, N m s), the head flags and
+    the scale sigma of the mobility rows (Pa s m)."""
+
+    a: np.ndarray
+    H: np.ndarray
+    g: np.ndarray
+    Kh: np.ndarray
+    drag_t: float
+    drag_r: float
+    has_head: bool
+    spin: bool
+    sigma: float
+
+
+class Preconditioner(NamedTuple):
+    """The banded preconditioner's factors (``preconditioner_factors``): LU and pivots of the position-twist band,
+    LU and pivots of the mobility band, and the mobility band's half width."""
+
+    lu: np.ndarray
+    piv: np.ndarray
+    alu: np.ndarray
+    apiv: np.ndarray
+    abw: int
+
+
+class KrylovTols(NamedTuple):
+    """The Newton-Krylov iteration's tolerances (``NumericsConfig``) and GMRES's (relative tolerance, iteration
+    limit); f_floor N, r0 m."""
+
+    newton_tol: float
+    max_iter: int
+    step_tol: float
+    f_floor: float
+    r0: float
+    gmres_rtol: float
+    gmres_max_iter: int
+
+
+class KrylovRate(NamedTuple):
+    """The Newton-Krylov ``ContractionRate``: rho and the age in steps."""
+
+    rho: float
+    age: int
+
+
 @njit(cache=True)
-def mobility_residual(q: np.ndarray, y: np.ndarray, h: float, grad: np.ndarray, base: tuple, system: tuple,
-                      hydro: tuple):
+def mobility_residual(q: np.ndarray, y: np.ndarray, h: float, grad: np.ndarray, base: tuple, system: StepSystem,
+                      hydro: MobilityHydro):
     """(r_q (ndof,) N / N m, r_y (3M,) N, f (ndof,), inertia (ndof,)) at (q, y) for the internal forces grad
-    (module doc). base = (q^, v^, h_e); system = (mass, vdofs, prescribed, spin, omega, ...) as in
-    ``newton_krylov_loop``;
-    hydro = (A, H, g, Kh, drag_t, drag_r, has_head, spin, sigma)."""
+    (module doc). base = (q^, v^, h_e)."""
     q_hat, v_hat, h_eff = base
-    mass, vdofs, prescribed, head_spins, omega = system[:5]
-    A, H, g, Kh, drag_t, drag_r, has_head, spin, sigma = hydro
+    mass, vdofs, prescribed, head_spins, omega = (system.mass, system.vdofs, system.prescribed, system.head_spins,
+                                                  system.omega)
+    A, H, g, Kh, drag_t, drag_r, has_head, spin, sigma = (hydro.a, hydro.H, hydro.g, hydro.Kh, hydro.drag_t,
+                                                          hydro.drag_r, hydro.has_head, hydro.spin, hydro.sigma)
     V = generalised_velocity(q, q_hat, h, vdofs, head_spins, omega, _EYE)
     G = -drag_and_coupling(V, y, Kh, g, drag_t, drag_r, has_head, spin)
     r, f, inertia = assemble_residual(q, q_hat, v_hat, h_eff, mass, grad, G, _EYE, vdofs, head_spins, prescribed)
@@ -415,24 +464,27 @@ CONVERGED, NONFINITE_RESIDUAL, KRYLOV_FAILED, NEWTON_FAILED = 0, 1, 2, 3
 
 @njit(cache=True)
 def newton_krylov_loop(q: np.ndarray, y: np.ndarray, h: float, q_start: np.ndarray, frames_old: tuple, rest: tuple,
-                       base: tuple, system: tuple, hydro: tuple, contact_on: bool, model: tuple, cstate: tuple,
-                       first_step: bool, precond: tuple, ab0: np.ndarray, tols: tuple, rate: tuple, work: tuple):
+                       base: tuple, system: StepSystem, hydro: MobilityHydro, contact_on: bool, model: ContactParams,
+                       cstate: ContactState, first_step: bool, precond: Preconditioner, ab0: np.ndarray,
+                       tols: KrylovTols, rate: KrylovRate, work: tuple):
     """The Newton-Krylov iteration of one step, entirely compiled: from (q, y) (the predictor and the last
     forces), each iteration the residual, the convergence tests, a GMRES direction with the Jacobian at the
     iterate (the elastic Hessian ab0 at the predictor is reused for the first), the update.
 
-    system = (mass, vdofs, prescribed, spin, omega, pos, twist, free_twist, weights); precond = (lu, piv, alu,
-    apiv, abw); tols = (newton_tol, newton_max_iter, step_tol, f_floor, r0, GMRES relative tolerance,
-    GMRES iteration limit); rate = (rho, age) of the
-    ``ContractionRate`` (used when step_tol > 0); work = GMRES's arrays (``krylov_workspace`` for at least the
+    system, hydro, precond, tols and rate (the ``ContractionRate``, used when step_tol > 0): the named tuples
+    above; work = GMRES's arrays (``krylov_workspace`` for at least the
     iteration limit; the caller keeps them from step to step). Returns (code, q, y, r, grad, f, frames, cstate, (contact
     energy, count), (residuals evaluated in the loop, GMRES iterations), (rho, age), value): value = the GMRES
     relative residual reached (KRYLOV_FAILED) or the max force residual (NEWTON_FAILED)."""
-    mass, vdofs, prescribed, head_spins, omega, pos, twist, free_twist, weights = system
-    A, H, g, Kh, drag_t, drag_r, has_head, spin, sigma = hydro
-    lu, piv, alu, apiv, abw = precond
-    newton_tol, max_iter, step_tol, f_floor, r0, gmres_rtol, gmres_max_iter = tols
-    rho, age = rate
+    mass, vdofs, prescribed, pos, twist, free_twist, weights = (system.mass, system.vdofs, system.prescribed,
+                                                                system.pos, system.twist, system.free_twist,
+                                                                system.weights)
+    A, H, g, Kh, drag_t, drag_r, has_head, spin, sigma = (hydro.a, hydro.H, hydro.g, hydro.Kh, hydro.drag_t,
+                                                          hydro.drag_r, hydro.has_head, hydro.spin, hydro.sigma)
+    lu, piv, alu, apiv, abw = precond.lu, precond.piv, precond.alu, precond.apiv, precond.abw
+    newton_tol, max_iter, step_tol, f_floor, r0, gmres_rtol, gmres_max_iter = (
+        tols.newton_tol, tols.max_iter, tols.step_tol, tols.f_floor, tols.r0, tols.gmres_rtol, tols.gmres_max_iter)
+    rho, age = rate.rho, rate.age
     nd = q.shape[0]
     l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ = rest
     mass_h2 = mass / (h * h)
@@ -545,13 +597,13 @@ class MobilityStep:
     def _base(ctx) -> tuple:
         return ctx.q_hat, ctx.v_hat, ctx.h
 
-    def _system(self, ctx) -> tuple:
-        s = self.system
-        return (s.mass, s.vdofs, s.prescribed, s.head_spins, ctx.omega, s.pos, s.twist, s.free_twist, s.weights)
+    def _system(self, ctx) -> StepSystem:
+        return step_system(self.system, ctx.omega)
 
-    def _hydro(self) -> tuple:
+    def _hydro(self) -> MobilityHydro:
         hyd = self.hyd
-        return hyd.a, self.H, self.g, self.Kh, self.drag_t, self.drag_r, hyd.has_head, hyd.spin, self.sigma
+        return MobilityHydro(a=hyd.a, H=self.H, g=self.g, Kh=self.Kh, drag_t=self.drag_t, drag_r=self.drag_r,
+                             has_head=hyd.has_head, spin=hyd.spin, sigma=self.sigma)
 
     def _jacobian_arrays(self, q: np.ndarray, h: float) -> tuple:
         system, hyd, ctx = self.system, self.hyd, self.state.step_context(h)
@@ -592,10 +644,13 @@ class MobilityStep:
         code, q, y, r, grad, f, frames, cstate, (e_c, count), (evaluated, its), (rate.rho, rate.age), value = (
             newton_krylov_loop(q, y, h, ctx.q_start, ctx.frames, system.rest,
                                self._base(ctx), self._system(ctx), self._hydro(), contact_on, model, cstate,
-                               ctx.first_step, (self.lu, self.piv, self.alu, self.apiv, self.abw), self.ab,
-                               (nm.newton_tol, nm.newton_max_iter, nm.step_tol, system.f_floor, p.rod_radius,
-                                GMRES_RTOL, GMRES_MAX_ITER),
-                               (rate.rho, rate.age), self.workspace(GMRES_MAX_ITER)))
+                               ctx.first_step,
+                               Preconditioner(lu=self.lu, piv=self.piv, alu=self.alu, apiv=self.apiv, abw=self.abw),
+                               self.ab,
+                               KrylovTols(newton_tol=nm.newton_tol, max_iter=nm.newton_max_iter, step_tol=nm.step_tol,
+                                          f_floor=system.f_floor, r0=p.rod_radius, gmres_rtol=GMRES_RTOL,
+                                          gmres_max_iter=GMRES_MAX_ITER),
+                               KrylovRate(rho=rate.rho, age=rate.age), self.workspace(GMRES_MAX_ITER)))
         state.stats.newton_iterations += evaluated
         state.stats.krylov_iterations += its
         state.keep_contact_state(cstate, e_c, count)
