@@ -46,7 +46,7 @@ from physics.presets import DEFAULT_PRESET, preset_names
 from physics.validation import require_finite
 
 #: The first agent's env settings (agents/configs/ppo_residual_coarse.yml: its task and last curriculum stage;
-#: the agent is in results/agents/ppo_residual_coarse) are the defaults of every ``FlagellumTurn`` id;
+#: ``flagellum train --config`` that file retrains it) are the defaults of every ``FlagellumTurn`` id;
 #: ``FlagellumTurn-coarse-v0`` is that agent's env with no argument at all. The shipped agent
 #: (agents/pretrained/ppo_residual_adaptive) stores its own env in its ``meta.json`` (``env_id``, ``make_kwargs``). The correction limits are ``ResidualLimits()``'s defaults.
 DEFAULT_ACTION_COST = 5.0
@@ -94,7 +94,7 @@ class TurnDecisionEnv(gym.Env):
     | planner     | "rule"                           | the planner corrected: "rule" (``ResidualPlanner``) or "adaptive" (``AdaptiveResidualPlanner``), either optionally with "@line=W" (``PlannerConfig.line_weight``) |
     | render_mode | None                             | None or "rgb_array" (the base env's frame after the step) |
 
-    The defaults are the settings of the first agent (trained on ``coarse``; results/agents/ppo_residual_coarse),
+    The defaults are the settings of the first agent (trained on ``coarse``; agents/configs/ppo_residual_coarse.yml),
     so ``FlagellumTurn-coarse-v0`` with no argument is that agent's env. Every agent's ``meta.json`` stores its
     env as ``env_id`` and ``make_kwargs``: the shipped agent (agents/pretrained/ppo_residual_adaptive, trained at
     ``faithful`` on the adaptive planner with randomised swimmers) is ``gym.make(meta["env_id"],
@@ -276,8 +276,8 @@ class TurnDecisionFastEnv(TurnDecisionEnv):
 
 class TurnDecisionCoarseEnv(TurnDecisionEnv):
     """``FlagellumTurn-coarse-v0``: ``FlagellumTurn-v0`` (``TurnDecisionEnv``, whose docstring is the manual)
-    at the ``coarse`` preset: the first PPO agent's env, as it was trained (results/agents/
-    ppo_residual_coarse). The coarse swimmer (N = 45, 10 ms steps) buckles later and **turns differently**
+    at the ``coarse`` preset: the first PPO agent's env, as it was trained (agents/configs/
+    ppo_residual_coarse.yml). The coarse swimmer (N = 45, 10 ms steps) buckles later and **turns differently**
     from the default preset's (``FlagellumSteerCoarseEnv``) and has its own turn map (it is not cheaper:
     docs/env.md, Speed). Every other argument and default is ``FlagellumTurn-v0``'s."""
 

@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 
 
 #: progress.csv columns of a raw-PPO run (``experiments.raw_ppo``: SB3's logger) and of the runs made before it
-#: logged through SB3 (results/agents/raw_ppo_faithful), with what the return and success columns average.
+#: logged through SB3 (scripts/train_raw_ppo.py's run folder), with what the return and success columns average.
 RAW_PPO_COLUMNS = {
     "sb3": ({"steps": "time/total_timesteps", "wall": "run/wall_s", "return": "rollout/ep_rew_mean",
              "success": "rollout/success_rate"}, "mean over the session's last 100 episodes (SB3)"),

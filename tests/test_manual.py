@@ -57,3 +57,15 @@ def test_generated_results_are_ignored_by_git():
     if proc.returncode == 128:
         pytest.skip("not a git checkout")
     assert proc.returncode == 0, f"{probe} would be tracked: .gitignore must cover results/"
+
+
+def test_tracked_results_are_small_summaries():
+    """Issue 47's target: what git tracks under results/ is at most 5 MB in all and holds no .npz trace."""
+    proc = subprocess.run(["git", "ls-files", "-z", "results"], cwd=ROOT, capture_output=True)
+    if proc.returncode != 0:
+        pytest.skip("not a git checkout")
+    files = [f for f in proc.stdout.decode().split("\0") if f]
+    traces = [f for f in files if f.endswith(".npz")]
+    assert not traces, f"{len(traces)} .npz files tracked under results/, e.g. {traces[:3]}"
+    total = sum((ROOT / f).stat().st_size for f in files if (ROOT / f).exists())
+    assert total <= 5_000_000, f"tracked results/ holds {total / 1e6:.1f} MB (at most 5 MB)"

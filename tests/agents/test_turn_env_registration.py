@@ -131,7 +131,7 @@ def test_without_a_prior_import_the_module_prefixed_id_works(module):
 
 
 def test_the_defaults_are_the_first_agents_settings():
-    """The agent trained on coarse (results/agents/ppo_residual_coarse) with its config."""
+    """The agent trained on coarse (agents/configs/ppo_residual_coarse.yml) with its config."""
     import yaml
 
     from agents.assets import package_file
