@@ -275,7 +275,7 @@ class AdaptivePlanner(RulePlanner):
                    miss0: float, scale_m: float) -> dict | None:
         """The candidate (burst x phase) of least expected saturated miss (``saturating_miss`` at ``scale_m``),
         or None if it does not beat the straight line's (``miss0``, m) by ``PlannerConfig.improvement_m``."""
-        out = ep.online.outcomes(self.control_dt)
+        out = ep.online.outcomes(self.control_dt, math.radians(self.config.burst_cap_deg))
         beta = np.radians(np.arange(0.0, 360.0, self.config.phase_step_deg))
         a = self.adaptive
 

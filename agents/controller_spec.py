@@ -17,9 +17,11 @@ CONTROLLER_ENV_DEFAULTS: dict[str, dict[str, Any]] = {"rule": {"control_dt": 0.1
 
 _ALLOWED_SPECS = ("'rule', 'rule:TURN_MAP.json', 'adaptive', 'adaptive:TURN_MAP.json', 'horizon', "
                   "'horizon:TURN_MAP.json', 'ppo', 'ppo:AGENT_DIR'; 'rule@line=W' and 'adaptive@line=W' (W >= 0, "
-                  "also before ':TURN_MAP.json') score turns by the path's line too")
-#: Options a planner spec may carry after ``@`` (``KIND@line=W``), by kind.
-_SPEC_OPTIONS = {"rule": ("line",), "adaptive": ("line",)}
+                  "also before ':TURN_MAP.json') score turns by the path's line too; '@cap=DEG' (DEG > 0; e.g. "
+                  "'adaptive@line=2,cap=90') plans at most DEG degrees per burst")
+#: Options a planner spec may carry after ``@`` (``KIND@line=W,cap=DEG``), by kind.
+_SPEC_OPTIONS = {"rule": ("line", "cap"), "adaptive": ("line", "cap")}
+_OPTION_RANGE = {"line": "line=W (W a number >= 0)", "cap": "cap=DEG (DEG a number > 0)"}
 
 
 def controller_kind(spec: str) -> str:
@@ -50,14 +52,14 @@ def controller_options(spec: str) -> dict[str, float]:
         name, eq, value = item.partition("=")
         if name not in allowed or not eq:
             raise ValueError(f"controller {spec!r}: option {item!r} is not allowed; allowed: "
-                             + (", ".join(f"{n}=W (W >= 0)" for n in allowed) + f" for {kind!r}" if allowed
+                             + (", ".join(_OPTION_RANGE[n] for n in allowed) + f" for {kind!r}" if allowed
                                 else f"none for {kind!r}") + f" ({_ALLOWED_SPECS})")
         try:
             w = float(value)
         except ValueError:
             w = math.nan
-        if not (math.isfinite(w) and w >= 0.0) or name in out:
-            raise ValueError(f"controller {spec!r}: {name}={value!r} is not allowed; allowed: {name}=W once, "
-                             "W a number >= 0")
+        if not (math.isfinite(w) and (w > 0.0 if name == "cap" else w >= 0.0)) or name in out:
+            raise ValueError(f"controller {spec!r}: {name}={value!r} is not allowed; allowed: "
+                             f"{_OPTION_RANGE[name]} once")
         out[name] = w
     return out

@@ -426,15 +426,18 @@ class OnlineTurnMap:
         anything = np.clip((np.degrees(theta_rad) - start) / cfg.large_turn_ramp_deg, 0.0, 1.0)
         return np.full(shape, math.radians(std)), anything
 
-    def outcomes(self, control_dt: float) -> TurnOutcomes:
+    def outcomes(self, control_dt: float, max_theta_rad: float = math.inf) -> TurnOutcomes:
         """The turns the planner may choose now and, for each, sigma points of their outcome
         (``TurnOutcomes``): map times every ``control_dt`` from one step up to the rising branch's
-        peak, flown ``t_map - shift`` (at least one control step); each read at t_map + e for the
-        three-point Gauss-Hermite nodes e of N(0, ``timing_std_s``) over the whole map (past the
-        peak: the map's tumbling turns)."""
+        peak (or, below it, the last whose expected turn is at most ``max_theta_rad``), flown ``t_map - shift``
+        (at least one control step); each read at t_map + e for the three-point Gauss-Hermite nodes e of
+        N(0, ``timing_std_s``) over the whole map (past the peak: the map's tumbling turns)."""
         t_full, th_full, t_psi, psi_full, off_full = self._curves()
         t_lo = max(control_dt, control_dt + self.shift_s)
         t_map = np.arange(t_lo, max(self.t_peak_s, t_lo) + 1e-9, control_dt)
+        if math.isfinite(max_theta_rad):
+            over = np.flatnonzero(np.interp(t_map, t_full, th_full) > max_theta_rad)
+            t_map = t_map[:max(1, int(over[0]))] if over.size else t_map
         nodes, weights = GAUSS_HERMITE_3
         at = t_map[:, None] + nodes[None, :] * self.timing_std_s                          # (T, K)
         theta = np.interp(at, t_full, th_full)

@@ -70,8 +70,7 @@ def make_controller(spec: str, env, preset: str):
             raise ValueError(missing_turn_map_message(path, preset, given=arg is not None))
         planner = {"rule": RulePlanner, "adaptive": AdaptivePlanner, "horizon": HorizonPlanner}[kind]
         options = controller_options(spec)
-        config = PlannerConfig(line_weight=options["line"]) if "line" in options else None
-        return planner.for_env(env, TurnMap.load(path), config)
+        return planner.for_env(env, TurnMap.load(path), PlannerConfig.from_options(options))
     from agents.ppo_policy import load_ppo_controller
 
     return load_ppo_controller(arg, env, preset)

@@ -288,9 +288,9 @@ BASE_PLANNERS: dict[str, type[ResidualDecisions]] = {"rule": ResidualPlanner, "a
 
 def base_planner(spec: str) -> tuple[str, type[ResidualDecisions], PlannerConfig | None]:
     """(kind, class, config) of the planner a residual policy corrects: ``rule`` or ``adaptive``, either optionally
-    with ``@line=W`` (``PlannerConfig.line_weight``, as in the controller specs, ``agents.controller_spec``);
-    ValueError naming anything else."""
-    allowed = f"{list(BASE_PLANNERS)}, either optionally with '@line=W' (W >= 0)"
+    with ``@line=W`` and ``@cap=DEG`` (``PlannerConfig.from_options``, as in the controller specs,
+    ``agents.controller_spec``); ValueError naming anything else."""
+    allowed = f"{list(BASE_PLANNERS)}, either optionally with '@line=W' (W >= 0) and/or '@cap=DEG' (DEG > 0)"
     try:
         kind = controller_kind(spec)
         options = controller_options(spec)
@@ -298,4 +298,4 @@ def base_planner(spec: str) -> tuple[str, type[ResidualDecisions], PlannerConfig
         raise ValueError(f"planner={spec!r} is not allowed; choose one of {allowed}") from None
     if kind not in BASE_PLANNERS or ":" in spec:
         raise ValueError(f"planner={spec!r} is not allowed; choose one of {allowed}")
-    return kind, BASE_PLANNERS[kind], PlannerConfig(line_weight=options["line"]) if "line" in options else None
+    return kind, BASE_PLANNERS[kind], PlannerConfig.from_options(options)

@@ -52,12 +52,24 @@ class PlannerConfig:
     improvement_m: float = 0.005     # a turn must bring the predicted miss down by at least this
     phase_step_deg: float = 5.0      # resolution of the burst phases searched
     line_weight: float = 0.0         # m per m of the turn's end from the segment's line (0: the paper's rule)
+    burst_cap_deg: float = math.inf  # largest turn one burst is planned for (larger turns take several bursts)
 
     def __post_init__(self) -> None:
         for name in ("min_turn_deg", "hit_fraction", "settle_tol_deg", "max_relax_factor", "improvement_m",
                      "phase_step_deg"):
             require_finite(f"PlannerConfig.{name}", getattr(self, name), 0.0, lo_open=True)
         require_finite("PlannerConfig.line_weight", self.line_weight, 0.0)
+        if not (isinstance(self.burst_cap_deg, (int, float)) and self.burst_cap_deg > 0.0):
+            raise ValueError(f"PlannerConfig.burst_cap_deg must be > 0 (inf: no cap), got {self.burst_cap_deg!r}")
+
+    @classmethod
+    def from_options(cls, options: dict[str, float]) -> PlannerConfig | None:
+        """The config a controller spec's options ask for (``agents.controller_spec.controller_options``:
+        ``line`` -> ``line_weight``, ``cap`` -> ``burst_cap_deg``), or None (the defaults) without options."""
+        if not options:
+            return None
+        names = {"line": "line_weight", "cap": "burst_cap_deg"}
+        return cls(**{names[k]: v for k, v in options.items()})
 
 
 @dataclass(frozen=True)
@@ -410,11 +422,15 @@ class RulePlanner:
 
     @functools.cached_property
     def _candidates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Burst lengths on the rising branch every control step, with theta (rad), psi (rad), offset (m)."""
+        """Burst lengths on the rising branch every control step, with theta (rad), psi (rad), offset (m); only
+        turns up to ``PlannerConfig.burst_cap_deg`` (at least the first)."""
         tm = self.turn_map
         t_branch, theta_branch = tm.rising_branch()
         t_c = np.arange(self.control_dt, t_branch[-1] + 1e-9, self.control_dt)
         theta = np.radians(np.interp(t_c, t_branch, theta_branch))
+        over = np.flatnonzero(theta > math.radians(self.config.burst_cap_deg))
+        if over.size:
+            t_c, theta = t_c[:max(1, int(over[0]))], theta[:max(1, int(over[0]))]
         psi = np.radians([tm.psi_for(t) for t in t_c])
         off = np.array([tm.offset_for(t) for t in t_c])
         return t_c, theta, psi, off

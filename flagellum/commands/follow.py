@@ -15,7 +15,8 @@ HELP = "drive FlagellumSteer-v0 along a path with a controller; write summary.js
 DESCRIPTION = ("Follow --path (square = the paper's 0.25 m square, or a path file) with --controller (rule = the "
                "turn planner with the preset's turn map; rule:MAP.json; adaptive / adaptive:MAP.json: the planner "
                "correcting its map online; rule@line=W / adaptive@line=W: either one also weighing how far a turn "
-               "ends from the path's line, W m per m, e.g. adaptive@line=2; horizon / horizon:MAP.json: a two-move "
+               "ends from the path's line, W m per m, e.g. adaptive@line=2; @cap=DEG: at most DEG degrees per burst, "
+               "larger turns in several, e.g. adaptive@line=2,cap=90; horizon / horizon:MAP.json: a two-move "
                "search over that corrected map; ppo / ppo:AGENT_DIR) and write "
                "DIR/summary.json, DIR/path.png (target vs achieved, x-y and 3-D), DIR/omega.png (ω(t), L'/L) "
                "and the per-step trace: DIR/trace.npz for one controller, DIR/trace_<controller>.npz (each "
@@ -30,6 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--path", default="square", help="'square' or a path file (JSON); default square")
     parser.add_argument("--controller", action="append", default=None,
                         help="rule | rule:MAP.json | adaptive | adaptive:MAP.json | rule@line=W | adaptive@line=W | "
+                             "rule@cap=DEG | adaptive@cap=DEG | adaptive@line=W,cap=DEG | "
                              "horizon | horizon:MAP.json | ppo | ppo:AGENT_DIR (repeat to "
                              "compare on one plot; default rule)")
     parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/follow"), help="default out/follow")
