@@ -169,3 +169,15 @@ def test_the_simulate_plot_title_describes_the_schedule_not_its_mean():
     assert schedule_label(MotorSchedule.constant(60.0)) == "omega = 60 rpm"
     many = schedule_label(MotorSchedule(tuple((float(i), 10.0 + i) for i in range(7))), 20.0)
     assert many.startswith("omega: 10 → 11 → 12 → 13 → … rpm") and "(7 steps)" in many
+
+
+def test_python_dash_m_flagellum_is_the_same_command_line():
+    """``python -m flagellum`` runs ``flagellum.cli.main``: the same help and the same exit status for bad input."""
+    import subprocess
+    import sys
+
+    ok = subprocess.run([sys.executable, "-m", "flagellum", "params", "--json"], capture_output=True, text=True)
+    assert ok.returncode == 0 and ok.stdout.lstrip().startswith("["), ok.stderr
+    bad = subprocess.run([sys.executable, "-m", "flagellum", "follow", "--controller", "adaptive@cap=0"],
+                         capture_output=True, text=True)
+    assert bad.returncode == 2 and bad.stderr.strip().startswith("flagellum: error:") and "cap='0'" in bad.stderr
