@@ -5,6 +5,9 @@ routines, not look-alikes:
 
 * ``getrs`` / ``potrs_upper``: SciPy's LAPACK ``dgetrs`` / ``dpotrs`` (the ones ``scipy.linalg.lapack.dgetrs`` /
   ``dpotrs`` wrap), through ``scipy.linalg.cython_lapack``.
+* ``gbsv``: SciPy's LAPACK ``dgbsv``, which ``scipy.linalg.solve_banded`` calls for a square banded system with
+  more than one diagonal on either side (``scipy.linalg._basic._solve_banded``: the band copied below kl zero rows
+  into an array of 2 kl + ku + 1 rows, then ``lapack.dgbsv``), on the same array, so the same bits.
 * ``numpy_matvec`` / ``numpy_dot``: ``A @ x`` and ``x @ y`` as NumPy computes them for float64 arrays: its own
   (bundled) OpenBLAS ``cblas_dgemv`` / ``cblas_ddot``, with the storage order and transposition NumPy's matmul
   chooses for a C- or F-contiguous matrix. Found only where NumPy ships scipy-openblas (the PyPI wheels):
@@ -28,9 +31,12 @@ from numba.extending import get_cython_function_address
 _P = types.voidptr
 ll.add_symbol("physics_dgetrs", get_cython_function_address("scipy.linalg.cython_lapack", "dgetrs"))
 ll.add_symbol("physics_dpotrs", get_cython_function_address("scipy.linalg.cython_lapack", "dpotrs"))
+ll.add_symbol("physics_dgbsv", get_cython_function_address("scipy.linalg.cython_lapack", "dgbsv"))
 # (trans, n, nrhs, a, lda, ipiv, b, ldb, info) and (uplo, n, nrhs, a, lda, b, ldb, info): Fortran, all pointers
 _dgetrs = types.ExternalFunction("physics_dgetrs", types.void(_P, _P, _P, _P, _P, _P, _P, _P, _P))
 _dpotrs = types.ExternalFunction("physics_dpotrs", types.void(_P, _P, _P, _P, _P, _P, _P, _P))
+# (n, kl, ku, nrhs, ab, ldab, ipiv, b, ldb, info)
+_dgbsv = types.ExternalFunction("physics_dgbsv", types.void(_P, _P, _P, _P, _P, _P, _P, _P, _P, _P))
 
 
 def _numpy_openblas() -> ctypes.CDLL | None:
@@ -85,6 +91,26 @@ def potrs_upper(c: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, int]:
     _dpotrs(uplo.ctypes, ints[0:].ctypes, ints[1:].ctypes, c.ctypes, ints[2:].ctypes, x.ctypes, ints[3:].ctypes,
             ints[4:].ctypes)
     return x, int(ints[4])
+
+
+@njit(cache=True)
+def gbsv(ab: np.ndarray, kl: int, ku: int, b: np.ndarray) -> tuple[np.ndarray, int]:
+    """x = A^{-1} b (n,) for the banded A (n, n) with kl sub- and ku superdiagonals, given in the storage
+    ``scipy.linalg.solve_banded`` takes (ab (kl + ku + 1, n), ab[ku + i - j, j] = A[i, j], any order): LAPACK
+    dgbsv on the (2 kl + ku + 1, n) column-major array ``solve_banded`` builds (kl zero rows, then ab; the LU's
+    fill-in goes into the zero rows), so x is ``solve_banded((kl, ku), ab, b)`` bit for bit. ``ab`` and ``b`` are
+    not changed. Returns (x, info): info > 0 a zero pivot (``solve_banded``: "singular matrix"), < 0 an illegal
+    argument."""
+    n = ab.shape[1]
+    ldab = 2 * kl + ku + 1
+    lab = np.zeros((n, ldab)).T  # column-major (ldab, n)
+    lab[kl:, :] = ab
+    x = b.copy()
+    ipiv = np.empty(n, dtype=np.int32)
+    ints = np.array([n, kl, ku, 1, ldab, n, 0], dtype=np.int32)  # n, kl, ku, nrhs, ldab, ldb, info
+    _dgbsv(ints[0:].ctypes, ints[1:].ctypes, ints[2:].ctypes, ints[3:].ctypes, lab.ctypes, ints[4:].ctypes,
+           ipiv.ctypes, x.ctypes, ints[5:].ctypes, ints[6:].ctypes)
+    return x, int(ints[6])
 
 
 @njit(cache=True)
