@@ -49,7 +49,7 @@ from physics.solvers.implicit_residual import (block_max_abs, contact_state_at, 
                                        inertia_force)
 from physics.solvers.newton_krylov import banded_matvec_add, contact_matvec_add
 from physics.params import NumericsConfig, SwimmerParams
-from physics.hydro.rft import apply_blocks, rft_blocks, rft_coefficients
+from physics.hydro.rft import local_drag_apply, rft_blocks, rft_coefficients
 from physics.forces.step_context import (NO_BLOCKS, NO_NODES, StepContext, StepResistance, SystemDescription,
                                   active_contacts, compiled_contact_args, frames_at)
 
@@ -57,24 +57,19 @@ _EYE = np.eye(3)
 
 
 class LocalResistance:
-    """Block-diagonal resistance of local RFT (``rft``) plus the head's Stokes drag: R V (nv,) with the
-    arithmetic of ``step_solvers.BandedNewtonSolver``. blocks (M, 3, 3) N s/m for the flagellum nodes from node
-    ``first``; drag_t N s/m (head translation), drag_r N m s (head spin, 0 when the head does not spin)."""
+    """Block-diagonal resistance of local RFT (``rft``) plus the head's Stokes drag: R V (nv,) by
+    ``rft.local_drag_apply`` (the compiled chord iteration's kernel too). blocks (M, 3, 3) N s/m for the flagellum
+    nodes from node ``first``; drag_t N s/m (head translation), drag_r N m s (head spin, 0 when the head does not
+    spin)."""
 
     def __init__(self, blocks: np.ndarray, first: int, drag_t: float, drag_r: float, spin: bool) -> None:
         self.blocks, self.first, self.drag_t, self.drag_r, self.spin = blocks, first, drag_t, drag_r, spin
 
     def apply(self, V: np.ndarray) -> np.ndarray:
-        """R V (nv,): minus the hydrodynamic generalised force for generalised velocities V (nv,)."""
-        out = np.empty_like(V)
-        f = 3 * self.first
-        m3 = 3 * self.blocks.shape[0]
-        out[f:f + m3] = apply_blocks(self.blocks, V[f:f + m3])
-        if self.first:
-            out[0:3] = self.drag_t * V[0:3]
-        if self.spin:
-            out[-1] = self.drag_r * V[-1]
-        return out
+        """R V (nv,): minus the hydrodynamic generalised force for generalised velocities V (nv,)
+        (``rft.local_drag_apply``)."""
+        return local_drag_apply(np.ascontiguousarray(V, dtype=np.float64), self.blocks, self.first, self.drag_t,
+                                self.drag_r, self.spin)
 
     def dense(self) -> np.ndarray:
         """R (nv, nv)."""

@@ -66,3 +66,25 @@ def apply_blocks(blocks: np.ndarray, u: np.ndarray) -> np.ndarray:
             out[3 * j + p] = (blocks[j, p, 0] * u[3 * j] + blocks[j, p, 1] * u[3 * j + 1]
                               + blocks[j, p, 2] * u[3 * j + 2])
     return out
+
+
+@njit(cache=True)
+def local_drag_apply(V: np.ndarray, blocks: np.ndarray, first: int, drag_t: float, drag_r: float,
+                     spin: bool) -> np.ndarray:
+    """R V (nv,) of local RFT with the head's Stokes drag: minus the hydrodynamic generalised force (N on the node
+    blocks, N m on the head spin) for the generalised velocities V (nv,) (m/s, rad/s; node blocks, then the head
+    spin rate when ``spin``). The flagellum nodes from node ``first`` (1 with a head, 0 without) carry the blocks
+    (M, 3, 3) N s/m (``rft_blocks``: f_j = -ell_j [zeta_perp (I - t t) + zeta_par t t] u_j); the head translates
+    against drag_t = 6 pi mu b (N s/m) and spins against drag_r = 8 pi mu b^3 (N m s). ``force_terms.LocalResistance``
+    and the compiled chord iteration (``chord_iteration``) both apply R through this kernel."""
+    nv = V.shape[0]
+    out = np.empty_like(V)
+    f = 3 * first
+    m3 = 3 * blocks.shape[0]
+    out[f:f + m3] = apply_blocks(blocks, V[f:f + m3])
+    if first:
+        for k in range(3):
+            out[k] = drag_t * V[k]
+    if spin:
+        out[nv - 1] = drag_r * V[nv - 1]
+    return out

@@ -8,11 +8,15 @@ Q~ applies the rigid rotation Q (3,3) to every node block (see ``rigid_alignment
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
 from physics.forces.contact import ContactParams, ContactState, contact_broad_phase, contact_kernel
-from physics.elastic.rod_energy import banded_to_dense, elastic_gradient_kernel, rod_frames
+from physics.elastic.rod_energy import (banded_to_dense, elastic_gradient_kernel, elastic_hessian_banded_kernel,
+                                        rod_frames)
+from physics.linalg.banded_jacobian import add_banded_drag, add_blocks_to_banded, banded_dirichlet
 from physics.model.geometry import nodes_array
 
 
@@ -128,6 +132,41 @@ def assemble_dense_jacobian(ab: np.ndarray, mass: np.ndarray, h: float, R: np.nd
         for b in range(nv):
             J[ia, vdofs[b]] += R[a, b] / h
     return J
+
+
+class BandedNewtonTerms(NamedTuple):
+    """The parts of the banded Newton Jacobian of an RFT step (``step_solvers.BandedNewtonSolver``) that stay fixed
+    through the step, at its effective step h (s): M/h^2 (ndof,) kg/s^2 (kg m^2/s^2 on twists), the RFT blocks / h
+    (M, 3, 3) N/m of the flagellum nodes from node ``first``, the head's drags / h (translation N/m, spin N m), and
+    ``jac_fresh``: always True, the Jacobian is exact at every iteration (the chord loop has no stall to hand back,
+    as ``BandedNewtonSolver.on_stall`` refactorises nothing)."""
+
+    mass_h2: np.ndarray
+    blocks_h: np.ndarray
+    first: int
+    head_t: float
+    head_r: float
+    jac_fresh: bool
+
+
+@njit(cache=True)
+def banded_newton_matrix(q: np.ndarray, frames: tuple, rest: tuple, terms: BandedNewtonTerms, nodes_c: np.ndarray,
+                         blocks_c: np.ndarray, prescribed: np.ndarray) -> np.ndarray:
+    """The exact Newton Jacobian of an RFT step at q (ndof,), in general-banded storage (21, ndof)
+    (ab[10 + i - j, j] = J[i, j], as ``scipy.linalg.solve_banded`` takes it): J = K(q) + M/h^2 + P^T R P / h + the
+    contact Hessian blocks that fall inside the band, the prescribed DOFs as identity rows and columns. K: the DER
+    elastic Hessian of eqns (5a)-(5c) (``elastic_hessian_banded_kernel``) at the frames (t, d1, d2, ref_twist, m1,
+    m2) of q; R: block-diagonal (local RFT and the head's Stokes drag, ``terms``); rest: the 7 rest arrays;
+    nodes_c (A, 4), blocks_c (A, 12, 12) N/m: the active contacts at q (none: (0, 4), (0, 12, 12)). Both the Python
+    increment (``BandedNewtonSolver.increment``) and the compiled one (``chord_iteration``) build it here."""
+    t, d1, d2, rt, m1, m2 = frames
+    l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ = rest
+    ab = elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, l_bar, l_vor, kappa_bar, twist_bar, EA, EI, GJ)
+    add_banded_drag(ab, terms.mass_h2, terms.blocks_h, terms.first, terms.head_t, terms.head_r)
+    add_blocks_to_banded(ab, nodes_c, blocks_c)
+    for k in prescribed:
+        banded_dirichlet(ab, k)
+    return ab
 
 
 @njit(cache=True)

@@ -33,7 +33,6 @@ from typing import Any, Protocol
 import numpy as np
 from scipy.linalg import lapack, lu_factor, solve_banded
 
-from physics.linalg.banded_jacobian import add_banded_drag, add_blocks_to_banded, banded_dirichlet
 from physics.forces.contact import add_blocks_to_dense
 from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel
 from physics.forces.force_terms import Hydrodynamics, LocalResistance
@@ -41,7 +40,8 @@ from physics.model.geometry import nodes_of
 from physics.hydro.hydrodynamics import HydroError, ResistanceOperator
 from physics.errors import StepFailed
 from physics.solvers.newton_krylov import KrylovFailed, MobilityStep
-from physics.solvers.implicit_residual import assemble_dense_jacobian, rotate_dense_blocks, rotate_node_blocks
+from physics.solvers.implicit_residual import (BandedNewtonTerms, assemble_dense_jacobian, banded_newton_matrix,
+                                              rotate_dense_blocks, rotate_node_blocks)
 from physics.hydro.rft import rft_coefficients
 from physics.model.rigid_alignment import best_fit_rotation
 from physics.forces.step_context import StepContext, StepResistance, SystemDescription, active_contacts, frames_at
@@ -81,6 +81,8 @@ CALM_STEPS_FOR_LU = 4
 
 class DenseChordSolver:
     """LSBT + head resistance with reused factorisations (see module docstring)."""
+
+    banded = False  # the chord iteration's increment: dgetrs on the kept dense LU (``chord_iteration``)
 
     def __init__(self, system: SystemDescription, state: StepState, hydro: Hydrodynamics) -> None:
         self.system, self.state, self.hydro = system, state, hydro
@@ -258,9 +260,12 @@ def _contact_signature(nodes: np.ndarray) -> frozenset:
 
 
 class BandedNewtonSolver:
-    """Local RFT + Stokes head: block-diagonal resistance, exact banded Newton (O(N) per iteration)."""
+    """Local RFT + Stokes head: block-diagonal resistance, exact banded Newton (O(N) per iteration). The compiled
+    chord iteration (``chord_iteration.chord_solve``) takes its steps (``resistance`` and ``newton_terms``); the
+    Python one (``Simulator._chord_python``, Anderson mixing and single iterations) calls ``increment``."""
 
     krylov = False  # every step is a banded direct solve
+    banded = True  # the chord iteration's increment is a banded Newton solve (``chord_iteration``)
 
     def __init__(self, system: SystemDescription, state: StepState, hydro: Hydrodynamics) -> None:
         self.system, self.state, self.hydro = system, state, hydro
@@ -269,12 +274,15 @@ class BandedNewtonSolver:
     def reset(self) -> None:
         self.local: LocalResistance | None = None
         self.blocks: np.ndarray | None = None
+        self.terms: BandedNewtonTerms | None = None
+        self.terms_h = -1.0
 
     def begin_step(self, q_pred: np.ndarray, h: float) -> None:
         stats = self.state.stats
         t0 = time.perf_counter()
         self.local = self.hydro.resistance_at(nodes_of(q_pred))
         self.blocks = self.local.blocks
+        self.terms = None
         stats.resistance_refreshes += 1
         stats.time_resistance_refresh += time.perf_counter() - t0
 
@@ -282,16 +290,23 @@ class BandedNewtonSolver:
         """The resistance of this step: RFT blocks and the head's drag at the predicted geometry."""
         return StepResistance(self.local, _EYE)
 
+    def newton_terms(self, h: float) -> BandedNewtonTerms:
+        """The step's fixed parts of the banded Newton Jacobian at the effective step h (s) (made once per step)."""
+        if self.terms is None or self.terms_h != h:
+            local = self.local
+            self.terms = BandedNewtonTerms(mass_h2=self.system.mass / h**2, blocks_h=self.blocks / h,
+                                           first=local.first, head_t=local.drag_t / h, head_r=local.drag_r / h,
+                                           jac_fresh=True)
+            self.terms_h = h
+        return self.terms
+
     def increment(self, r: np.ndarray, q: np.ndarray, h: float) -> np.ndarray:
-        system, ctx, local = self.system, self.state.step_context(h), self.local
-        t, d1, d2, rt, m1, m2 = frames_at(q, ctx)
-        ab = elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *system.rest)
-        add_banded_drag(ab, system.mass / h**2, self.blocks / h, local.first, local.drag_t / h, local.drag_r / h)
-        if ctx.contact is not None:  # the contact Hessian's node blocks that fit in the band
-            nodes_c, blocks_c = active_contacts(q, ctx, system)
-            add_blocks_to_banded(ab, nodes_c, blocks_c)
-        for k in system.prescribed:
-            banded_dirichlet(ab, int(k))
+        """The Newton correction J(q)^{-1} r (ndof,) for the residual r (ndof,) at q, effective step h (s): the
+        exact banded Jacobian (``implicit_residual.banded_newton_matrix``) solved by ``scipy.linalg.solve_banded``."""
+        system, ctx = self.system, self.state.step_context(h)
+        nodes_c, blocks_c = active_contacts(q, ctx, system)  # none without contact
+        ab = banded_newton_matrix(q, frames_at(q, ctx), system.rest, self.newton_terms(h), nodes_c, blocks_c,
+                                  system.prescribed)
         self.state.stats.jacobian_factorisations += 1
         try:
             return solve_banded((BANDWIDTH, BANDWIDTH), ab, r, check_finite=False)
