@@ -12,10 +12,11 @@ the presets ``faithful`` and ``fast`` use BDF3), with error-controlled steps ins
 ``step_tol`` > 0. R is the generalised resistance (``hydrodynamics`` for LSBT + head, ``rft`` for
 local drag) evaluated at the predicted geometry. The nonlinear system is solved by Newton-type
 iterations on the full residual, so a converged step solves eqn (6) up to the resistance's geometry
-lag. Two regimes (``step_solvers``): while the resistance is reused through a rigid rotation (steady
-swimming), the chord iteration on the reused dense factorisation (one compiled call per step attempt,
-``chord_iteration``; ``_chord_python`` is its Python reference and the path of Anderson mixing and single
-iterations); when it is rebuilt (the shape has changed: buckling, relaxation) and ``newton_krylov`` is on,
+lag. With RFT every step is a Newton iteration on the exact banded Jacobian; with LSBT two regimes
+(``step_solvers``): while the resistance is reused through a rigid rotation (steady
+swimming), the chord iteration on the reused dense factorisation; both run as one compiled call per step attempt
+(``chord_iteration``; ``_chord_python`` is their Python reference and the path of Anderson mixing and single
+iterations); when the LSBT resistance is rebuilt (the shape has changed: buckling, relaxation) and ``newton_krylov`` is on,
 Newton-Krylov in the mobility form (``newton_krylov``: GMRES with a banded preconditioner, no dense
 factorisation). A failing fixed step
 is halved up to ``max_substeps`` times, a failing adaptive step retried at a quarter, before a
@@ -144,8 +145,9 @@ class Simulator:
 
     * while the LSBT resistance is reused through a rigid rotation (steady swimming): the chord iteration on
       the reused dense LU of M/h^2 + K + P^T R P / h, rotated with the swimmer, compiled end to end
-      (``chord_iteration``; ``_chord_python`` is its Python reference and the path of Anderson mixing and of
-      RFT, whose banded Jacobian is exact and refactorised at every iteration);
+      (``chord_iteration``; ``_chord_python`` is its Python reference and the path of Anderson mixing);
+    * with RFT (``hydro_model="rft"``): Newton on the exact banded Jacobian, refactorised at every iteration,
+      compiled end to end by the same loop (``chord_iteration``, bit-identical to ``_chord_python``);
     * when the resistance is rebuilt (the shape changed non-rigidly by more than ``hydro_refresh_tol`` r0:
       buckling, relaxation) and ``newton_krylov`` is on: Newton-Krylov in the mobility form, the flagellum's
       forces unknowns beside q, GMRES with a banded preconditioner, no dense factorisation (``newton_krylov``);
@@ -226,7 +228,8 @@ class Simulator:
         #: the step's solver (``step_solvers``): the chord iteration's caches, the resistance, Newton-Krylov's step
         solver = DenseChordSolver if self.numerics.hydro_model == "lsbt" else BandedNewtonSolver
         self.solver = solver(self.system, self, self.scene.term("hydrodynamics"))
-        #: steady steps by the compiled chord iteration where it applies (False: always the Python reference)
+        #: chord steps (LSBT, steady) and banded Newton steps (RFT) by the compiled iteration where it applies
+        #: (``chord_iteration.compiled_chord_applies``; False: always the Python reference ``_chord_python``)
         self.compiled_chord = True
         #: runs of Newton-Krylov steps in one compiled call where it applies (False: always the Python step)
         self.compiled_span = True
@@ -452,13 +455,14 @@ class Simulator:
                       else self.node_forces)  # the last forces where no accepted point since the restart
             return self.solver.mobility.solve(q, -forces[first:].ravel(), h)
         if self.compiled_chord and compiled_chord_applies(self):
-            return chord_solve(self, q, h)  # the iteration below, compiled (bit-identical)
+            return chord_solve(self, q, h)  # the iteration below, compiled (bit-identical; LSBT chord or RFT banded)
         return self._chord_python(q, h)
 
     def _chord_python(self, q: np.ndarray, h: float):
         """The chord iteration of a step from the predictor q (ndof,) at the effective step h (s), in Python: the
-        reference of the compiled ``chord_iteration.chord_solve`` and the path of the configurations it does not
-        take (Anderson mixing, a single iteration, the banded RFT solver). Returns (q, r, grad, f, (t, d1,
+        reference of the compiled ``chord_iteration.chord_solve`` (for both solvers: the dense chord one of LSBT and
+        the banded Newton one of RFT) and the path of the configurations it does not take (Anderson mixing, a single
+        iteration; LSBT without NumPy's bundled OpenBLAS). Returns (q, r, grad, f, (t, d1,
         ref_twist)) at convergence; raises ``StepFailed``."""
         nm, p = self.numerics, self.params
         hist = [math.inf, math.inf]

@@ -1,25 +1,35 @@
-"""The chord iteration of a steady step, compiled end to end (one Numba call per step attempt).
+"""The chord iteration of a step, compiled end to end (one Numba call per step attempt): the dense LSBT chord
+iteration and the banded Newton iteration of RFT, one loop.
 
-While the hydrodynamic resistance is reused through a rigid rotation (steady swimming, ``step_solvers``), each
-step solves the implicit residual of eqn (6) (Huang & Jawed 2020; ``implicit_residual``) by the chord
-iteration q <- q - J_old^{-1} r(q) on the reused dense LU of J = M/h^2 + K + P^T R P / h, its node blocks rotated
-by the best-fit rotation Qj (``rigid_alignment``). ``Simulator._chord_python`` is that iteration written in
-Python, one kernel call per piece; it stays the reference. ``chord_loop`` is the same iteration in one compiled
-call, with the same operations in the same order, so its iterates are bit-identical:
+Each step solves the implicit residual of eqn (6) (Huang & Jawed 2020; ``implicit_residual``) by
+q <- q - J^{-1} r(q). ``Simulator._chord_python`` is that iteration written in Python, one kernel call per piece;
+it stays the reference. ``chord_loop`` is the same iteration in one compiled call, with the same operations in the
+same order, so its iterates are bit-identical. Two solvers plug into it (``step_solvers``), chosen at compile time
+by the type of its ``hydro`` and ``lin`` arguments (``hydro_force`` and ``newton_increment``: one compiled variant
+of the loop per solver, no placeholders):
 
-* the residual: frames, elastic and contact forces with the contact broad-phase redo (``internal_forces_at``),
-  the hydrodynamic force -R V in the resistance's reference frame (``resistance_apply``, the arithmetic of
-  ``ResistanceOperator.apply``: NumPy's own dgemv / ddot and SciPy's dpotrs, ``compiled_lapack``), the residual
-  (``assemble_residual``);
-* the tests: the force residual (``forces_converged``), the stall test, the increment criterion, CVODE's
-  contraction-rate test (``time_integrator.ContractionRate``);
-* the increment: LAPACK dgetrs on the kept LU (``compiled_lapack.getrs``) between the rotations by Qj.
+* LSBT (``DenseChordSolver``; ``ChordHydro``, ``ChordLinear``): while the hydrodynamic resistance is reused through
+  a rigid rotation (steady swimming), the chord iteration on the reused dense LU of J = M/h^2 + K + P^T R P / h,
+  its node blocks rotated by the best-fit rotation Qj (``rigid_alignment``). The hydrodynamic force -R V in the
+  resistance's reference frame (``resistance_apply``, the arithmetic of ``ResistanceOperator.apply``: NumPy's own
+  dgemv / ddot and SciPy's dpotrs, ``compiled_lapack``); the increment: LAPACK dgetrs on the kept LU
+  (``compiled_lapack.getrs``) between the rotations by Qj.
+* RFT (``BandedNewtonSolver``; ``LocalDrag``, ``implicit_residual.BandedNewtonTerms``): local drag, so R is
+  block-diagonal (``rft.local_drag_apply``) and the exact Jacobian at every iterate is banded
+  (``implicit_residual.banded_newton_matrix``: elastic Hessian of eqns (5a)-(5c), M/h^2, RFT blocks / h, the contact
+  blocks inside the band, Dirichlet rows), solved by LAPACK dgbsv on the array ``scipy.linalg.solve_banded`` builds
+  (``compiled_lapack.gbsv``): a Newton iteration, no stall, no factorisation kept.
 
-Python acts only where the Python iteration does something other than arithmetic: a stall (the Jacobian is
-refactorised, ``DenseChordSolver.on_stall``) and the moment the resistance operator forms its explicit inverse
-(``ResistanceOperator.inverse``, after ``_INVERSE_AFTER_SOLVES`` Cholesky solves); the loop returns there and
-``chord_solve`` resumes it where it stopped (``phase``). Anderson mixing (``anderson_depth`` > 0), a single
-iteration per step and a NumPy without its bundled OpenBLAS keep the Python iteration.
+Common to both: the residual (frames, elastic and contact forces with the contact broad-phase redo,
+``internal_forces_at``; the hydrodynamic force; ``assemble_residual``); the tests: the force residual
+(``forces_converged``), the stall test, the increment criterion, CVODE's contraction-rate test
+(``time_integrator.ContractionRate``).
+
+Python acts only where the Python iteration does something other than arithmetic (LSBT only): a stall (the
+Jacobian is refactorised, ``DenseChordSolver.on_stall``) and the moment the resistance operator forms its explicit
+inverse (``ResistanceOperator.inverse``, after ``_INVERSE_AFTER_SOLVES`` Cholesky solves); the loop returns there
+and ``chord_solve`` resumes it where it stopped (``phase``). Anderson mixing (``anderson_depth`` > 0) and a single
+iteration per step keep the Python iteration, and so does LSBT on a NumPy without its bundled OpenBLAS.
 """
 
 from __future__ import annotations
@@ -27,18 +37,22 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
-from physics.linalg.compiled_lapack import NUMPY_BLAS, getrs, numpy_dot, numpy_matvec, potrs_upper
+from physics.elastic import BANDWIDTH
+from physics.linalg.compiled_lapack import NUMPY_BLAS, gbsv, getrs, numpy_dot, numpy_matvec, potrs_upper
 from physics.errors import StepFailed
 from physics.hydro.hydrodynamics import _INVERSE_AFTER_SOLVES, HydroError
-from physics.solvers.implicit_residual import (assemble_residual, block_max_abs, forces_converged, generalised_velocity,
-                                       internal_forces_at, rotate_node_blocks)
+from physics.hydro.rft import local_drag_apply
+from physics.solvers.implicit_residual import (BandedNewtonTerms, assemble_residual, banded_newton_matrix,
+                                               block_max_abs, forces_converged, generalised_velocity,
+                                               internal_forces_at, rotate_node_blocks)
 from physics.forces.step_context import StepSystem, compiled_contact_args, step_system
 from physics.integrate.time_integrator import contraction_update
 
 #: outcome codes of ``chord_loop``
-CONVERGED, NONFINITE_RESIDUAL, NEWTON_FAILED, STALL, NEED_INVERSE, HYDRO_FAILED, GETRS_FAILED = range(7)
+CONVERGED, NONFINITE_RESIDUAL, NEWTON_FAILED, STALL, NEED_INVERSE, HYDRO_FAILED, LINEAR_FAILED = range(7)
 #: where ``chord_loop`` starts: at an iteration's residual, at its increment (after a stall), at the final
 #: residual of an iterate accepted by the contraction-rate test
 AT_RESIDUAL, AT_INCREMENT, AT_FINAL_RESIDUAL = range(3)
@@ -68,6 +82,20 @@ class ChordHydro(NamedTuple):
     has_head: bool
     spin: bool
     printed: bool
+    Qh: np.ndarray
+
+
+class LocalDrag(NamedTuple):
+    """The resistance of an RFT step (``force_terms.LocalResistance``, built at the step's predicted geometry): the
+    blocks (M, 3, 3) N s/m of the flagellum nodes from node ``first`` (1 with a head, 0 without), the head's drags
+    N s/m and N m s (0 N m s when it does not spin), whether the head spin is a generalised velocity, and Qh (3, 3):
+    the identity (the resistance is not rotated)."""
+
+    blocks: np.ndarray
+    first: int
+    drag_t: float
+    drag_r: float
+    spin: bool
     Qh: np.ndarray
 
 
@@ -175,38 +203,95 @@ def resistance_apply(V: np.ndarray, inv: np.ndarray, chol: np.ndarray, use_inv: 
     return out, 0
 
 
+def _is(t: Any, cls: type) -> bool:
+    """Is the Numba type t that of an instance of the named tuple ``cls``?"""
+    return isinstance(t, types.BaseNamedTuple) and t.instance_class is cls
+
+
+def hydro_force(hydro: Any, V: np.ndarray, use_inv: bool) -> tuple[np.ndarray, int]:
+    """R V (nv,) (minus the hydrodynamic generalised force, N / N m) for the generalised velocities V (nv,) in the
+    resistance's frame, and a LAPACK info: for ``ChordHydro`` (LSBT + head) ``resistance_apply``, for ``LocalDrag``
+    (RFT) ``rft.local_drag_apply`` (info 0). Compiled code only: Numba picks the implementation by the type of
+    ``hydro`` when it compiles the caller (``numba.extending.overload``)."""
+    raise NotImplementedError("hydro_force is called from compiled code only (chord_residual)")
+
+
+@overload(hydro_force)
+def _hydro_force(hydro, V, use_inv):
+    if _is(hydro, LocalDrag):
+        def local(hydro, V, use_inv):
+            return local_drag_apply(V, hydro.blocks, hydro.first, hydro.drag_t, hydro.drag_r, hydro.spin), 0
+        return local
+    if _is(hydro, ChordHydro):
+        def lsbt(hydro, V, use_inv):
+            return resistance_apply(V, hydro.inv, hydro.chol, use_inv, hydro.H, hydro.g, hydro.K, hydro.drag_t,
+                                    hydro.drag_r, hydro.has_head, hydro.spin, hydro.printed)
+        return lsbt
+    return None
+
+
+def newton_increment(lin: Any, r: np.ndarray, q: np.ndarray, frames: tuple, rest: tuple, prescribed: np.ndarray,
+                     nodes_c: np.ndarray, blocks_c: np.ndarray) -> tuple[np.ndarray, int]:
+    """The correction z = J^{-1} r (ndof,) of the iterate q (ndof,) with residual r (ndof,), and a LAPACK info. For
+    ``ChordLinear`` (LSBT): dgetrs on the kept LU between the rotations by Qj (``DenseChordSolver.increment``); for
+    ``BandedNewtonTerms`` (RFT): the exact banded Jacobian at q (``banded_newton_matrix`` with the frames
+    (t, d1, d2, ref_twist, m1, m2) of q, the rest arrays, the Dirichlet DOFs and the active contacts nodes_c (A, 4),
+    blocks_c (A, 12, 12) N/m at q) solved by dgbsv (``BandedNewtonSolver.increment``). Compiled code only: Numba
+    picks the implementation by the type of ``lin`` (``numba.extending.overload``)."""
+    raise NotImplementedError("newton_increment is called from compiled code only (chord_loop)")
+
+
+@overload(newton_increment)
+def _newton_increment(lin, r, q, frames, rest, prescribed, nodes_c, blocks_c):
+    if _is(lin, BandedNewtonTerms):
+        def banded(lin, r, q, frames, rest, prescribed, nodes_c, blocks_c):
+            ab = banded_newton_matrix(q, frames, rest, lin, nodes_c, blocks_c, prescribed)
+            return gbsv(ab, BANDWIDTH, BANDWIDTH, r)
+        return banded
+    if _is(lin, ChordLinear):
+        def dense(lin, r, q, frames, rest, prescribed, nodes_c, blocks_c):
+            x, info = getrs(lin.lu, lin.piv1, rotate_node_blocks(r, lin.Qj, True))
+            if info != 0:
+                return x, info
+            return rotate_node_blocks(x, lin.Qj, False), 0
+        return dense
+    return None
+
+
 @njit(cache=True)
 def chord_residual(q: np.ndarray, h: float, q_start: np.ndarray, frames_old: tuple, rest: tuple, base: SchemeBase,
-                   system: StepSystem, hydro: ChordHydro, use_inv: bool, contact_on: bool, model: tuple,
-                   cstate: tuple, first_step: bool):
+                   system: StepSystem, hydro: Any, use_inv: bool, contact_on: bool, model: tuple, cstate: tuple,
+                   first_step: bool):
     """``Simulator._residual`` of a chord step: (r, grad, f, inertia (ndof,) N / N m, frames, contact state,
-    contact energy J, active contacts, dpotrs info). Arguments as in ``chord_loop``."""
-    grad, fr, cstate, e_c, nodes_c, _ = internal_forces_at(q, frames_old, rest, contact_on, model, cstate, q_start,
-                                                           system.pos, first_step)
+    contact energy J, active contacts' nodes (A, 4) and Hessian blocks (A, 12, 12) N/m, LAPACK info of the
+    resistance). ``hydro``: ``ChordHydro`` or ``LocalDrag``; other arguments as in ``chord_loop``."""
+    grad, fr, cstate, e_c, nodes_c, blocks_c = internal_forces_at(q, frames_old, rest, contact_on, model, cstate,
+                                                                  q_start, system.pos, first_step)
     V = generalised_velocity(q, base.q_hat, h, system.vdofs, system.head_spins, system.omega, hydro.Qh)
-    RV, info = resistance_apply(V, hydro.inv, hydro.chol, use_inv, hydro.H, hydro.g, hydro.K, hydro.drag_t,
-                                hydro.drag_r, hydro.has_head, hydro.spin, hydro.printed)
+    RV, info = hydro_force(hydro, V, use_inv)
     r, f, inertia = assemble_residual(q, base.q_hat, base.v_hat, base.h_eff, system.mass, grad, -RV, hydro.Qh,
                                       system.vdofs, system.head_spins, system.prescribed)
-    return r, grad, f, inertia, fr, cstate, e_c, nodes_c.shape[0], info
+    return r, grad, f, inertia, fr, cstate, e_c, nodes_c, blocks_c, info
 
 
 @njit(cache=True)
 def chord_loop(q: np.ndarray, h: float, it: int, phase: int, hist: ResidualHistory, carried: Carried,
                q_start: np.ndarray, frames_old: tuple, rest: tuple, base: SchemeBase, system: StepSystem,
-               hydro: ChordHydro, inverse_state: InverseState, contact_on: bool, model: tuple, cstate: tuple,
-               first_step: bool, lin: ChordLinear, tols: ChordTols, rate: RateState):
+               hydro: Any, inverse_state: InverseState, contact_on: bool, model: tuple, cstate: tuple,
+               first_step: bool, lin: Any, tols: ChordTols, rate: RateState):
     """The chord iteration of one step (``Simulator._chord_python``), compiled, from iteration ``it`` at ``phase``
     (AT_RESIDUAL, or after a return: AT_INCREMENT with ``carried`` = (r, grad, f, frames, contact energy,
     count) of the iterate, AT_FINAL_RESIDUAL).
 
     q (ndof,) the iterate, h the effective step s; frames_old = (d1, t, ref_twist) of the step's start; rest = the
-    7 rest arrays; cstate as in ``internal_forces_at``; the other arguments: the named tuples above.
+    7 rest arrays; cstate as in ``internal_forces_at``; the other arguments: the named tuples above, with
+    (hydro, lin) = (``ChordHydro``, ``ChordLinear``) for LSBT or (``LocalDrag``, ``BandedNewtonTerms``) for RFT
+    (module doc; RFT passes an ``InverseState`` with use_inv true: it has no Cholesky solves to count).
 
     Returns (code, q, it, phase, ``ResidualHistory``, ``Carried``, cstate, ``RateState``, Cholesky solves,
-    residuals evaluated, value): value = the max force residual (NEWTON_FAILED) or a LAPACK
-    info (HYDRO_FAILED: dpotrs, GETRS_FAILED: dgetrs). STALL: the caller refactorises the Jacobian and resumes
-    at ``phase``; NEED_INVERSE: the caller forms the inverse and resumes."""
+    residuals evaluated, increments solved, value): value = the max force residual (NEWTON_FAILED) or a LAPACK
+    info (HYDRO_FAILED: dpotrs, LINEAR_FAILED: dgetrs or dgbsv). STALL (LSBT): the caller refactorises the
+    Jacobian and resumes at ``phase``; NEED_INVERSE (LSBT): the caller forms the inverse and resumes."""
     pos, twist = system.pos, system.twist
     use_inv, applies = inverse_state.use_inv, inverse_state.applies
     newton_tol, max_iter, step_tol, r0 = tols.newton_tol, tols.max_iter, tols.step_tol, tols.r0
@@ -215,6 +300,9 @@ def chord_loop(q: np.ndarray, h: float, it: int, phase: int, hist: ResidualHisto
     r, grad, f, fr, e_c, count = carried.r, carried.grad, carried.f, carried.frames, carried.energy, carried.count
     adaptive = step_tol > 0.0
     evaluated = 0
+    solves = 0
+    nodes_c = np.zeros((0, 4), dtype=np.int64)  # the active contacts at the iterate (the banded increment's)
+    blocks_c = np.zeros((0, 12, 12))
     norm = 0.0
     while it < 2 * max_iter:
         if phase != AT_INCREMENT:
@@ -222,48 +310,49 @@ def chord_loop(q: np.ndarray, h: float, it: int, phase: int, hist: ResidualHisto
                 if applies + 1 > inverse_state.applies_max:
                     return (NEED_INVERSE, q, it, phase, ResidualHistory(h1, h2),
                             Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
-                            0.0)
+                            solves, 0.0)
                 applies += 1
-            r, grad, f, inertia, fr, cstate, e_c, count, info = chord_residual(
+            r, grad, f, inertia, fr, cstate, e_c, nodes_c, blocks_c, info = chord_residual(
                 q, h, q_start, frames_old, rest, base, system, hydro, use_inv, contact_on, model, cstate, first_step)
+            count = nodes_c.shape[0]
             if info != 0:
                 return (HYDRO_FAILED, q, it, phase, ResidualHistory(h1, h2),
                         Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
-                        float(info))
+                        solves, float(info))
             evaluated += 1
             if phase == AT_FINAL_RESIDUAL:  # the forces at the accepted iterate
                 return (CONVERGED, q, it, phase, ResidualHistory(h1, h2),
                         Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
-                        0.0)
+                        solves, 0.0)
             if not np.all(np.isfinite(r)):
                 return (NONFINITE_RESIDUAL, q, it, phase, ResidualHistory(h1, h2),
                         Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
-                        0.0)
+                        solves, 0.0)
             if forces_converged(r, grad, f, inertia, pos, system.free_twist, newton_tol, tols.f_floor, r0):
                 return (CONVERGED, q, it, phase, ResidualHistory(h1, h2),
                         Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
-                        0.0)
+                        solves, 0.0)
             norm = np.abs(r).max()
             if it >= max_iter or (it >= 8 and norm > 0.5 * h2):
                 if not lin.jac_fresh:  # the caller refactorises at q (``on_stall``) and resumes at the increment
                     return (STALL, q, it, AT_INCREMENT, ResidualHistory(h1, h2),
                             Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
-                            0.0)
+                            solves, 0.0)
                 if it >= max_iter:
                     return (NEWTON_FAILED, q, it, phase, ResidualHistory(h1, h2),
                             Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
-                            norm)
+                            solves, norm)
         else:
             norm = np.abs(r).max()
             phase = AT_RESIDUAL
         h2 = h1
         h1 = norm
-        x, info = getrs(lin.lu, lin.piv1, rotate_node_blocks(r, lin.Qj, True))
+        solves += 1
+        z, info = newton_increment(lin, r, q, fr, rest, system.prescribed, nodes_c, blocks_c)
         if info != 0:
-            return (GETRS_FAILED, q, it, phase, ResidualHistory(h1, h2),
+            return (LINEAR_FAILED, q, it, phase, ResidualHistory(h1, h2),
                     Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
-                    float(info))
-        z = rotate_node_blocks(x, lin.Qj, False)
+                    solves, float(info))
         q = q - z
         # increment criterion: the iteration contracts, so an increment far below the step's own displacement
         # (and the twist resolution) means the residual is at tolerance
@@ -272,7 +361,7 @@ def chord_loop(q: np.ndarray, h: float, it: int, phase: int, hist: ResidualHisto
                 and block_max_abs(z, twist) <= max(newton_tol, 1e-10)):
             return (CONVERGED, q, it, phase, ResidualHistory(h1, h2),
                     Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
-                    0.0)
+                    solves, 0.0)
         if adaptive:  # ContractionRate.converged
             converged, rho, prev, age = contraction_update(np.max(np.abs(z) * system.weights) / step_tol, rho,
                                                            prev, age)
@@ -282,31 +371,36 @@ def chord_loop(q: np.ndarray, h: float, it: int, phase: int, hist: ResidualHisto
         it += 1
     return (NEWTON_FAILED, q, it - 1, phase, ResidualHistory(h1, h2),
             Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
-            np.abs(r).max())
+            solves, np.abs(r).max())
 
 
 def compiled_chord_applies(sim: Any) -> bool:
-    """Whether ``chord_solve`` can take this step: the dense chord solver with a factorised Jacobian, no
-    Anderson mixing, more than one iteration per step, and NumPy's own BLAS reachable from compiled code."""
+    """Whether ``chord_solve`` can take this step: no Anderson mixing, more than one iteration per step, and either
+    the banded RFT solver with its step begun, or the dense chord solver with a factorised Jacobian and NumPy's own
+    BLAS reachable from compiled code (the RFT step calls no BLAS: only SciPy's dgbsv)."""
     nm = sim.numerics
     solver = sim.solver
-    return (NUMPY_BLAS and nm.anderson_depth == 0 and not nm.single_iteration
-            and getattr(solver, "lu", None) is not None and getattr(solver, "hyd", None) is not None)
+    if nm.anderson_depth != 0 or nm.single_iteration:
+        return False
+    if getattr(solver, "banded", False):
+        return solver.local is not None
+    return NUMPY_BLAS and getattr(solver, "lu", None) is not None and getattr(solver, "hyd", None) is not None
 
 
 def chord_solve(sim: Any, q: np.ndarray, h: float):
     """The chord iteration of a step from the predictor q (ndof,) at the effective step h (s), compiled
-    (``chord_loop``), Python entering only at a stall or when the resistance forms its inverse. Returns
+    (``chord_loop``), Python entering only at a stall or when the resistance forms its inverse (LSBT). Returns
     (q, r, grad, f, (t, d1, ref_twist)) as ``Simulator._chord_python`` does, bit for bit; raises ``StepFailed``
     where it does. ``sim``: the stepped object; it gives its ``system`` (``step_context.SystemDescription``), the
-    step (``step_context(h)``), its dense chord solver, contraction rate and counters, and keeps the contact state
-    the loop returns."""
+    step (``step_context(h)``), its solver (``step_solvers``: dense chord or banded Newton, ``banded`` tells),
+    contraction rate and counters, and keeps the contact state the loop returns."""
     system = sim.system
     nm, p = system.numerics, system.params
     solver = sim.solver
-    hyd = solver.hyd
+    banded = solver.banded
+    hyd = None if banded else solver.hyd
     ctx = sim.step_context(h)
-    if hyd.inv is None and hyd.chol is None:  # what the first solve would do (a lazily built operator)
+    if not banded and hyd.inv is None and hyd.chol is None:  # what the first solve would do (a lazy operator)
         try:
             hyd.factorize()
         except HydroError as exc:
@@ -322,7 +416,13 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
     frames_old = ctx.frames
     tols = ChordTols(newton_tol=nm.newton_tol, max_iter=nm.newton_max_iter, step_tol=nm.step_tol,
                      f_floor=system.f_floor, r0=p.rod_radius, step_scale=step_scale)
-    if hyd.has_head:  # K only for the printed head (a C-contiguous placeholder otherwise: one compiled variant)
+    if banded:  # RFT: the step's drag and Jacobian terms, fixed through the step (no return to Python midway)
+        local = solver.local
+        hydro = LocalDrag(blocks=local.blocks, first=local.first, drag_t=local.drag_t, drag_r=local.drag_r,
+                          spin=local.spin, Qh=_EYE)
+        lin = solver.newton_terms(h)
+        inverse_state = InverseState(use_inv=True, applies=0, applies_max=0)
+    elif hyd.has_head:  # K only for the printed head (a C-contiguous placeholder otherwise: one compiled variant)
         H, g, K, drag_t = hyd.H, hyd.g, (hyd.K if hyd.printed else _NO_K), hyd.drag_t
         drag_r = hyd.drag_r if hyd.spin else 0.0
     else:
@@ -332,18 +432,22 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
     carried = Carried(r=q, grad=q, f=q, frames=(t_old, d1_old, d1_old, rt_old, d1_old, d1_old), energy=0.0, count=0)
     it, phase, hist = 0, AT_RESIDUAL, ResidualHistory(newest=np.inf, previous=np.inf)
     while True:
-        use_inv = hyd.inv is not None
-        hydro = ChordHydro(inv=hyd.inv if use_inv else _NO_MATRIX, chol=_NO_MATRIX if use_inv else hyd.chol[0],
-                           H=H, g=g, K=K, drag_t=drag_t, drag_r=drag_r, has_head=hyd.has_head, spin=hyd.spin,
-                           printed=hyd.printed, Qh=np.ascontiguousarray(solver.Qh))
-        lin = ChordLinear(lu=solver.lu[0], piv1=solver.piv1, Qj=np.ascontiguousarray(solver.Qj),
-                          jac_fresh=solver.jac_fresh)
-        (code, q, it, phase, hist, carried, cstate, rstate, applies, evaluated, value) = chord_loop(
-            q, h, it, phase, hist, carried, ctx.q_start, frames_old, system.rest, base, arrays, hydro,
-            InverseState(use_inv=use_inv, applies=hyd.applies, applies_max=_INVERSE_AFTER_SOLVES), contact_on,
-            model, cstate, ctx.first_step, lin, tols, rstate)
-        hyd.applies = applies
+        if not banded:  # the LSBT resistance and the kept LU as they are now (changed by a return to Python)
+            use_inv = hyd.inv is not None
+            hydro = ChordHydro(inv=hyd.inv if use_inv else _NO_MATRIX, chol=_NO_MATRIX if use_inv else hyd.chol[0],
+                               H=H, g=g, K=K, drag_t=drag_t, drag_r=drag_r, has_head=hyd.has_head, spin=hyd.spin,
+                               printed=hyd.printed, Qh=np.ascontiguousarray(solver.Qh))
+            lin = ChordLinear(lu=solver.lu[0], piv1=solver.piv1, Qj=np.ascontiguousarray(solver.Qj),
+                              jac_fresh=solver.jac_fresh)
+            inverse_state = InverseState(use_inv=use_inv, applies=hyd.applies, applies_max=_INVERSE_AFTER_SOLVES)
+        (code, q, it, phase, hist, carried, cstate, rstate, applies, evaluated, solves, value) = chord_loop(
+            q, h, it, phase, hist, carried, ctx.q_start, frames_old, system.rest, base, arrays, hydro, inverse_state,
+            contact_on, model, cstate, ctx.first_step, lin, tols, rstate)
         sim.stats.newton_iterations += evaluated
+        if banded:
+            sim.stats.jacobian_factorisations += solves  # one banded factorisation per increment
+        else:
+            hyd.applies = applies
         sim.keep_contact_state(cstate, carried.energy, carried.count)
         rate.rho, rate.age = rstate.rho, rstate.age
         rate.prev = None if rstate.prev < 0.0 else rstate.prev
@@ -362,13 +466,18 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
             raise StepFailed("residual", "non-finite (NaN/inf) force residual")
         elif code == HYDRO_FAILED:
             raise StepFailed("hydrodynamic mobility", f"LSBT mobility solve failed (potrs info {int(value)})")
-        elif code == GETRS_FAILED:
+        elif code == LINEAR_FAILED and banded:  # the messages of BandedNewtonSolver.increment (solve_banded's)
+            why = ("singular matrix" if value > 0
+                   else f"illegal value in {-int(value)}-th argument of internal gbsv/gtsv")
+            raise StepFailed("Jacobian", f"banded Newton system is singular ({why})")
+        elif code == LINEAR_FAILED:
             raise StepFailed("Jacobian", f"LU back-substitution failed (getrs info {int(value)})")
         else:
             raise StepFailed("Newton", f"Newton did not converge after {it + 1} iterations "
                                        f"(max force residual {value:.3e})")
 
 
+_EYE = np.eye(3)
 _NO_HEAD_H = np.zeros((0, 3))
 _NO_HEAD_G = np.zeros(0)
 _NO_K = np.zeros((3, 0))

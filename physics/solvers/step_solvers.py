@@ -14,7 +14,9 @@ A scene pays only for what it uses:
   also where the compiled loop hands a stall back.
 * ``BandedNewtonSolver`` (hydro_model="rft"): local drag, so R is block-diagonal, the Jacobian
   stays banded (half-bandwidth 10) and each Newton iteration is an O(N) banded solve with the
-  exact Jacobian. No dense matrix anywhere.
+  exact Jacobian (``implicit_residual.banded_newton_matrix``). No dense matrix anywhere. The iteration runs
+  compiled (``chord_iteration.chord_solve``, the same loop as the dense chord iteration, with LAPACK dgbsv);
+  ``increment`` is the piece of its Python reference (``Simulator._chord_python``).
 
 Both evaluate the resistance at the predicted geometry q_k + h v_k (linearly implicit in the
 velocity, lagged in the geometry within a step), built by the scene's hydrodynamic term

@@ -4,11 +4,18 @@ bit; and the compiled LAPACK dgbsv against ``scipy.linalg.solve_banded``."""
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
+
 import numpy as np
 import pytest
 from scipy.linalg import solve_banded
 
+from physics import Simulator, advance, configure
+from physics.errors import StepFailed
 from physics.linalg.compiled_lapack import gbsv
+from physics.params import RPM_TO_RAD_S
+from physics.solvers.chord_iteration import chord_solve, compiled_chord_applies
 
 
 @pytest.mark.parametrize("n", [11, 40, 159, 487])
@@ -25,3 +32,125 @@ def test_compiled_gbsv_is_solve_banded_bit_for_bit(n):
         assert np.array_equal(ab, ab0) and np.array_equal(b, b0)  # inputs untouched
     x, info = gbsv(np.zeros((21, n)), 10, 10, np.ones(n))
     assert info == 1  # solve_banded: LinAlgError("singular matrix")
+
+
+def _rft(overrides: dict, n_nodes: int = 40) -> Simulator:
+    """An RFT swimmer on ``faithful``'s numerics (adaptive BDF3, Newton tolerance 1e-5, no Anderson mixing)."""
+    p, n = configure("faithful", {"hydro_model": "rft", "n_nodes": n_nodes, **overrides})
+    return Simulator(p, n)
+
+
+#: (overrides, burst rpm, burst seconds): each burst goes through buckling (L'/L well below 1 at its end)
+RUNS = {
+    "fixed head, contact": ({}, 150, 11.0),
+    "fixed head, no contact": ({"contact": False}, 150, 11.0),
+    "torque-free head": ({"head_rotation": "torque_free"}, 150, 11.0),
+    "no head, contact": ({"head_radius": 0.0}, 300, 5.0),
+    "no head, no contact": ({"head_radius": 0.0, "contact": False}, 300, 5.0),
+    "implicit Euler, fixed 2 ms steps": ({"integrator": "euler", "step_tol": 0.0, "dt": 2e-3}, 150, 6.0),
+}
+
+
+def _run(overrides: dict, rpm: float, seconds: float, compiled: bool):
+    """0.5 s at 10 rpm from rest, then ``seconds`` at ``rpm``: the configuration after every dt, the active contacts
+    after every dt, the counters and the trajectory's hash."""
+    sim = _rft(overrides)
+    sim.compiled_chord = compiled
+    qs, contacts = [], []
+    for speed, span in ((10, 0.5), (rpm, seconds)):
+        sim.set_motor_speed(speed * RPM_TO_RAD_S)
+        for _ in range(int(round(span / sim.numerics.dt))):
+            sim.step()
+            qs.append(sim.q.copy())
+            contacts.append(sim.contact_count)
+    s = sim.stats
+    qs = np.array(qs)
+    return (qs, np.array(contacts), (s.newton_iterations, s.jacobian_factorisations, s.substeps, s.rejected_steps,
+                                     s.halvings), hashlib.sha256(qs.tobytes()).hexdigest()[:16])
+
+
+@pytest.mark.parametrize("name", list(RUNS))
+def test_rft_runs_with_the_compiled_banded_newton_iteration_are_the_python_runs_bit_for_bit(name):
+    """Whole runs (N = 40: 0.5 s at 10 rpm, then a burst through buckling) with the compiled iteration and with the
+    Python one (``compiled_chord = False``): the same configuration after every dt (np.array_equal), the same
+    counters (residuals, banded solves, steps, rejections, halvings), the same contacts."""
+    overrides, rpm, seconds = RUNS[name]
+    q1, c1, n1, h1 = _run(overrides, rpm, seconds, compiled=True)
+    q2, c2, n2, h2 = _run(overrides, rpm, seconds, compiled=False)
+    assert n1 == n2 and np.array_equal(c1, c2)
+    assert np.array_equal(q1, q2) and h1 == h2
+    span = np.linalg.norm(q1[:, -3:] - q1[:, 0:3], axis=1)
+    assert span.min() < 0.9 * span[0]  # buckled (L'/L well below its cruising value)
+    if name in ("fixed head, contact", "no head, contact"):
+        assert c1.max() > 0  # contact was active in the runs compared
+
+
+def _open_step(sim: Simulator, h: float):
+    """Set up a step of h from the current state as ``_try_step`` does: (iterate start q, effective step)."""
+    base = sim._base_for(h)
+    q = sim._step_start(base)
+    sim.solver.begin_step(q, base.h_eff)
+    return q, base.h_eff
+
+
+_STATE = ("_contact_q", "_contact_pad", "_contact_candidates", "_contact_none", "last_contact")
+
+
+def _from_the_same_setup(sim: Simulator, q: np.ndarray, h: float):
+    """(Python result, compiled result, Python counters, compiled counters, Python contact state, compiled contact
+    state): both iterations of one step from the same set-up (a StepFailed stands for its result)."""
+    saved = ({k: getattr(sim, k) for k in _STATE if hasattr(sim, k)}, dataclasses.replace(sim.stats),
+             (sim.contraction.rho, sim.contraction.prev, sim.contraction.age))
+    out = []
+    for fn in (sim._chord_python, lambda q, h: chord_solve(sim, q, h)):
+        for k, v in saved[0].items():
+            setattr(sim, k, v)
+        sim.stats = dataclasses.replace(saved[1])
+        sim.contraction.rho, sim.contraction.prev, sim.contraction.age = saved[2]
+        try:
+            res = fn(q.copy(), h)
+        except StepFailed as exc:
+            res = exc
+        out.append((res, dataclasses.replace(sim.stats), (sim.contraction.rho, sim.contraction.prev,
+                                                           sim.contraction.age),
+                    {k: getattr(sim, k) for k in ("_contact_pad", "_contact_none", "last_contact") if hasattr(sim, k)}))
+    return out
+
+
+@pytest.mark.parametrize("max_iter, tol, h, fails", [(25, 1e-5, 0.004, False), (25, 1e-12, 0.004, False),
+                                                     (2, 1e-14, 0.05, True)],
+                         ids=["converges", "tight tolerance", "fails"])
+def test_a_step_is_the_python_iteration_bit_for_bit(max_iter, tol, h, fails):
+    """One buckled step with contact (fixed head, 150 rpm), converged or failing: the same iterate, residual,
+    forces, frames, counters, contraction rate and contact state; a failure is the same StepFailed."""
+    sim = _rft({})
+    sim.set_motor_speed(150 * RPM_TO_RAD_S)
+    advance(sim, 10.5)
+    nm = dataclasses.replace(sim.numerics, newton_max_iter=max_iter, newton_tol=tol)
+    sim.numerics, sim.system = nm, dataclasses.replace(sim.system, numerics=nm)  # what the compiled loop reads
+    q, h = _open_step(sim, h)
+    assert compiled_chord_applies(sim)
+    (ref, s_ref, r_ref, c_ref), (got, s_got, r_got, c_got) = _from_the_same_setup(sim, q, h)
+    assert isinstance(ref, StepFailed) == fails
+    if fails:
+        assert isinstance(got, StepFailed) and str(got) == str(ref) and got.quantity == ref.quantity
+    else:
+        for a, b in zip(got[:4], ref[:4]):
+            assert np.array_equal(a, b)
+        for a, b in zip(got[4], ref[4]):
+            assert np.array_equal(a, b)
+    assert (s_got.newton_iterations, s_got.jacobian_factorisations) == (s_ref.newton_iterations,
+                                                                         s_ref.jacobian_factorisations)
+    assert s_ref.newton_iterations >= 2 and r_got == r_ref and c_got == c_ref
+
+
+def test_the_compiled_iteration_takes_rft_steps_without_anderson_mixing_or_single_iterations():
+    assert compiled_chord_applies(_with_step(_rft({})))
+    assert not compiled_chord_applies(_with_step(_rft({"anderson_depth": 4})))
+    assert not compiled_chord_applies(_with_step(_rft({"single_iteration": True})))
+
+
+def _with_step(sim: Simulator) -> Simulator:
+    sim.set_motor_speed(10 * RPM_TO_RAD_S)
+    _open_step(sim, 1e-3)
+    return sim
