@@ -8,9 +8,11 @@ at omega_h, phase 0) and the buckling-time shift it reads against the preset's t
 (``agents.online_turn_map.shift_reading``). Rows go to ``--out`` (JSON lines) as they finish;
 running again skips the swimmers already there. ``--fit`` prints the least-squares fit of the
 shift on the relative changes of strain and rotation rate and writes it beside ``--out``
-(``*_fit.json``; its coefficients are ``agents.online_turn_map.OnlineMapConfig``'s defaults).
+(``*_fit.json``; its coefficients are ``agents.online_turn_map.OnlineMapConfig``'s defaults). Each row names the
+reading of the head it was made with (``head_rotation``; rows without it were made with ``torque_free``, the
+default when they were written); the fit uses only the rows of the preset's current reading.
 
-    python scripts/turn_shift_sensitivity.py --count 16 --workers 2 --fit
+    python scripts/turn_shift_sensitivity.py --count 30 --t-c 3.25 --workers 2 --fit
 """
 
 from __future__ import annotations
@@ -82,7 +84,8 @@ def one(seed: int, fraction: float, preset: str, t_c: float) -> dict:
     start = get_steady_start(p, n, tm.omega_l_rpm * RPM_TO_RAD_S, 5 * 60.0 / tm.omega_l_rpm, disk=False)
     res = measure_turn(start.new_simulator(), tm.omega_l_rpm, tm.omega_h_rpm, t_c, 0.0)
     reading = shift_reading(*tm.rising_branch(), t_c, res.theta_deg, OnlineMapConfig())
-    return {"seed": seed, "fraction": fraction, "preset": preset, "factors": f, "cruise": cruise(preset, f), "t_c": t_c,
+    return {"seed": seed, "fraction": fraction, "preset": preset, "head_rotation": p.head_rotation, "factors": f,
+            "cruise": cruise(preset, f), "t_c": t_c,
             "theta_deg": res.theta_deg, "psi_deg": res.psi_deg, "map_theta_deg": float(np.interp(
                 t_c, *tm.rising_branch())), "shift_s": None if reading is None else reading[0],
             "shift_std_s": None if reading is None else reading[1], "wall_s": time.perf_counter() - t0}
@@ -126,7 +129,8 @@ def main() -> None:
     ap.add_argument("--count", type=int, default=16, help="randomised swimmers (plus the nominal one)")
     ap.add_argument("--fraction", type=float, default=0.1, help="E, mu, b within +-this; geometry +-0.4x")
     ap.add_argument("--preset", default="faithful")
-    ap.add_argument("--t-c", type=float, default=6.5, help="burst length, s")
+    ap.add_argument("--t-c", type=float, default=3.25, help="burst length, s (default: mid rising branch of the "
+                    "default's map, theta ~55 deg)")
     ap.add_argument("--seed0", type=int, default=1)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", default="results/online_turn_map/sensitivity.jsonl")
@@ -137,9 +141,12 @@ def main() -> None:
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     rows = [json.loads(line) for line in out.read_text().splitlines()] if out.exists() else []
-    done = {(r["seed"], r["fraction"], r["preset"], r["t_c"]) for r in rows}
+    from physics.presets import configure
+
+    reading = configure(args.preset)[0].head_rotation
+    done = {(r["seed"], r["fraction"], r["preset"], r["t_c"], r.get("head_rotation", "torque_free")) for r in rows}
     seeds = [0] + list(range(args.seed0, args.seed0 + args.count))
-    todo = [s for s in seeds if (s, args.fraction, args.preset, args.t_c) not in done]
+    todo = [s for s in seeds if (s, args.fraction, args.preset, args.t_c, reading) not in done]
     with ProcessPoolExecutor(args.workers) as ex, out.open("a") as fh:
         futs = {ex.submit(one, s, args.fraction, args.preset, args.t_c): s for s in todo}
         for fut in as_completed(futs):
@@ -155,7 +162,9 @@ def main() -> None:
             tmp = out.with_name(out.name + ".tmp")
             tmp.write_text("".join(json.dumps(r) + "\n" for r in rows))
             tmp.replace(out)
-        result = fit([r for r in rows if r["preset"] == args.preset and r["t_c"] == args.t_c])
+        result = fit([r for r in rows if r["preset"] == args.preset and r["t_c"] == args.t_c
+                      and r.get("head_rotation", "torque_free") == reading])
+        result.update(preset=args.preset, head_rotation=reading, t_c=args.t_c, fraction=args.fraction)
         print(json.dumps(result, indent=1))
         Path(str(out).replace(".jsonl", "_fit.json")).write_text(json.dumps(result, indent=1) + "\n")
 
