@@ -169,6 +169,12 @@ class NumericsConfig:
                          "eqns 10-11) or stokes (own drag and torque only)", choices=("higdon", "stokes"))
     rft_coefficients: str = _f("lighthill", "-", "drag coefficients of the rft model",
                                choices=("lighthill", "gray_hancock"))
+    rft_scale_perp: float = _f(1.0, "-", "rft only: factor on the normal drag coefficient zeta_perp of "
+                               "rft_coefficients (N s/m^2), fitted against the LSBT swimmer (scripts/"
+                               "calibrate_reduced.py); 1 = the published coefficient", 0.0, 100.0, True)
+    rft_scale_par: float = _f(1.0, "-", "rft only: factor on the tangential drag coefficient zeta_par of "
+                              "rft_coefficients (N s/m^2), fitted like rft_scale_perp; 1 = the published "
+                              "coefficient", 0.0, 100.0, True)
     contact: bool = _f(True, "-", "head-rod and rod-rod contact (penalty energies in the implicit step, "
                        "physics/forces/contact.py); false only for comparison: the rod can then pass through the "
                        "head and itself")

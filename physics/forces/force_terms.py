@@ -204,7 +204,9 @@ class Hydrodynamics(_Term):
         self.vdofs, self.spin = vdofs, head_spins
         self.first = 1 if params.has_head else 0
         if self.model == "rft":
-            self.zeta = rft_coefficients(params, numerics.rft_coefficients)
+            zeta_perp, zeta_par = rft_coefficients(params, numerics.rft_coefficients)
+            # the calibrated factors (NumericsConfig.rft_scale_perp / rft_scale_par; 1 = Lighthill / Gray-Hancock)
+            self.zeta = (zeta_perp * numerics.rft_scale_perp, zeta_par * numerics.rft_scale_par)
 
     def resistance_at(self, x: np.ndarray, lazy: bool = False) -> Any:
         """R_ref at nodes x (n, 3), m: a ``ResistanceOperator`` (LSBT; ``lazy``: Cholesky on first solve) or a
