@@ -175,6 +175,11 @@ class NumericsConfig:
     rft_scale_par: float = _f(1.0, "-", "rft only: factor on the tangential drag coefficient zeta_par of "
                               "rft_coefficients (N s/m^2), fitted like rft_scale_perp; 1 = the published "
                               "coefficient", 0.0, 100.0, True)
+    rft_head_drag_scale: float = _f(1.0, "-", "rft only: factor on the head's translational Stokes drag 6 pi mu b "
+                                    "(N s/m) in the rft model, which has no head-flagellum flow coupling; an effective "
+                                    "stand-in for the Higdon head's coupling (eqns 10-11), fitted to the onset of "
+                                    "buckling (scripts/calibrate_reduced.py); 1 = a plain Stokes sphere",
+                                    0.0, 100.0, True)
     contact: bool = _f(True, "-", "head-rod and rod-rod contact (penalty energies in the implicit step, "
                        "physics/forces/contact.py); false only for comparison: the rod can then pass through the "
                        "head and itself")

@@ -57,13 +57,20 @@ RISING_TC = (2.5, 2.75, 3.0, 3.25, 3.5)
 NODE_COUNTS = (40, 60, 80, 122)
 BUCKLE_RPM = (50.0, 60.0)
 BUCKLED_RATIO = 0.98
-FAITHFUL: dict[str, Any] = {}
+#: onset of buckling in a 150 rpm burst from the steady start: the time L'/L first falls below this
+ONSET_RATIO = 0.9
+ONSET_MAX_S = 8.0
 
 
-def rft_case(n_nodes: int, perp: float = 1.0, par: float = 1.0, **extra: Any) -> dict[str, Any]:
-    """Overrides of `faithful` for an RFT case (JSON types; rounded factors so that keys are stable)."""
-    return {"n_nodes": int(n_nodes), "hydro_model": "rft", "rft_scale_perp": round(float(perp), 6),
-            "rft_scale_par": round(float(par), 6), **extra}
+def rft_case(n_nodes: int, perp: float = 1.0, par: float = 1.0, head: float | None = None,
+             **extra: Any) -> dict[str, Any]:
+    """Overrides of `faithful` for an RFT case (JSON types; rounded factors so that keys are stable); ``head``:
+    ``rft_head_drag_scale`` (None: left at 1 and out of the key)."""
+    ov = {"n_nodes": int(n_nodes), "hydro_model": "rft", "rft_scale_perp": round(float(perp), 6),
+          "rft_scale_par": round(float(par), 6), **extra}
+    if head is not None:
+        ov["rft_head_drag_scale"] = round(float(head), 6)
+    return ov
 
 
 def case_label(ov: dict[str, Any]) -> str:
@@ -72,8 +79,9 @@ def case_label(ov: dict[str, Any]) -> str:
     if ov.get("hydro_model") != "rft":
         return "faithful " + " ".join(f"{k}={v}" for k, v in sorted(ov.items()))
     extra = " ".join(f"{k}={v}" for k, v in sorted(ov.items())
-                     if k not in ("n_nodes", "hydro_model", "rft_scale_perp", "rft_scale_par"))
-    return (f"RFT N={ov['n_nodes']} s_perp={ov['rft_scale_perp']:.4g} s_par={ov['rft_scale_par']:.4g}"
+                     if k not in ("n_nodes", "hydro_model", "rft_scale_perp", "rft_scale_par", "rft_head_drag_scale"))
+    head = f" s_head={ov['rft_head_drag_scale']:.4g}" if "rft_head_drag_scale" in ov else ""
+    return (f"RFT N={ov['n_nodes']} s_perp={ov['rft_scale_perp']:.4g} s_par={ov['rft_scale_par']:.4g}{head}"
             + (f" {extra}" if extra else ""))
 
 
@@ -98,7 +106,25 @@ def measure(ov: dict[str, Any], metric: str) -> dict[str, Any]:
 
     c_start = time.process_time()
     out: dict[str, Any] = {}
-    if metric == "steady":
+    if metric == "onset":
+        # the steady cruise as in "steady", then 150 rpm until L'/L falls below ONSET_RATIO (sampled every 0.05 s,
+        # the crossing interpolated linearly): the onset of buckling in the burst, s
+        out.update(measure(ov, "steady"))
+        sim = _sim(ov)
+        sim.set_motor_speed(OMEGA_L_RPM * RPM_TO_RAD_S)
+        advance(sim, START_S)
+        sim.set_motor_speed(OMEGA_H_RPM * RPM_TO_RAD_S)
+        t, prev, onset = 0.0, sim.end_to_end_ratio(), None
+        while t < ONSET_MAX_S:
+            advance(sim, 0.05)
+            t += 0.05
+            r = sim.end_to_end_ratio()
+            if r < ONSET_RATIO:
+                onset = t - 0.05 + 0.05 * (prev - ONSET_RATIO) / (prev - r)
+                break
+            prev = r
+        out["onset_s"] = onset
+    elif metric == "steady":
         sim = _sim(ov)
         sim.set_motor_speed(OMEGA_L_RPM * RPM_TO_RAD_S)
         advance(sim, START_S)
@@ -249,14 +275,57 @@ def fit_scales(store: Store, n_nodes: int, target: tuple[float, float], extra: d
             "history": history}
 
 
+def fit_scales3(store: Store, n_nodes: int, target: tuple[float, float, float], workers: int,
+                start: tuple[float, float, float] = (1.05, 1.1, 2.5), max_iter: int = 7) -> dict[str, Any]:
+    """(rft_scale_perp, rft_scale_par, rft_head_drag_scale) with the RFT swimmer's swim per turn (m) and motor
+    torque (N m) at 10 rpm and its onset of buckling at 150 rpm (s, ``onset``) equal to ``target``: Newton in log
+    of the three factors on the residuals log(swim ratio), log(torque ratio), onset / target - 1, forward
+    differences (step 0.05). Stops when the first two are below 2e-3 and the onset within 1 % (its sampling
+    noise is about 0.5 %)."""
+    import numpy as np
+
+    def resid(rec):
+        r = rec["result"]
+        if r["onset_s"] is None:
+            return np.array([math.log(r["swim_per_turn_m"] / target[0]), math.log(r["torque_Nm"] / target[1]),
+                             ONSET_MAX_S / target[2]])
+        return np.array([math.log(r["swim_per_turn_m"] / target[0]), math.log(r["torque_Nm"] / target[1]),
+                         r["onset_s"] / target[2] - 1.0])
+
+    s = np.log(np.array(start))
+    d = 0.05
+    history = []
+    best = None
+    for _ in range(max_iter):
+        pts = [s] + [s + d * e for e in np.eye(3)]
+        cases = [rft_case(n_nodes, *np.exp(p)) for p in pts]
+        store.run([(c, "onset") for c in cases], workers)
+        recs = [store.get(c, "onset") for c in cases]
+        if any(r["error"] for r in recs):
+            return {"n_nodes": n_nodes, "error": next(r["error"] for r in recs if r["error"]), "history": history}
+        f0 = resid(recs[0])
+        history.append({"case": cases[0], "residual": f0.tolist()})
+        if best is None or np.max(np.abs(f0)) < np.max(np.abs(best[1])):
+            best = (cases[0], f0)
+        if np.max(np.abs(f0[:2])) < 2e-3 and abs(f0[2]) < 1e-2:
+            break
+        J = np.column_stack([(resid(r) - f0) / d for r in recs[1:]])
+        s = s + np.clip(-np.linalg.solve(J, f0), -0.7, 0.7)
+    c, f0 = best
+    return {"n_nodes": n_nodes, "scale_perp": c["rft_scale_perp"], "scale_par": c["rft_scale_par"],
+            "head_drag_scale": c["rft_head_drag_scale"], "residual": f0.tolist(), "iterations": len(history),
+            "history": history}
+
+
 # --- the table -----------------------------------------------------------------------------------------------------
 
 def rel(x: float, ref: float, floor: float = 0.0) -> float:
     return abs(x - ref) / max(abs(ref), floor)
 
 
-def table(store: Store) -> str:
-    """A markdown table: one row per case, columns per metric, errors against `faithful` in brackets."""
+def table(store: Store, show_all: bool = False) -> str:
+    """A markdown table: one row per case, columns per metric, errors against `faithful` in brackets; the fits'
+    intermediate points (cases with only steady / onset records) only with ``show_all``."""
     cases: dict[str, dict] = {}
     for rec in store.done.values():
         cases.setdefault(json.dumps(rec["case"], sort_keys=True), {})[rec["metric"]] = rec
@@ -275,7 +344,7 @@ def table(store: Store) -> str:
     buckle_metrics = sorted({m for c in cases.values() for m in c if m.startswith("buckle:")},
                             key=lambda m: float(m.split(":")[1]))
     head = (["case", "swim/turn mm", "torque uN m", "steady RTF"] + [f"θ t_c={m[5:]}" for m in turn_metrics]
-            + ["burst θ", "burst RTF"] + [f"L'/L 100 s @{m[7:]}" for m in buckle_metrics] + ["env steps/s"])
+            + ["onset s", "burst θ", "burst RTF"] + [f"L'/L 100 s @{m[7:]}" for m in buckle_metrics] + ["env steps/s"])
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
 
     def cell(recs, metric, field, scale=1.0, floor=0.0, fmt="{:.4g}", err=True):
@@ -297,10 +366,13 @@ def table(store: Store) -> str:
                                          c))
     for c in order:
         recs = cases[c]
+        if not show_all and c != json.dumps({}) and set(recs) <= {"steady", "onset"}:
+            continue  # a fit's intermediate point (``--all`` shows them)
         row = [case_label(json.loads(c)), cell(recs, "steady", "swim_per_turn_m", 1e3),
                cell(recs, "steady", "torque_Nm", 1e6), cell(recs, "steady", "rtf_cpu", fmt="{:.3g}", err=False)]
         row += [cell(recs, m, "theta_deg", floor=10.0, fmt="{:.1f}") for m in turn_metrics]
-        row += [cell(recs, "burst", "theta_deg", floor=10.0, fmt="{:.1f}"),
+        row += [cell(recs, "onset", "onset_s", fmt="{:.3f}"),
+                cell(recs, "burst", "theta_deg", floor=10.0, fmt="{:.1f}"),
                 cell(recs, "burst", "burst_rtf_cpu", fmt="{:.3g}", err=False)]
         row += [cell(recs, m, "lratio_100s", fmt="{:.3f}", err=False) for m in buckle_metrics]
         row += [cell(recs, "env", "env_steps_per_s", fmt="{:.3g}", err=False)]
@@ -311,13 +383,15 @@ def table(store: Store) -> str:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
-    ap.add_argument("--stage", choices=("faithful", "baseline", "fit", "validate", "head", "speed"), action="append",
+    ap.add_argument("--stage", choices=("faithful", "baseline", "fit", "validate", "head", "fit3", "validate3",
+                                        "speed"), action="append",
                     default=[])
     ap.add_argument("--nodes", type=int, nargs="+", default=list(NODE_COUNTS))
     ap.add_argument("--tc", type=float, nargs="+", default=list(RISING_TC))
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--fresh", action="store_true", help="start over (default: resume, skipping finished cases)")
     ap.add_argument("--table", action="store_true", help="print the table of what is there")
+    ap.add_argument("--all", action="store_true", help="the table with the fits' intermediate points")
     a = ap.parse_args(argv)
     workers = min(max(a.workers, 1), 2)
     store = Store(a.out, fresh=a.fresh)
@@ -325,10 +399,16 @@ def main(argv: list[str] | None = None) -> int:
     buckle_metrics = [f"buckle:{r:g}" for r in BUCKLE_RPM]
     fits_path = a.out.with_suffix(".fits.json")
     fits = json.loads(fits_path.read_text()) if fits_path.exists() else {}
+    fits3_path = a.out.with_suffix(".fits3.json")
+    fits3 = json.loads(fits3_path.read_text()) if fits3_path.exists() else {}
+
+    def fitted3(n):
+        f = fits3.get(str(n))
+        return rft_case(n, f["scale_perp"], f["scale_par"], f["head_drag_scale"]) if f and "scale_perp" in f else None
 
     for stage in a.stage:
         if stage == "faithful":
-            store.run([({}, "steady")] + [({}, m) for m in turn_metrics] + [({}, "burst")]
+            store.run([({}, "steady"), ({}, "onset")] + [({}, m) for m in turn_metrics] + [({}, "burst")]
                       + [({}, m) for m in buckle_metrics], workers)
             summary = {m: store.get({}, m) for m in ["steady", "burst", *turn_metrics, *buckle_metrics]}
             a.out.with_name("faithful_reference.json").write_text(json.dumps(summary, indent=1) + "\n")
@@ -354,6 +434,21 @@ def main(argv: list[str] | None = None) -> int:
                 c = rft_case(n, f["scale_perp"], f["scale_par"])
                 tasks += [(c, m) for m in [*turn_metrics, *buckle_metrics, "burst"]]
             store.run(tasks, workers)
+        elif stage == "fit3":
+            ref = store.get({}, "onset")
+            if ref is None or ref["error"]:
+                print("run --stage faithful first", file=sys.stderr)
+                return 2
+            r = ref["result"]
+            for n in a.nodes:
+                fits3[str(n)] = fit_scales3(store, n, (r["swim_per_turn_m"], r["torque_Nm"], r["onset_s"]), workers)
+                f = fits3[str(n)]
+                print(f"fit3 N={n}: {f.get('scale_perp')}, {f.get('scale_par')}, {f.get('head_drag_scale')}, "
+                      f"residual {f.get('residual')}", flush=True)
+                fits3_path.write_text(json.dumps(fits3, indent=1) + "\n")
+        elif stage == "validate3":
+            store.run([(fitted3(n), m) for n in a.nodes if fitted3(n)
+                       for m in ["steady", *turn_metrics, *buckle_metrics, "burst"]], workers)
         elif stage == "head":
             # what the Higdon head's flow coupling does in the nonlocal model: faithful with a plain Stokes head
             ov = {"head_model": "stokes"}
@@ -364,9 +459,11 @@ def main(argv: list[str] | None = None) -> int:
                 f = fits.get(str(n))
                 if f and "scale_perp" in f:
                     tasks.append((rft_case(n, f["scale_perp"], f["scale_par"]), "env"))
+                if fitted3(n):
+                    tasks.append((fitted3(n), "env"))
             store.run(tasks, workers)
     if a.table or a.stage:
-        print(table(store))
+        print(table(store, a.all))
     return 0
 
 

@@ -214,7 +214,9 @@ class Hydrodynamics(_Term):
         p, nm = self.params, self.numerics
         if self.model == "rft":
             blocks = rft_blocks(np.ascontiguousarray(x[self.first:]), *self.zeta)
-            return LocalResistance(blocks, self.first, 6.0 * np.pi * p.viscosity * p.head_radius,
+            # the head: a Stokes sphere (6 pi mu b, 8 pi mu b^3), its translation drag times rft_head_drag_scale
+            drag_t = 6.0 * np.pi * p.viscosity * p.head_radius * nm.rft_head_drag_scale
+            return LocalResistance(blocks, self.first, drag_t,
                                    8.0 * np.pi * p.viscosity * p.head_radius**3 if self.spin else 0.0, self.spin)
         return ResistanceOperator(x, p.viscosity, p.cutoff_length, p.head_radius, self.spin, nm.lsbt_smoothing,
                                   head_coupling=nm.head_model == "higdon",
