@@ -205,7 +205,15 @@ class NumericsConfig:
 
 def check_combination(params: SwimmerParams, numerics: NumericsConfig) -> None:
     """ValueError naming the values when a reading of the head is combined with a model it does not support:
-    ``head_rotation=literal`` acts through the Higdon head's rotlet on the LSBT flagellum (eqns 8, 10, 13)."""
+    ``head_rotation=literal`` acts through the Higdon head's rotlet on the LSBT flagellum (eqns 8, 10, 13); the
+    RFT factors (``rft_scale_perp``, ``rft_scale_par``, ``rft_head_drag_scale``) other than 1 need
+    ``hydro_model=rft``."""
+    if numerics.hydro_model != "rft":
+        for name in ("rft_scale_perp", "rft_scale_par", "rft_head_drag_scale"):
+            if getattr(numerics, name) != 1.0:
+                raise ValueError(f"{name}={getattr(numerics, name)!r} with hydro_model={numerics.hydro_model!r} is "
+                                 f"not allowed; allowed: {name}=1 (the factor acts only on the rft model), or "
+                                 "hydro_model='rft'")
     if params.head_rotation == "literal" and (numerics.head_model != "higdon" or numerics.hydro_model != "lsbt"):
         bad = (f"head_model={numerics.head_model!r}" if numerics.head_model != "higdon"
                else f"hydro_model={numerics.hydro_model!r}")

@@ -124,6 +124,8 @@ def measure(ov: dict[str, Any], metric: str) -> dict[str, Any]:
                 break
             prev = r
         out["onset_s"] = onset
+    elif metric == "rigid":
+        out.update(rigid_resistance(ov))
     elif metric == "steady":
         sim = _sim(ov)
         sim.set_motor_speed(OMEGA_L_RPM * RPM_TO_RAD_S)
@@ -177,6 +179,30 @@ def measure(ov: dict[str, Any], metric: str) -> dict[str, Any]:
         raise ValueError(f"unknown metric {metric!r}")
     out["cpu_s"] = time.process_time() - c_start
     return out
+
+
+def rigid_resistance(ov: dict[str, Any]) -> dict[str, Any]:
+    """The 6x6 rigid-body resistance of the swimmer's rest shape (head + helix, the default b): rows (F, T) N and
+    N m about the head's centre, columns (U, Omega) m/s and rad/s, lab axes (the helix axis along -x), from the
+    case's hydrodynamic model at the rest nodes (LSBT + Higdon head, or RFT + Stokes head); the head does not
+    spin. ``diag``: its diagonal (N s/m, N m s)."""
+    import numpy as np
+
+    sim = _sim(ov)
+    x = sim.nodes.copy()
+    hyd = next(t for t in sim.scene.terms if t.name == "hydrodynamics")
+    res = hyd.resistance_at(x)
+    xc = x[0]
+    out = np.zeros((6, 6))
+    for k in range(6):
+        u, w = np.zeros(3), np.zeros(3)
+        (u if k < 3 else w)[k % 3] = 1.0
+        v = (u + np.cross(w, x - xc)).ravel()
+        if hyd.spin:
+            v = np.append(v, 0.0)
+        f = res.apply(v)[:x.size].reshape(-1, 3)
+        out[:3, k], out[3:, k] = f.sum(0), np.cross(x - xc, f).sum(0)
+    return {"matrix": out.tolist(), "diag": np.diag(out).tolist(), "thrust_coupling": float(out[0, 3])}
 
 
 def _task(ov: dict[str, Any], metric: str) -> dict[str, Any]:
@@ -366,7 +392,7 @@ def table(store: Store, show_all: bool = False) -> str:
                                          c))
     for c in order:
         recs = cases[c]
-        if not show_all and c != json.dumps({}) and set(recs) <= {"steady", "onset"}:
+        if not show_all and c != json.dumps({}) and set(recs) <= {"steady", "onset", "rigid"}:
             continue  # a fit's intermediate point (``--all`` shows them)
         row = [case_label(json.loads(c)), cell(recs, "steady", "swim_per_turn_m", 1e3),
                cell(recs, "steady", "torque_Nm", 1e6), cell(recs, "steady", "rtf_cpu", fmt="{:.3g}", err=False)]
@@ -384,7 +410,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
     ap.add_argument("--stage", choices=("faithful", "baseline", "fit", "validate", "head", "fit3", "validate3",
-                                        "speed"), action="append",
+                                        "speed", "rigid"), action="append",
                     default=[])
     ap.add_argument("--nodes", type=int, nargs="+", default=list(NODE_COUNTS))
     ap.add_argument("--tc", type=float, nargs="+", default=list(RISING_TC))
@@ -449,6 +475,36 @@ def main(argv: list[str] | None = None) -> int:
         elif stage == "validate3":
             store.run([(fitted3(n), m) for n in a.nodes if fitted3(n)
                        for m in ["steady", *turn_metrics, *buckle_metrics, "burst"]], workers)
+        elif stage == "rigid":
+            cases = [{}] + [rft_case(n) for n in a.nodes]
+            cases += [rft_case(n, f["scale_perp"], f["scale_par"]) for n, f in
+                      ((int(k), v) for k, v in fits.items()) if "scale_perp" in f and n in a.nodes]
+            cases += [fitted3(n) for n in a.nodes if fitted3(n)]
+            store.run([(c, "rigid") for c in cases], workers)
+            ref = store.get({}, "rigid")["result"]
+            print("\nRigid-body resistance of the rest shape, diagonal RFT / LSBT (F_x axial, F_y, F_z lateral, "
+                  "T_x axial, T_y, T_z lateral) and the thrust coupling F_x/Omega_x:")
+            for c in cases[1:]:
+                r = store.get(c, "rigid")["result"]
+                ratios = " ".join(f"{x / y:.3f}" for x, y in zip(r["diag"], ref["diag"]))
+                print(f"  {case_label(c):<48} {ratios}  coupling {r['thrust_coupling'] / ref['thrust_coupling']:.3f}")
+            print("  faithful (LSBT + Higdon) diagonal:", " ".join(f"{x:.4g}" for x in ref["diag"]),
+                  f" coupling {ref['thrust_coupling']:.4g}")
+            # the helix alone (b = 0): RFT's resistance is linear in the factors, R = s_perp A + s_par B; which
+            # factors would match two of LSBT's rigid-body resistances at once
+            import numpy as np
+
+            lsbt0, a0, b0 = {"head_radius": 0.0}, rft_case(122, 1.0, 1e-6, head_radius=0.0), \
+                rft_case(122, 1e-6, 1.0, head_radius=0.0)
+            store.run([(c, "rigid") for c in (lsbt0, a0, b0)], 1)
+            L, A, B = (np.array(store.get(c, "rigid")["result"]["matrix"]) for c in (lsbt0, a0, b0))
+            print("\nThe helix alone (b = 0, N = 122): (s_perp, s_par) that match LSBT's rigid-body resistance on "
+                  "two entries at once (R_rft = s_perp A + s_par B; A, B at factors (1, 1e-6), (1e-6, 1)):")
+            for name, (i, j), (k, m) in (("axial translation F_x/U_x + axial rotation T_x/Omega_x", (0, 0), (3, 3)),
+                                         ("lateral translation F_y/U_y + axial rotation", (1, 1), (3, 3)),
+                                         ("thrust coupling F_x/Omega_x + axial rotation", (0, 3), (3, 3))):
+                sol = np.linalg.solve([[A[i, j], B[i, j]], [A[k, m], B[k, m]]], [L[i, j], L[k, m]])
+                print(f"  {name:<58} s_perp {sol[0]:+.3f}, s_par {sol[1]:+.3f}")
         elif stage == "head":
             # what the Higdon head's flow coupling does in the nonlocal model: faithful with a plain Stokes head
             ov = {"head_model": "stokes"}
