@@ -29,10 +29,14 @@ docs/bench_quick.md): |x - x_f| / |x_f| (angles: floor 10 deg).
 
 Usage (at most 2 worker processes on the shared machine):
 
-    python scripts/calibrate_reduced.py --stage baseline
-    python scripts/calibrate_reduced.py --stage fit
-    python scripts/calibrate_reduced.py --stage validate
-    python scripts/calibrate_reduced.py --table
+    python scripts/calibrate_reduced.py --stage faithful --stage baseline   # faithful's values, Lighthill RFT
+    python scripts/calibrate_reduced.py --stage fit --stage validate        # 2-factor fit, out of sample
+    python scripts/calibrate_reduced.py --stage head                        # faithful with a Stokes head
+    python scripts/calibrate_reduced.py --stage fit3 --stage validate3      # + head drag, fitted to the onset
+    python scripts/calibrate_reduced.py --stage speed --stage rigid         # env steps/s; 6x6 rigid resistance
+    python scripts/calibrate_reduced.py --table                             # what is there (--all: fit points)
+
+Faithful's values are also written to ``<out dir>/faithful_reference.json``. Findings: docs/reduced_calibration.md.
 """
 
 from __future__ import annotations
