@@ -8,6 +8,7 @@ with its own defaults and docstring:
 | ``FlagellumTurn-v0``        | ``agents.turn_decision_env.TurnDecisionEnv``       | faithful |
 | ``FlagellumTurn-fast-v0``   | ``agents.turn_decision_env.TurnDecisionFastEnv``   | fast     |
 | ``FlagellumTurn-coarse-v0`` | ``agents.turn_decision_env.TurnDecisionCoarseEnv`` | coarse   |
+| ``FlagellumTurn-surrogate-v0`` | ``agents.surrogate_turn_env.SurrogateTurnEnv`` | faithful's turn map, no rod |
 
 Every episode ends within the base env's time budget, a few to some tens of decisions, so no ``TimeLimit`` is
 added. Light on purpose, like ``flagellum_env.registration``: it imports Gymnasium only; the entry points are
@@ -22,12 +23,14 @@ import gymnasium as gym
 TURN_ENV_ID = "FlagellumTurn-v0"
 TURN_FAST_ENV_ID = "FlagellumTurn-fast-v0"
 TURN_COARSE_ENV_ID = "FlagellumTurn-coarse-v0"
+TURN_SURROGATE_ENV_ID = "FlagellumTurn-surrogate-v0"
 
 #: id -> entry point
 TURN_ENV_IDS: dict[str, str] = {
     TURN_ENV_ID: "agents.turn_decision_env:TurnDecisionEnv",
     TURN_FAST_ENV_ID: "agents.turn_decision_env:TurnDecisionFastEnv",
     TURN_COARSE_ENV_ID: "agents.turn_decision_env:TurnDecisionCoarseEnv",
+    TURN_SURROGATE_ENV_ID: "agents.surrogate_turn_env:SurrogateTurnEnv",
 }
 
 

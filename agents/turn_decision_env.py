@@ -58,7 +58,53 @@ INFO_KEYS = ("path", "is_success", "waypoints_reached", "mean_cross_track_m", "t
              "buckling_events", "turns")
 
 
-class TurnDecisionEnv(gym.Env):
+def parse_turn_action(action: Any) -> np.ndarray:
+    """A decision's action as (2,) float64 (not clipped); ValueError unless it is two finite numbers."""
+    try:
+        raw = np.asarray(action)
+        a = np.empty(0) if np.iscomplexobj(raw) else np.asarray(raw, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        a = np.empty(0)
+    if a.size != 2 or not np.all(np.isfinite(a)):
+        raise ValueError(f"action={action!r} must be two finite numbers in [-1, 1] (burst length, phase)")
+    return a
+
+
+class TurnEpisodes:
+    """The paths of a turn-level env's episodes (``FlagellumTurn-v0`` and ``FlagellumTurn-surrogate-v0``): the
+    fixed ``paths`` in turn, else drawn from the env's ``np_random`` with the ``random_path`` settings."""
+
+    paths: list[WaypointPath] | None
+    _episode: int
+    np_random: np.random.Generator
+
+    def set_random_path(self, random_path: Mapping[str, Any]) -> None:
+        """Draw the next episodes' paths with these ``RandomPathConfig`` fields (curriculum); ``planar``
+        may be a list, cycled per episode. ``ValueError`` naming a bad field or value."""
+        self._path_configs = _random_path_configs(random_path)
+
+    def _next_path(self) -> WaypointPath:
+        k = self._episode
+        self._episode += 1
+        if self.paths:
+            return self.paths[k % len(self.paths)]
+        return draw_random_path(self.np_random, self._path_configs[k % len(self._path_configs)])
+
+    def _episode_path(self, seed: int | None, options: dict[str, Any] | None) -> WaypointPath:
+        """This episode's path (``reset``'s ``options["path"]`` or ``_next_path``); ValueError for an unknown
+        reset option or a bad path. A seed restarts the fixed paths' cycle."""
+        options = dict(options or {})
+        unknown = sorted(set(options) - set(RESET_OPTIONS))
+        if unknown:
+            raise ValueError(f"unknown reset option(s) {unknown}; allowed: {list(RESET_OPTIONS)}")
+        if seed is not None:
+            self._episode = 0
+        if options.get("path") is not None:
+            return _fixed_path(options["path"], "options['path']")
+        return self._next_path()
+
+
+class TurnDecisionEnv(TurnEpisodes, gym.Env):
     """
     ## Description
 
@@ -164,28 +210,9 @@ class TurnDecisionEnv(gym.Env):
         self._path_name = ""
         self._last: dict[str, Any] = {}
 
-    def set_random_path(self, random_path: Mapping[str, Any]) -> None:
-        """Draw the next episodes' paths with these ``RandomPathConfig`` fields (curriculum); ``planar``
-        may be a list, cycled per episode. ``ValueError`` naming a bad field or value."""
-        self._path_configs = _random_path_configs(random_path)
-
-    def _next_path(self) -> WaypointPath:
-        k = self._episode
-        self._episode += 1
-        if self.paths:
-            return self.paths[k % len(self.paths)]
-        return draw_random_path(self.np_random, self._path_configs[k % len(self._path_configs)])
-
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
-        options = dict(options or {})
-        unknown = sorted(set(options) - set(RESET_OPTIONS))
-        if unknown:
-            raise ValueError(f"unknown reset option(s) {unknown}; allowed: {list(RESET_OPTIONS)}")
-        if seed is not None:
-            self._episode = 0
-        path = _fixed_path(options["path"], "options['path']") if options.get("path") is not None \
-            else self._next_path()
+        path = self._episode_path(seed, options)
         self._path_name = path.name
         self._obs, _ = self.base.reset(seed=seed, options={"path": path})
         self.planner.reset()
@@ -204,13 +231,7 @@ class TurnDecisionEnv(gym.Env):
     def step(self, action: Any):
         if self._done:
             raise RuntimeError("call reset() before step()")
-        try:
-            raw = np.asarray(action)
-            a = np.empty(0) if np.iscomplexobj(raw) else np.asarray(raw, dtype=np.float64).reshape(-1)
-        except (TypeError, ValueError):
-            a = np.empty(0)
-        if a.size != 2 or not np.all(np.isfinite(a)):
-            raise ValueError(f"action={action!r} must be two finite numbers in [-1, 1] (burst length, phase)")
+        a = parse_turn_action(action)
         reward = self._pending_reward
         self._pending_reward = 0.0
         if self._pending_end is not None:

@@ -21,6 +21,10 @@ import math
 import numpy as np
 
 
+_X = np.array([1.0, 0.0, 0.0])
+_Z = np.array([0.0, 0.0, 1.0])
+
+
 def unit(v: np.ndarray) -> np.ndarray:
     """v / |v| for a non-zero 3-vector; ValueError for a zero or non-finite one."""
     v = np.asarray(v, dtype=np.float64)
@@ -33,9 +37,12 @@ def unit(v: np.ndarray) -> np.ndarray:
 def perpendicular_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Two unit vectors (e1, e2) with (e1, e2, axis) right-handed and orthonormal; axis (3,) unit."""
     a = unit(axis)
-    helper = np.array([0.0, 0.0, 1.0]) if abs(a[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    helper = _Z if abs(a[2]) < 0.9 else _X
     e1 = unit(helper - (helper @ a) * a)
-    return e1, np.cross(a, e1)
+    a0, a1, a2 = float(a[0]), float(a[1]), float(a[2])
+    b0, b1, b2 = float(e1[0]), float(e1[1]), float(e1[2])
+    # a x e1, the products and differences of np.cross (same values), without its overhead
+    return e1, np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
 def azimuth(v: np.ndarray, axis: np.ndarray) -> float:
@@ -51,7 +58,7 @@ def wrap_angle(a: float) -> float:
 
 def angle_between(a: np.ndarray, b: np.ndarray) -> float:
     """Angle between two non-zero vectors, rad in [0, pi]."""
-    return math.acos(float(np.clip(unit(a) @ unit(b), -1.0, 1.0)))
+    return math.acos(min(max(float(unit(a) @ unit(b)), -1.0), 1.0))
 
 
 def turn_angles(d0: np.ndarray, t1: np.ndarray, frame: np.ndarray) -> tuple[float, float]:

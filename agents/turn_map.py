@@ -15,6 +15,7 @@ speeds raises ``TurnMapMismatch`` naming what differs.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 import os
@@ -73,8 +74,35 @@ class TurnMap:
         """Distinct burst lengths, increasing, s."""
         return np.array(sorted({p.t_c for p in self.points}))
 
+    # The summaries below are computed once per map (a frozen map never changes) and handed out as copies:
+    # the planners and the turn-level surrogate ask for them at every decision.
+    @functools.cached_property
+    def _theta_curve(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return self._compute_theta_curve()
+
+    @functools.cached_property
+    def _psi_curve(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return self._compute_psi_curve()
+
+    @functools.cached_property
+    def _rising_branch(self) -> dict[float, tuple[np.ndarray, np.ndarray]]:
+        return {}
+
+    @functools.cached_property
+    def _offset_curve(self) -> tuple[np.ndarray, np.ndarray]:
+        tcs = self.t_c_values()
+        return tcs, np.array([np.mean([p.offset_m for p in self.points if p.t_c == tc], axis=0) for tc in tcs])
+
+    @functools.cached_property
+    def _psi_unwrapped(self) -> tuple[np.ndarray, np.ndarray]:
+        tcs, psi, _ = self._psi_curve
+        return tcs, np.degrees(np.unwrap(np.radians(psi)))
+
     def theta_curve(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(t_c, mean theta, theta spread max - min over phases), degrees."""
+        return tuple(a.copy() for a in self._theta_curve)  # type: ignore[return-value]
+
+    def _compute_theta_curve(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         tcs = self.t_c_values()
         mean, spread = [], []
         for tc in tcs:
@@ -85,6 +113,9 @@ class TurnMap:
 
     def psi_curve(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(t_c, circular mean of psi, circular spread (deg) over phases)."""
+        return tuple(a.copy() for a in self._psi_curve)  # type: ignore[return-value]
+
+    def _compute_psi_curve(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         tcs = self.t_c_values()
         mean, spread = [], []
         for tc in tcs:
@@ -94,12 +125,12 @@ class TurnMap:
             spread.append(float(np.max(np.abs(np.degrees([wrap_angle(a - m) for a in ang])))))
         return tcs, np.array(mean), np.array(spread)
 
-    @property
+    @functools.cached_property
     def period_s(self) -> float:
         """Median wobble period at omega_l, s."""
         return float(np.median([p.period_s for p in self.points]))
 
-    @property
+    @functools.cached_property
     def relax_s(self) -> float:
         """Median relaxation time after a burst, s."""
         return float(np.median([p.relax_s for p in self.points]))
@@ -112,7 +143,14 @@ class TurnMap:
         tumbles on: theta oscillates with t_c and the turn's direction flips, so longer bursts are
         not used and larger turns are made in several bursts.
         """
-        tcs, th, _ = self.theta_curve()
+        key = float(drop_deg)
+        if key not in self._rising_branch:
+            self._rising_branch[key] = self._compute_rising_branch(key)
+        t, y = self._rising_branch[key]
+        return t.copy(), y.copy()
+
+    def _compute_rising_branch(self, drop_deg: float) -> tuple[np.ndarray, np.ndarray]:
+        tcs, th, _ = self._theta_curve
         k = 0
         while k + 1 < len(th) and th[k + 1] > np.max(th[:k + 1]) - drop_deg:
             k += 1
@@ -138,15 +176,13 @@ class TurnMap:
 
     def psi_for(self, t_c: float) -> float:
         """psi (deg) of a burst of ``t_c`` s, interpolated in t_c (angles unwrapped)."""
-        tcs, psi, _ = self.psi_curve()
-        un = np.degrees(np.unwrap(np.radians(psi)))
+        tcs, un = self._psi_unwrapped
         return math.degrees(wrap_angle(math.radians(float(np.interp(t_c, tcs, un)))))
 
     def offset_for(self, t_c: float) -> np.ndarray:
         """Mean head displacement over a turn of ``t_c`` s (burst + relaxation), (3,) m, along
         (d0, phase-node direction at the burst, d0 x that); interpolated in t_c."""
-        tcs = self.t_c_values()
-        mean = np.array([np.mean([p.offset_m for p in self.points if p.t_c == tc], axis=0) for tc in tcs])
+        tcs, mean = self._offset_curve
         return np.array([np.interp(t_c, tcs, mean[:, k]) for k in range(3)])
 
     # --- compatibility --------------------------------------------------------------------

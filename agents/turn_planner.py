@@ -28,10 +28,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from agents.candidate_miss import candidate_miss
 from agents.turn_geometry import angle_between, azimuth, perpendicular_basis, unit, wrap_angle
 from agents.turn_map import TurnMap
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M
 from physics.validation import require_finite
+
+
+#: What a target behind a line's start adds to its distance in the paper's miss (``_line_miss``), m.
+BEHIND_PENALTY_M = 0.05
 
 
 @dataclass(frozen=True)
@@ -377,16 +382,18 @@ class RulePlanner:
         if miss0 is None:
             return None
         t_c, theta, psi, off = self._candidate_turns(ep)
-        beta = np.radians(np.arange(0.0, 360.0, cfg.phase_step_deg))
-        e1, e2 = perpendicular_basis(d)
-        az = beta[None, :] + psi[:, None]                                        # (T, B)
-        across = (np.cos(az)[..., None] * e1 + np.sin(az)[..., None] * e2)       # (T, B, 3)
-        heading = np.cos(theta)[:, None, None] * d + np.sin(theta)[:, None, None] * across
-        after = turn_ends(head, d, off, beta)                                    # (T, B, 3)
-        miss = line_miss(after.reshape(-1, 3), heading.reshape(-1, 3), target).reshape(after.shape[:2])
+        beta = self._burst_phases
         segment = ep.segment if ep is not None else None
+        with_line = cfg.line_weight > 0.0 and segment is not None
+        if line_miss is RulePlanner._line_miss:
+            # the paper's miss, compiled (agents.candidate_miss: the same formulas as below)
+            e1, e2 = perpendicular_basis(d)
+            miss = candidate_miss(head, d, e1, e2, theta, psi, off, beta, target, BEHIND_PENALTY_M)
+            after = turn_ends(head, d, off, beta) if with_line else None
+        else:
+            miss, after = candidate_misses(head, d, theta, psi, off, beta, target, line_miss)
         line = None  # the line term only where it counts (PlannerConfig.line_weight > 0)
-        if cfg.line_weight > 0.0 and segment is not None:
+        if with_line:
             line = (line_distance(after, *segment), float(line_distance(head, *segment)))
         chosen = pick_turn(miss, miss0, cfg, line)
         if chosen is None:
@@ -421,6 +428,11 @@ class RulePlanner:
         return self._candidates
 
     @functools.cached_property
+    def _burst_phases(self) -> np.ndarray:
+        """The burst phases a plan searches, (B,) rad (every ``PlannerConfig.phase_step_deg``)."""
+        return np.radians(np.arange(0.0, 360.0, self.config.phase_step_deg))
+
+    @functools.cached_property
     def _candidates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Burst lengths on the rising branch every control step, with theta (rad), psi (rad), offset (m); only
         turns up to ``PlannerConfig.burst_cap_deg`` (at least the first)."""
@@ -434,6 +446,20 @@ class RulePlanner:
         psi = np.radians([tm.psi_for(t) for t in t_c])
         off = np.array([tm.offset_for(t) for t in t_c])
         return t_c, theta, psi, off
+
+
+def candidate_misses(head: np.ndarray, d: np.ndarray, theta: np.ndarray, psi: np.ndarray, offset: np.ndarray,
+                     beta: np.ndarray, target: np.ndarray, line_miss) -> tuple[np.ndarray, np.ndarray]:
+    """(miss (T, B) m, turn ends (T, B, 3) m) of the candidate turns: theta, psi (T,) rad and ``offset`` (T, 3) m
+    of the map's turns flown at the burst phases ``beta`` (B,) rad about the heading ``d``, scored by
+    ``line_miss(starts, directions, target)`` (NumPy; ``agents.candidate_miss`` compiles it for ``_line_miss``)."""
+    e1, e2 = perpendicular_basis(d)
+    az = beta[None, :] + psi[:, None]                                        # (T, B)
+    across = (np.cos(az)[..., None] * e1 + np.sin(az)[..., None] * e2)       # (T, B, 3)
+    heading = np.cos(theta)[:, None, None] * d + np.sin(theta)[:, None, None] * across
+    after = turn_ends(head, d, offset, beta)                                 # (T, B, 3)
+    miss = line_miss(after.reshape(-1, 3), heading.reshape(-1, 3), target).reshape(after.shape[:2])
+    return miss, after
 
 
 def turn_ends(head: np.ndarray, d: np.ndarray, offset: np.ndarray, beta: np.ndarray) -> np.ndarray:
@@ -493,8 +519,8 @@ def graded_line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndar
     return np.where(along > 0.0, lateral, dist - behind_penalty * along / np.maximum(dist, 1e-12))
 
 
-def _line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray, behind_penalty: float = 0.05
-               ) -> np.ndarray:
+def _line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray,
+               behind_penalty: float = BEHIND_PENALTY_M) -> np.ndarray:
     """How far the straight lines start + s direction (s >= 0) pass from ``target``, (k,) m; a target
     behind a start counts its distance plus ``behind_penalty`` (m)."""
     rel = target - starts

@@ -63,6 +63,25 @@ class RandomizationConfig:
         return any(getattr(self, n) > 0.0 for n in ("youngs_modulus", "viscosity", "head_radius", "geometry"))
 
 
+def draw_randomization(params: SwimmerParams, r: RandomizationConfig | None, rng: np.random.Generator
+                       ) -> tuple[SwimmerParams, float]:
+    """One episode's swimmer and observation-noise std under ``r`` (None: ``params`` and 0): E and G scaled by one
+    factor, mu, b, the helix pitch and radius by one each, drawn uniformly from [1 - f, 1 + f]. Always five draws
+    from ``rng``, in this order, so the stream does not depend on the fractions (``FlagellumSteer-v0`` and the
+    turn-level surrogate ``FlagellumTurn-surrogate-v0`` draw the same swimmer from the same seed)."""
+    if r is None:
+        return params, 0.0
+    f_e, f_mu, f_b, f_pitch, f_radius = (float(rng.uniform(1.0 - f, 1.0 + f)) for f in (
+        r.youngs_modulus, r.viscosity, r.head_radius, r.geometry, r.geometry))
+    if not r.changes_physics:
+        return params, r.obs_noise_std
+    p = params
+    drawn = p.replace(youngs_modulus=p.youngs_modulus * f_e, shear_modulus=p.shear_modulus * f_e,
+                      viscosity=p.viscosity * f_mu, head_radius=p.head_radius * f_b,
+                      pitch=p.pitch * f_pitch, helix_radius=p.helix_radius * f_radius)
+    return drawn, r.obs_noise_std
+
+
 @dataclass(frozen=True)
 class SteerConfig:
     """All arguments of ``FlagellumSteer-v0`` except ``render_mode`` (see the env's docstring)."""
@@ -224,6 +243,11 @@ def _sub_config(value: Any, cls: type, name: str) -> Any:
             raise ValueError(f"{name}: unknown key(s) {unknown}; allowed keys: {known}")
         return cls(**value)
     raise ValueError(f"{name}={value!r} must be a {cls.__name__}, a dict of its fields or None")
+
+
+def randomization(value: Any) -> RandomizationConfig | None:
+    """The ``randomize`` argument as a ``RandomizationConfig`` (None for False/None); ValueError naming a bad one."""
+    return _randomization(value)
 
 
 def _randomization(value: Any) -> RandomizationConfig | None:

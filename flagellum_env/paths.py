@@ -274,18 +274,25 @@ def _short(w: Any) -> str:
     return s if len(s) <= 60 else s[:57] + "..."
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b of two 3-vectors: np.cross's products and differences (the same values) without its overhead."""
+    a0, a1, a2 = float(a[0]), float(a[1]), float(a[2])
+    b0, b1, b2 = float(b[0]), float(b[1]), float(b[2])
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+
+
 def _rotate(u: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
     """Rodrigues rotation of u about the unit vector axis by angle (rad)."""
     c, s = math.cos(angle), math.sin(angle)
-    return u * c + np.cross(axis, u) * s + axis * float(axis @ u) * (1.0 - c)
+    return u * c + _cross(axis, u) * s + axis * float(axis @ u) * (1.0 - c)
 
 
 def _random_perpendicular(rng: np.random.Generator, heading: np.ndarray) -> np.ndarray:
     """A unit vector perpendicular to ``heading``, uniform in angle."""
     helper = np.array([0.0, 0.0, 1.0]) if abs(heading[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = np.cross(heading, helper)
+    e1 = _cross(heading, helper)
     e1 /= np.linalg.norm(e1)
-    e2 = np.cross(heading, e1)
+    e2 = _cross(heading, e1)
     phi = float(rng.uniform(0.0, 2.0 * math.pi))
     return math.cos(phi) * e1 + math.sin(phi) * e2
 

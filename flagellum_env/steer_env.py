@@ -9,7 +9,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from flagellum_env.config import DEFAULT_REACH_RADIUS_M, SteerConfig, _resolve_path, make_config
+from flagellum_env.config import DEFAULT_REACH_RADIUS_M, SteerConfig, _resolve_path, draw_randomization, make_config
 from flagellum_env.observations import ObservationModel
 from flagellum_env.paths import WaypointPath, random_path
 from flagellum_env.registration import (STEER_COARSE_ENV_ID, STEER_ENV_ID, STEER_FAST_ENV_ID,
@@ -407,19 +407,7 @@ class FlagellumSteerEnv(gym.Env):
         return self._nominal
 
     def _draw_randomization(self, rng: np.random.Generator) -> tuple[SwimmerParams, float]:
-        r = self.config.randomize
-        if r is None:
-            return self.params, 0.0
-        # always five draws, in this order, so the stream does not depend on the fractions
-        f_e, f_mu, f_b, f_pitch, f_radius = (float(rng.uniform(1.0 - f, 1.0 + f)) for f in (
-            r.youngs_modulus, r.viscosity, r.head_radius, r.geometry, r.geometry))
-        if not r.changes_physics:
-            return self.params, r.obs_noise_std
-        p = self.params
-        params = p.replace(youngs_modulus=p.youngs_modulus * f_e, shear_modulus=p.shear_modulus * f_e,
-                           viscosity=p.viscosity * f_mu, head_radius=p.head_radius * f_b,
-                           pitch=p.pitch * f_pitch, helix_radius=p.helix_radius * f_radius)
-        return params, r.obs_noise_std
+        return draw_randomization(self.params, self.config.randomize, rng)
 
     def _decode(self, action: Any) -> tuple[float, float]:
         """(motor speed rpm, action on the [-1, 1] scale)."""

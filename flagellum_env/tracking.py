@@ -60,7 +60,7 @@ class PathTracker:
         i = self._segment()
         a, b = self._vertices[i], self._vertices[i + 1]
         u = (b - a) / self._lengths[i]
-        s = float(np.clip((position - a) @ u, 0.0, self._lengths[i]))
+        s = min(max(float((position - a) @ u), 0.0), float(self._lengths[i]))  # np.clip's value, cheaper
         return s, a + s * u
 
     def progress(self, position: np.ndarray) -> float:

@@ -1,0 +1,70 @@
+"""What the turn-level surrogate needs beyond the turn map: the cruise speed and the motor's energy.
+
+The turn map (``agents.turn_map``) holds each burst's turn and the head's displacement over it, not the
+straight-swimming speed at omega_l nor the motor work |T omega| dt that ``FlagellumSteer-v0`` charges
+(``flagellum_env.rewards``, term ``energy``). ``scripts/calibrate_surrogate.py`` measures both on the preset's
+physics (a few CPU seconds) and writes them as ``agents/turn_maps/<preset>_surrogate.json``; this module reads it.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from agents.assets import package_file
+
+CALIBRATION_FORMAT = "flagellum-surrogate-calibration"
+
+
+def calibration_file(preset: str) -> Path:
+    """The shipped calibration of ``preset`` (it may not exist)."""
+    return package_file("turn_maps", f"{preset}_surrogate.json")
+
+
+@dataclass(frozen=True)
+class SurrogateCalibration:
+    """cruise_speed_m_s: steady speed at omega_l, m/s (the physics env's time budget uses it); cruise_power_w:
+    mean motor power at omega_l, W; cruise_end_to_end_ratio: L'/L while cruising (the observation's entry the turn
+    features read); burst_t_s, burst_energy_j: (K,) burst length (s, from 0, increasing) and the
+    cumulative motor energy of a burst that long at omega_h (J), linear in between, extrapolated at the last
+    slope beyond; omega_l_rpm, omega_h_rpm: the speeds measured at, rpm."""
+
+    preset: str
+    omega_l_rpm: float
+    omega_h_rpm: float
+    cruise_speed_m_s: float
+    cruise_power_w: float
+    cruise_end_to_end_ratio: float
+    burst_t_s: np.ndarray
+    burst_energy_j: np.ndarray
+
+    def burst_energy(self, t_c: float) -> float:
+        """Motor energy (J) of a burst of ``t_c`` s at omega_h."""
+        t, e = self.burst_t_s, self.burst_energy_j
+        if t_c <= t[-1]:
+            return float(np.interp(t_c, t, e))
+        slope = (e[-1] - e[-2]) / (t[-1] - t[-2])
+        return float(e[-1] + slope * (t_c - t[-1]))
+
+    @classmethod
+    def load(cls, path: str | Path) -> SurrogateCalibration:
+        """Read a file of ``scripts/calibrate_surrogate.py``; ValueError naming the file if it is not one."""
+        path = Path(path)
+        try:
+            doc = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ValueError(f"cannot read the surrogate calibration {str(path)!r}: {exc}") from None
+        if not isinstance(doc, dict) or doc.get("format") != CALIBRATION_FORMAT:
+            raise ValueError(f"{str(path)!r} is not a surrogate calibration (no \"format\": \"{CALIBRATION_FORMAT}\")")
+        try:
+            burst = np.asarray(doc["burst_energy_j"], dtype=np.float64).reshape(-1, 2)
+            return cls(preset=str(doc["preset"]), omega_l_rpm=float(doc["omega_l_rpm"]),
+                       omega_h_rpm=float(doc["omega_h_rpm"]), cruise_speed_m_s=float(doc["cruise_speed_m_s"]),
+                       cruise_power_w=float(doc["cruise_power_w"]),
+                       cruise_end_to_end_ratio=float(doc["cruise_end_to_end_ratio"]), burst_t_s=burst[:, 0].copy(),
+                       burst_energy_j=burst[:, 1].copy())
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"surrogate calibration {str(path)!r} is damaged: {exc}") from None

@@ -1,0 +1,190 @@
+"""The turn-level swimmer: what one burst does, read from the calibrated turn map, with no rod.
+
+A burst of t_c seconds at omega_h flown when the flagellum's reference direction (the map's phase node) lies at
+azimuth beta about the heading d turns the heading by theta towards azimuth beta + psi and moves the head by the
+map's displacement over the burst and its relaxation (``agents.turn_map``: Huang & Jawed 2020, Sec. 3 and
+Fig. 5d; the geometry of ``agents.turn_planner.turn_ends`` and ``RulePlanner.rule_plan``, docs/planner.md):
+
+    d'   = cos(theta) d + sin(theta) (cos(beta + psi) e1 + sin(beta + psi) e2),    (e1, e2) = perpendicular_basis(d)
+    head' = head + off_0 d + off_1 e_ref + off_2 (d x e_ref),                      e_ref = cos(beta) e1 + sin(beta) e2
+
+theta, psi, the displacement ``off`` (m), the relaxation time and L'/L at the burst's end are interpolated
+bilinearly in (t_c, beta) between the map's measurements (t_c linear; beta periodic-linear between the measured
+phases; psi through its unit vector, so its wrap does not matter). Below the shortest measured burst theta falls
+linearly to 0 at t_c = 0; beyond the longest the map says nothing (``SurrogateTurn.in_range`` False, the longest
+burst's values are used).
+
+Another swimmer (E, mu randomised like ``FlagellumSteer-v0``, ``flagellum_env.config.draw_randomization``): the
+paper's nondimensionalisation (Sec. 2: time in units of the viscous time tau = mu L^4 / EI, motor speed
+omega_bar = omega tau) makes a swimmer of tau at omega_h the nominal swimmer (tau_0) at omega_h tau / tau_0 with
+times scaled by tau / tau_0. The map's dependence on the burst speed near omega_h is a power law: the burst length of
+a given theta on the rising branch scales as omega_h^-alpha with alpha = ``BURST_SPEED_EXPONENT`` = 2.31 (the
+faithful maps at 90 and 150 rpm, results/turn_maps/burst_90.json and agents/turn_maps/faithful.json: alpha from 2.28
+to 2.37 for theta = 10-120 deg; ``burst_speed_exponent`` recomputes it). Hence a burst of t_c s of this swimmer
+turns it as the map's burst of
+
+    t_map = t_c (tau / tau_0)^(alpha - 1)                                                   (``map_time``)
+
+(a swimmer with a larger tau buckles earlier, as measured: results/online_turn_map/sensitivity.jsonl, E 5 % lower
+or mu 5 % higher turn more), and its relaxation lasts tau / tau_0 times the map's. The cruise speed and the wobble
+period are the nominal ones (set by omega_l and the geometry, not by tau); motor energies scale with mu (Stokes
+drag is linear in mu at a given motor speed). The calibrated range of tau / tau_0 is ``TAU_RATIO_RANGE``.
+The head radius and the helix geometry move the buckling time too (the sensitivity file's seed 16), which this
+model does not have: the surrogate draws them (same stream as the physics env) but they change nothing.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from agents.surrogate_calibration import SurrogateCalibration
+from agents.turn_geometry import perpendicular_basis
+from agents.turn_map import TurnMap
+from physics.params import SwimmerParams
+
+#: t_c(theta) ~ omega_h^-alpha near 150 rpm on the rising branch (module docstring; ``burst_speed_exponent``).
+BURST_SPEED_EXPONENT = 2.31
+#: tau / tau_0 the surrogate accepts: the power law was fit between 90 and 150 rpm (tau / tau_0 = 0.6 to 1);
+#: above 1 it extrapolates, up to the +-10 % of E and mu the physics envs randomise (tau / tau_0 up to 1.22).
+TAU_RATIO_RANGE = (0.6, 1.25)
+
+
+def burst_speed_exponent(slow: TurnMap, fast: TurnMap, thetas_deg=(10.0, 20.0, 30.0, 45.0, 60.0, 90.0, 120.0)
+                         ) -> np.ndarray:
+    """alpha of t_c(theta) ~ omega_h^-alpha between two maps of one swimmer at two burst speeds, one per theta
+    (deg) on both rising branches, (len(thetas_deg),)."""
+    ratio = math.log(fast.omega_h_rpm / slow.omega_h_rpm)
+    return np.array([math.log(slow.t_c_for(th) / fast.t_c_for(th)) / ratio for th in thetas_deg])
+
+
+@dataclass(frozen=True)
+class SurrogateTurn:
+    """One burst's outcome: ``heading`` (3,) unit, ``displacement`` (3,) m over the burst and ``relax_s``,
+    ``theta_rad``, ``psi_rad``, ``relax_s`` (s, for this swimmer), ``end_ratio`` (L'/L at the burst's end),
+    ``map_time_s`` (the map's burst length it was read at), ``in_range`` (within the map's burst lengths)."""
+
+    heading: np.ndarray
+    displacement: np.ndarray
+    theta_rad: float
+    psi_rad: float
+    relax_s: float
+    end_ratio: float
+    map_time_s: float
+    in_range: bool
+
+
+class TurnMapTable:
+    """The map's measurements on a (t_c, phase) grid for bilinear reads. ``t_c`` (K,) s, ``phases`` (P,) rad
+    increasing in [0, 2 pi); ``theta`` (K, P) rad, ``psi_cos``/``psi_sin`` (K, P), ``offset`` (K, P, 3) m,
+    ``relax`` (K, P) s, ``end_ratio`` (K, P). ValueError if the map is not a full grid."""
+
+    def __init__(self, turn_map: TurnMap) -> None:
+        tcs = turn_map.t_c_values()
+        phases = np.array(sorted({p.phase_deg % 360.0 for p in turn_map.points}))
+        k_of = {float(t): k for k, t in enumerate(tcs)}
+        j_of = {float(ph): j for j, ph in enumerate(phases)}
+        shape = (len(tcs), len(phases))
+        filled = np.zeros(shape, bool)
+        theta, psi, relax, ratio = (np.empty(shape) for _ in range(4))
+        offset = np.empty(shape + (3,))
+        for p in turn_map.points:
+            k, j = k_of[float(p.t_c)], j_of[float(p.phase_deg % 360.0)]
+            filled[k, j] = True
+            theta[k, j], psi[k, j] = math.radians(p.theta_deg), math.radians(p.psi_deg)
+            relax[k, j], ratio[k, j], offset[k, j] = p.relax_s, p.burst_end_ratio, p.offset_m
+        if not filled.all():
+            raise ValueError(f"the turn map is not a full grid of burst lengths x phases ({int(filled.sum())} of "
+                             f"{filled.size} measured); the surrogate interpolates on a grid")
+        self.t_c, self.phases = tcs, np.radians(phases)
+        self.theta, self.psi_cos, self.psi_sin = theta, np.cos(psi), np.sin(psi)
+        self.offset, self.relax, self.end_ratio = offset, relax, ratio
+        #: every channel stacked, (K, P, 8): theta, cos psi, sin psi, offset (3), relax, L'/L, read at once
+        self.channels = np.concatenate([np.stack([theta, np.cos(psi), np.sin(psi)], axis=-1), offset,
+                                        np.stack([relax, ratio], axis=-1)], axis=-1)
+        self._t_list, self._ph_list = [float(x) for x in tcs], [float(x) for x in self.phases]
+
+    def weights(self, t_map: float, beta: float) -> tuple[int, int, float, int, int, float, float, bool]:
+        """(k0, k1, w_t, j0, j1, w_b, theta_scale, in_range): the grid corners and weights of (t_map s, beta rad);
+        theta_scale < 1 below the shortest burst (theta -> 0 at t_c = 0)."""
+        t = self._t_list
+        in_range = 0.0 <= t_map <= t[-1] + 1e-9
+        scale = 1.0
+        if t_map <= t[0]:
+            k0 = k1 = 0
+            w_t = 0.0
+            scale = max(t_map, 0.0) / t[0]
+        elif t_map >= t[-1]:
+            k0 = k1 = len(t) - 1
+            w_t = 0.0
+        else:
+            k1 = bisect.bisect_right(t, t_map)
+            k0 = k1 - 1
+            w_t = (t_map - t[k0]) / (t[k1] - t[k0])
+        ph, n, two_pi = self._ph_list, len(self._ph_list), 2.0 * math.pi
+        b = beta % two_pi
+        j1 = bisect.bisect_right(ph, b) % n
+        j0 = (j1 - 1) % n
+        span = (ph[j1] - ph[j0]) % two_pi or two_pi
+        w_b = ((b - ph[j0]) % two_pi) / span
+        return k0, k1, w_t, j0, j1, w_b, scale, in_range
+
+    def read(self, table: np.ndarray, k0: int, k1: int, w_t: float, j0: int, j1: int, w_b: float):
+        """Bilinear read of ``table`` (K, P, ...) at the corners and weights of ``weights``."""
+        return ((1.0 - w_t) * ((1.0 - w_b) * table[k0, j0] + w_b * table[k0, j1])
+                + w_t * ((1.0 - w_b) * table[k1, j0] + w_b * table[k1, j1]))
+
+
+class SurrogateSwimmer:
+    """The kinematic swimmer of one episode (module docstring). ``turn_map`` and ``calibration`` are the nominal
+    swimmer's; ``params`` this episode's swimmer (``draw_randomization``); ValueError if its tau / tau_0 lies
+    outside ``TAU_RATIO_RANGE``."""
+
+    def __init__(self, turn_map: TurnMap, calibration: SurrogateCalibration, table: TurnMapTable,
+                 params: SwimmerParams | None = None) -> None:
+        self.turn_map, self.calibration, self.table = turn_map, calibration, table
+        params = turn_map.params if params is None else params
+        self.tau_ratio = params.viscous_time / turn_map.params.viscous_time
+        lo, hi = TAU_RATIO_RANGE
+        if not lo <= self.tau_ratio <= hi:
+            raise ValueError(f"swimmer with tau/tau_0 = mu L^4/EI over the map's = {self.tau_ratio:.4g} is outside "
+                             f"the surrogate's calibrated range [{lo}, {hi}]")
+        self.time_factor = self.tau_ratio ** (BURST_SPEED_EXPONENT - 1.0)
+        self.mu_ratio = params.viscosity / turn_map.params.viscosity
+        self.speed_m_s = calibration.cruise_speed_m_s
+        self.period_s = turn_map.period_s
+        self.cruise_power_w = calibration.cruise_power_w * self.mu_ratio
+
+    def map_time(self, t_c: float) -> float:
+        """The map's burst length (s) that turns the nominal swimmer as ``t_c`` s turn this one."""
+        return t_c * self.time_factor
+
+    def burst_energy_j(self, t_c: float) -> float:
+        """Motor energy of a burst of ``t_c`` s at omega_h, J (the calibration's, times mu / mu_0)."""
+        return self.calibration.burst_energy(self.map_time(t_c)) * self.mu_ratio
+
+    def turn(self, d: np.ndarray, t_c: float, beta: float) -> SurrogateTurn:
+        """The outcome of a burst of ``t_c`` s at the reference direction's azimuth ``beta`` (rad) about the unit
+        heading ``d`` (3,)."""
+        tab = self.table
+        t_map = self.map_time(t_c)
+        k0, k1, w_t, j0, j1, w_b, scale, in_range = tab.weights(t_map, beta)
+        th, pc, ps, o0, o1, o2, relax, ratio = tab.read(tab.channels, k0, k1, w_t, j0, j1, w_b).tolist()
+        theta, psi = scale * th, math.atan2(ps, pc)
+        relax *= self.tau_ratio
+        e1, e2 = perpendicular_basis(d)
+        d0, d1, d2 = d.tolist()
+        a0, a1, a2 = e1.tolist()
+        b0, b1, b2 = e2.tolist()
+        ca, sa = math.cos(beta + psi), math.sin(beta + psi)
+        ct, st = math.cos(theta), math.sin(theta)
+        h = [ct * d0 + st * (ca * a0 + sa * b0), ct * d1 + st * (ca * a1 + sa * b1), ct * d2 + st * (ca * a2 + sa * b2)]
+        hn = math.sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2])
+        cb, sb = math.cos(beta), math.sin(beta)
+        r0, r1, r2 = cb * a0 + sb * b0, cb * a1 + sb * b1, cb * a2 + sb * b2   # e_ref
+        p0, p1, p2 = d1 * r2 - d2 * r1, d2 * r0 - d0 * r2, d0 * r1 - d1 * r0   # d x e_ref
+        disp = np.array([o0 * d0 + o1 * r0 + o2 * p0, o0 * d1 + o1 * r1 + o2 * p1, o0 * d2 + o1 * r2 + o2 * p2])
+        return SurrogateTurn(np.array(h) / hn, disp, theta, psi, relax, ratio, float(t_map), bool(in_range))

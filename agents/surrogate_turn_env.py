@@ -1,0 +1,392 @@
+"""``FlagellumTurn-surrogate-v0``: ``FlagellumTurn-v0``'s task with no rod, jumping from decision to decision.
+
+Same arguments, spaces, reward terms and ``info`` keys as ``FlagellumTurn-v0`` (``agents.turn_decision_env``),
+so an agent or a planner runs in either. What differs is the swimmer: instead of ``FlagellumSteer-v0`` at 0.1 s
+control steps, a kinematic swimmer (``agents.surrogate_swimmer``) swims straight at the calibrated cruise speed and
+turns by the calibrated turn map, and the rule planner's loop is replayed at the level of its events:
+
+1. cruise: the planner plans (``RulePlanner.rule_plan``, the same code as at ``faithful``) once a heading can be
+   measured; with no turn wanted it swims on to the next event that can change that (the target reached, the
+   heading error crossing ``min_turn_deg``, the target passed) or ``RECHECK_S`` later while off course
+   (the physics planner re-checks every 0.1 s control step);
+2. a turn planned: its features (``turn_features``) are the observation; the action corrects it
+   (``corrected_plan``);
+3. hover until the flagellum's phase (turning once per map period ``period_s``) reaches the burst phase, burst for
+   the planned number of control steps, and relax for the planner's wait (at least two periods, the map's
+   relaxation time for the swimmer, at most ``max_relax_factor`` x the map's median): the head moves along the
+   chord of the map's displacement, the heading jumps to the map's new heading at the end;
+4. then 1. again.
+
+Waypoints (``flagellum_env.tracking.PathTracker``), rewards (``flagellum_env.rewards.reward_terms``: progress,
+cross-track error integrated over time along the legs, energy, waypoints, the penalties), the time budget
+(``time_factor`` x path length / cruise speed, in control steps) and the end of an episode are the physics env's,
+evaluated on the legs (straight lines) instead of at every control step.
+
+Calibrated range (one-line ``ValueError`` at construction): the default preset's map and swimmer (``preset``
+"faithful", no ``params`` or ``numerics`` override, ``omega_l``/``omega_h`` of the map reachable by the action),
+the rule planner, and randomisation fractions of E and mu whose extreme swimmers keep tau / tau_0 within
+``TAU_RATIO_RANGE``. A burst whose map time leaves the map's burst lengths sets ``info["out_of_range"]`` for the
+rest of the episode, with ``info["out_of_range_reason"]`` naming the value (and a warning once per env).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+
+from agents.assets import default_turn_map, missing_turn_map_message
+from agents.controller_spec import CONTROLLER_ENV_DEFAULTS
+from agents.registration import TURN_SURROGATE_ENV_ID
+from agents.residual_planner import ResidualLimits, base_planner, corrected_plan, turn_features
+from agents.surrogate_calibration import SurrogateCalibration, calibration_file
+from agents.surrogate_legs import LegResult, SegmentFrames, fly_leg
+from agents.surrogate_swimmer import TAU_RATIO_RANGE, SurrogateSwimmer, TurnMapTable
+from agents.turn_decision_env import (DEFAULT_ACTION_COST, DEFAULT_ENV_KWARGS, DEFAULT_RANDOM_PATH, TurnEpisodes,
+                                      _fixed_paths, _limits, parse_turn_action)
+from agents.candidate_miss import first_improving_distance, first_improving_sample
+from agents.turn_geometry import perpendicular_basis
+from agents.turn_map import TurnMap
+from agents.turn_planner import BEHIND_PENALTY_M, PlannerEpisode, RulePlanner
+from flagellum_env.config import DEFAULT_REACH_RADIUS_M, draw_randomization, make_config
+from flagellum_env.paths import WaypointPath
+from flagellum_env.rewards import TERMS, reward_terms
+from flagellum_env.tracking import PathTracker
+from physics.presets import DEFAULT_PRESET
+from physics.validation import require_finite
+
+#: With the target behind, or ``line_weight`` > 0, the planner re-plans every control step while no turn helps;
+#: the surrogate every this, s (elsewhere it computes when the plan changes).
+RECHECK_S = 1.0
+#: How many RECHECK_S samples one look ahead with the target behind covers.
+BEHIND_SAMPLES = 20
+
+
+class SurrogateTurnEnv(TurnEpisodes, gym.Env):
+    """
+    ## Description
+
+    ``FlagellumTurn-v0`` (``agents.turn_decision_env.TurnDecisionEnv``, whose docstring is the manual) on the
+    turn-level surrogate swimmer (module docstring): ~10^4 decisions per CPU second instead of ~0.5.
+
+    ## Spaces, rewards, ``info``
+
+    ``FlagellumTurn-v0``'s with ``planner="rule"``: observation ``Box(-10, 10, (14,), float32)``, action
+    ``Box(-1, 1, (2,), float32)``, the same reward terms and weights, ``info`` keys ``INFO_KEYS`` plus
+    ``out_of_range`` (bool, the episode so far) and, when it is True, ``out_of_range_reason``.
+
+    ## Arguments
+
+    ``FlagellumTurn-v0``'s. Within ``env_kwargs`` the surrogate uses ``reward``, ``randomize`` (E, mu: the turn's
+    timing; head radius, geometry: drawn, no effect; ``obs_noise_std``: no effect, the features are computed from
+    the exact state), ``reach_radius_m``, ``max_sim_time_s``, ``time_factor``, ``off_path_m``, ``control_dt``,
+    ``n_lookahead``, ``buckling_threshold``; the rest is validated as ``FlagellumSteer-v0`` validates it and has
+    nothing to act on. ``render_mode`` must be None (no rod to draw). Outside the calibrated range (module
+    docstring): ``ValueError`` naming the value and what is allowed.
+
+    ## Version History
+
+    - v0: initial version.
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": []}
+    env_id: ClassVar[str] = TURN_SURROGATE_ENV_ID
+    default_preset: ClassVar[str] = DEFAULT_PRESET
+
+    def __init__(self, preset: str | None = None, turn_map: str | os.PathLike | None = None,
+                 env_kwargs: Mapping[str, Any] | None = None, paths: Sequence[Any] | None = None,
+                 random_path: Mapping[str, Any] | None = None, limits: ResidualLimits | Mapping[str, Any] | None = None,
+                 action_cost: float = DEFAULT_ACTION_COST, render_mode: str | None = None, planner: str = "rule",
+                 **unknown: Any) -> None:
+        if unknown:
+            raise ValueError(f"unknown argument(s) {sorted(unknown)} for {self.env_id}; known arguments: "
+                             "preset, turn_map, env_kwargs, paths, random_path, limits, action_cost, render_mode, "
+                             "planner")
+        kind, _, planner_config = base_planner(planner)
+        if kind != "rule":
+            raise ValueError(f"planner={planner!r} is not available in {self.env_id}; allowed: 'rule' or "
+                             "'rule@line=W' (the adaptive planner's online map reads the rod's cruise)")
+        if render_mode is not None:
+            raise ValueError(f"render_mode={render_mode!r} is not allowed in {self.env_id} (no rod to draw); "
+                             "allowed: None")
+        self.render_mode = None
+        preset = self.default_preset if preset is None else preset
+        if preset != DEFAULT_PRESET:
+            raise ValueError(f"preset={preset!r} is outside the surrogate's calibration; allowed: "
+                             f"{DEFAULT_PRESET!r} (the map it replays)")
+        self.preset = preset
+        env_kwargs = DEFAULT_ENV_KWARGS if env_kwargs is None else env_kwargs
+        if not isinstance(env_kwargs, Mapping):
+            raise ValueError(f"env_kwargs={env_kwargs!r} must be a dict of FlagellumSteer-v0 arguments or None")
+        for name, why in (("path", "give paths= or random_path="), ("render_mode", "give render_mode=")):
+            if name in env_kwargs:
+                raise ValueError(f"env_kwargs must not hold {name!r}; {why}")
+        try:
+            cfg = make_config(**{**CONTROLLER_ENV_DEFAULTS[kind], "preset": preset, **dict(env_kwargs)})
+        except ValueError as exc:
+            raise ValueError(f"env_kwargs: {exc}") from None
+        self.config = cfg
+        tmap_file = Path(turn_map) if turn_map is not None else default_turn_map(preset)
+        if not tmap_file.is_file():
+            raise ValueError(f"turn_map={str(tmap_file)!r}: " + missing_turn_map_message(tmap_file, preset,
+                                                                                           given=turn_map is not None))
+        self.turn_map = tmap = TurnMap.load(tmap_file)
+        self.calibration = SurrogateCalibration.load(calibration_file(DEFAULT_PRESET))
+        _check_calibrated(cfg, tmap, self.calibration)
+        self.table = TurnMapTable(tmap)
+        self.params = tmap.params
+        self.planner = RulePlanner(tmap, None, cfg.control_dt, DEFAULT_REACH_RADIUS_M, None, planner_config)
+        self.limits = _limits(limits) or ResidualLimits()
+        self.action_cost = require_finite("action_cost", action_cost, 0.0)
+        self.paths = _fixed_paths(paths)
+        self.set_random_path(DEFAULT_RANDOM_PATH if random_path is None else random_path)
+        self.observation_space = spaces.Box(-10.0, 10.0, (self.planner_features,), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        self._max_theta = tmap.max_theta_deg
+        self._episode = 0
+        self._swimmer_rng: np.random.Generator | None = None
+        self._warned = False
+        self._done = True
+
+    planner_features: ClassVar[int] = 14  # agents.residual_planner.N_FEATURES (checked by the tests)
+
+    # --- Gymnasium API ---------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        path = self._episode_path(seed, options)
+        if seed is not None or self._swimmer_rng is None:
+            # the physics env's own generator, seeded alike: the same seed draws the same swimmer there and here
+            self._swimmer_rng, _ = seeding.np_random(seed)
+        cfg = self.config
+        params, _ = draw_randomization(self.params, cfg.randomize, self._swimmer_rng)
+        self.swimmer = SurrogateSwimmer(self.turn_map, self.calibration, self.table, params)
+        self.episode_params = params
+        self.path = path
+        reach = cfg.reach_radius_m or path.reach_radius_m or DEFAULT_REACH_RADIUS_M
+        self.tracker = PathTracker(path, reach)
+        self._frames = SegmentFrames(self.tracker)
+        self.planner.reach_radius_m = reach
+        max_time = (cfg.max_sim_time_s if cfg.max_sim_time_s is not None
+                    else cfg.time_factor * path.length_m / self.calibration.cruise_speed_m_s)
+        self.max_steps = max(1, math.ceil(max_time / cfg.control_dt - 1e-9))
+        self.time_limit_s = self.max_steps * cfg.control_dt
+        self.head, self.heading = np.zeros(3), np.array([1.0, 0.0, 0.0])
+        self.time_s, self.energy_j, self.cross_integral, self.buckling_events = 0.0, 0.0, 0.0, 0
+        self._progress = 0.0
+        self._ep = PlannerEpisode()
+        self._plan: dict | None = None
+        self._out_of_range: str | None = None
+        self._done = False
+        # the planner measures a heading after one period at omega_l (RulePlanner._decide, cruise)
+        first = (self.planner.period_steps + 1) * cfg.control_dt
+        reward, end = self._collect(self._fly(self.head + self.swimmer.speed_m_s * first * self.heading, first,
+                                              stop_at_waypoint=True, power_w=self.swimmer.cruise_power_w))
+        if end is None:
+            r2, end = self._advance()
+            reward += r2
+        self._pending = (reward, end)
+        return self._features(), self._info()
+
+    def step(self, action: Any):
+        if self._done:
+            raise RuntimeError("call reset() before step()")
+        a = parse_turn_action(action)
+        reward, end = self._pending
+        self._pending = (0.0, None)
+        if end is None:
+            a = np.clip(a, -1.0, 1.0)
+            r, end = self._turn(corrected_plan(self._plan, a, self.turn_map, self.limits))
+            if end is None:
+                r2, end = self._advance()
+                r += r2
+            reward += r - self.action_cost * float(a @ a)
+        terminated, truncated = end if end is not None else (False, False)
+        self._done = terminated or truncated
+        return self._features(), float(reward), bool(terminated), bool(truncated), self._info()
+
+    # --- the planner's loop, event by event ---------------------------------------------------
+    def _advance(self) -> tuple[float, tuple[bool, bool] | None]:
+        """Cruise until the planner plans a turn (``self._plan``; returns (reward, None)) or the episode ends
+        (returns (reward, (terminated, truncated)))."""
+        cfg, pl, tr = self.config, self.planner, self.tracker
+        reward = 0.0
+        while True:
+            target = tr.path.waypoints[tr.index]
+            pl._track_segment(self._ep, target)
+            plan = pl.rule_plan(self.head, self.heading, target, self._ep, RulePlanner._line_miss)
+            if plan is not None:
+                self._plan = plan
+                return reward, None
+            wait = self._cruise_until_next_check(target)
+            v = self.swimmer.speed_m_s
+            r, end = self._collect(self._fly(self.head + v * wait * self.heading, wait, stop_at_waypoint=True,
+                                             power_w=self.swimmer.cruise_power_w))
+            reward += r
+            if end is not None:
+                return reward, end
+
+    def _cruise_until_next_check(self, target: np.ndarray) -> float:
+        """How long (s, whole control steps) to swim straight before the plan can change (module docstring, 1.)."""
+        cfg, pcfg, dt = self.config, self.planner.config, self.config.control_dt
+        v, rel = self.swimmer.speed_m_s, target - self.head
+        along = float(rel @ self.heading)
+        lateral = math.sqrt(max(float(rel @ rel) - along * along, 0.0))
+        reach = self.tracker.reach_radius_m
+        if along <= 0.0:
+            # the target behind: swimming on's miss grows; the first of the next BEHIND_SAMPLES samples
+            # RECHECK_S apart at which a turn helps (agents.candidate_miss.first_improving_sample)
+            t_c, theta, psi, off = self.planner._candidate_turns(self._ep)
+            e1, e2 = perpendicular_basis(self.heading)
+            k = first_improving_sample(self.head, self.heading, e1, e2, theta, psi, off, self.planner._burst_phases,
+                                       target, BEHIND_PENALTY_M, pcfg.improvement_m, v * RECHECK_S, BEHIND_SAMPLES)
+            wait = (k if k > 0 else BEHIND_SAMPLES) * RECHECK_S
+        elif lateral < pcfg.hit_fraction * reach:
+            wait = along / v  # on course: nothing changes before the target is reached (or abeam)
+            if lateral < reach:
+                wait = (along - math.sqrt(reach * reach - lateral * lateral)) / v
+        else:
+            # off course: the plan is the same until the heading error passes min_turn_deg, a candidate turn
+            # improves the miss by improvement_m (agents.candidate_miss.first_improving_distance) or the target
+            # comes abeam; with line_weight > 0 the score moves too: re-plan every RECHECK_S
+            start = max(0.0, along - lateral / math.tan(math.radians(pcfg.min_turn_deg)))
+            wait = along / v
+            if lateral < reach:
+                wait = min(wait, (along - math.sqrt(reach * reach - lateral * lateral)) / v)
+            if start > 0.0:
+                wait = min(wait, start / v)
+            elif pcfg.line_weight > 0.0:
+                wait = min(wait, RECHECK_S)
+            else:
+                t_c, theta, psi, off = self.planner._candidate_turns(self._ep)
+                e1, e2 = perpendicular_basis(self.heading)
+                x = first_improving_distance(self.head, self.heading, e1, e2, theta, psi, off,
+                                             self.planner._burst_phases, target, BEHIND_PENALTY_M,
+                                             lateral - pcfg.improvement_m, 0.0, along)
+                wait = min(wait, x / v)
+        return max(1, math.ceil(wait / dt - 1e-9)) * dt
+
+    def _turn(self, plan: dict) -> tuple[float, tuple[bool, bool] | None]:
+        """Fly a decided turn (module docstring, 3.): hover, burst, relax; the plan is remembered as the
+        planner's last turn (the next features compare against it)."""
+        cfg, sw, dt = self.config, self.swimmer, self.config.control_dt
+        self._ep.turns.append(plan)
+        # hover: the phase node's azimuth about the heading turns once per period (phase 0 at t = 0)
+        omega_phase = 2.0 * math.pi / sw.period_s
+        togo = (plan["burst_phase"] - omega_phase * self.time_s) % (2.0 * math.pi)
+        hover = max(1, math.ceil(togo / omega_phase / dt - 1e-9)) * dt
+        reward, end = self._collect(self._fly(self.head + sw.speed_m_s * hover * self.heading, hover,
+                                              stop_at_waypoint=False, power_w=sw.cruise_power_w))
+        if end is not None:
+            return reward, end
+        steps = max(1, round(plan["t_c"] / dt))
+        t_c = steps * dt
+        out = sw.turn(self.heading, t_c, plan["burst_phase"])
+        if not out.in_range and self._out_of_range is None:
+            t_max = self.table.t_c[-1]
+            self._out_of_range = (f"burst of {t_c:.3g} s reads the map at t_c = {out.map_time_s:.4g} s, beyond its "
+                                  f"calibrated burst lengths [0, {t_max:g}] s (the longest used)")
+            if not self._warned:
+                self._warned = True
+                gym.logger.warn(f"{self.env_id}: {self._out_of_range}; reported in info['out_of_range']")
+        if out.end_ratio < cfg.buckling_threshold:
+            self.buckling_events += 1
+        pcfg = self.planner.config
+        wait = min(max(out.relax_s, 2 * self.planner.period_steps * dt), pcfg.max_relax_factor * self.turn_map.relax_s)
+        wait = max(1, math.ceil(wait / dt - 1e-9)) * dt
+        # the map's displacement covers the burst and its relaxation; the planner's wait differs by a cruise
+        end_point = self.head + out.displacement + sw.speed_m_s * (wait - out.relax_s) * out.heading
+        energy = sw.burst_energy_j(t_c) + sw.cruise_power_w * wait
+        r, end = self._collect(self._fly(end_point, t_c + wait, stop_at_waypoint=False, energy_j=energy))
+        self.heading = out.heading
+        return reward + r, end
+
+    # --- legs ------------------------------------------------------------------------------------
+    def _fly(self, end_point: np.ndarray, duration: float, stop_at_waypoint: bool, power_w: float = 0.0,
+             energy_j: float | None = None) -> LegResult:
+        cfg = self.config
+        leg = fly_leg(self.tracker, self._frames, self.head, end_point, duration, self.time_s, self.time_limit_s,
+                      cfg.off_path_m, stop_at_waypoint)
+        frac = leg.duration_s / duration if duration > 0.0 else 1.0
+        leg.energy_j = (energy_j * frac) if energy_j is not None else power_w * leg.duration_s
+        return leg
+
+    def _collect(self, leg: LegResult) -> tuple[float, tuple[bool, bool] | None]:
+        """Apply a flown leg to the episode; (its reward, None or (terminated, truncated))."""
+        tr = self.tracker
+        self.head = leg.end
+        self.time_s += leg.duration_s
+        self.energy_j += leg.energy_j
+        self.cross_integral += leg.cross_integral
+        progress = tr.progress(self.head)
+        terms = reward_terms(self.config.reward, progress - self._progress, 0.0, 0.0, leg.energy_j, leg.reached,
+                             off_path=leg.off_path)
+        terms["cross_track"] = -self.config.reward.cross_track_per_cm_s * leg.cross_integral / 0.01
+        self._progress = progress
+        reward = float(sum(terms[t] for t in TERMS))
+        if tr.done or leg.off_path:
+            return reward, (True, False)
+        if leg.timed_out:
+            return reward, (False, True)
+        return reward, None
+
+    # --- what the agent sees ----------------------------------------------------------------
+    def _features(self) -> np.ndarray:
+        if self._done or self._pending[1] is not None or self._plan is None:
+            return np.zeros(self.planner_features, np.float32)
+        cfg = self.config
+        targets = self.tracker.targets(cfg.n_lookahead) - self.head
+        steps = math.floor(self.time_s / cfg.control_dt + 1e-9)
+        ep = self._ep
+        return turn_features(self._plan, targets, self.tracker.reach_radius_m,
+                             self.calibration.cruise_end_to_end_ratio, max(0.0, 1.0 - steps / self.max_steps),
+                             ep.turns[-1] if ep.turns else None, len(ep.turns), self._max_theta)
+
+    def _info(self) -> dict[str, Any]:
+        tr = self.tracker
+        info = {"path": self.path.name, "is_success": bool(tr.done), "waypoints_reached": int(tr.index),
+                "mean_cross_track_m": self.cross_integral / self.time_s if self.time_s > 0.0 else 0.0,
+                "time_s": float(self.time_s), "energy_J": float(self.energy_j),
+                "buckling_events": int(self.buckling_events), "turns": len(self._ep.turns),
+                "out_of_range": self._out_of_range is not None}
+        if self._out_of_range is not None:
+            info["out_of_range_reason"] = self._out_of_range
+        return info
+
+
+def _check_calibrated(cfg, tmap: TurnMap, calibration: SurrogateCalibration) -> None:
+    """ValueError (one line, naming the value and what is allowed) for a request outside the calibration."""
+    for name in ("params", "numerics"):
+        if getattr(cfg, name):
+            raise ValueError(f"env_kwargs[{name!r}]={getattr(cfg, name)!r} is outside the surrogate's calibration; "
+                             f"allowed: none (the swimmer of the map, {tmap.preset!r}); vary it with randomize=")
+    if cfg.low_speed_rpm != tmap.omega_l_rpm or calibration.omega_l_rpm != tmap.omega_l_rpm:
+        raise ValueError(f"low motor speed {cfg.low_speed_rpm!r} rpm is outside the surrogate's calibration; "
+                         f"allowed: the map's omega_l = {tmap.omega_l_rpm} rpm")
+    if cfg.action_type == "continuous":
+        lo, hi = cfg.omega_range_rpm
+        if not lo <= tmap.omega_h_rpm <= hi:
+            raise ValueError(f"omega_range_rpm={cfg.omega_range_rpm!r} does not reach the map's omega_h = "
+                             f"{tmap.omega_h_rpm} rpm; allowed: a range holding it")
+    elif tmap.omega_h_rpm not in cfg.discrete_speeds_rpm:
+        raise ValueError(f"discrete_speeds_rpm={cfg.discrete_speeds_rpm!r} lacks the map's omega_h = "
+                         f"{tmap.omega_h_rpm} rpm; allowed: speeds holding it")
+    if cfg.observation_type != "flat":
+        raise ValueError(f"observation_type={cfg.observation_type!r}: the rule planner reads flat observations; "
+                         "allowed: 'flat'")
+    r = cfg.randomize
+    if r is not None:
+        lo, hi = TAU_RATIO_RANGE
+        # tau = mu L^4 / EI: its extremes under the drawn factors
+        extremes = ((1.0 - r.viscosity) / (1.0 + r.youngs_modulus), (1.0 + r.viscosity) / (1.0 - r.youngs_modulus))
+        if extremes[0] < lo or extremes[1] > hi:
+            raise ValueError(f"randomize youngs_modulus={r.youngs_modulus:g}, viscosity={r.viscosity:g} draw "
+                             f"swimmers with tau/tau_0 from {extremes[0]:.3g} to {extremes[1]:.3g}, outside the "
+                             f"surrogate's calibrated range [{lo}, {hi}]; allowed: fractions keeping it inside "
+                             "(e.g. 0.1 each)")
