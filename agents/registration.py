@@ -8,6 +8,12 @@ with its own defaults and docstring:
 | ``FlagellumTurn-v0``        | ``agents.turn_decision_env.TurnDecisionEnv``       | faithful |
 | ``FlagellumTurn-fast-v0``   | ``agents.turn_decision_env.TurnDecisionFastEnv``   | fast     |
 | ``FlagellumTurn-coarse-v0`` | ``agents.turn_decision_env.TurnDecisionCoarseEnv`` | coarse   |
+
+and in ``SURROGATE_TURN_ENV_IDS`` (no rod: ``agents.surrogate_turn_env``, the turn map of ``faithful`` replayed at
+~10^3-10^4 decisions per CPU second):
+
+| id                             | class (entry point)                            | model                       |
+|--------------------------------|------------------------------------------------|-----------------------------|
 | ``FlagellumTurn-surrogate-v0`` | ``agents.surrogate_turn_env.SurrogateTurnEnv`` | faithful's turn map, no rod |
 
 Every episode ends within the base env's time budget, a few to some tens of decisions, so no ``TimeLimit`` is
@@ -30,13 +36,18 @@ TURN_ENV_IDS: dict[str, str] = {
     TURN_ENV_ID: "agents.turn_decision_env:TurnDecisionEnv",
     TURN_FAST_ENV_ID: "agents.turn_decision_env:TurnDecisionFastEnv",
     TURN_COARSE_ENV_ID: "agents.turn_decision_env:TurnDecisionCoarseEnv",
+}
+#: id -> entry point of the turn-level surrogates (no rod; the same spaces, rewards and ``info`` as
+#: ``FlagellumTurn-v0``, the calibrated range of the default preset only: no ``preset`` other than it, no rendering)
+SURROGATE_TURN_ENV_IDS: dict[str, str] = {
     TURN_SURROGATE_ENV_ID: "agents.surrogate_turn_env:SurrogateTurnEnv",
 }
 
 
 def register_turn_envs() -> None:
-    """Register every id of ``TURN_ENV_IDS`` that is not registered yet (re-importing registers nothing twice)."""
-    for env_id, entry_point in TURN_ENV_IDS.items():
+    """Register every id of ``TURN_ENV_IDS`` and ``SURROGATE_TURN_ENV_IDS`` that is not registered yet
+    (re-importing registers nothing twice)."""
+    for env_id, entry_point in {**TURN_ENV_IDS, **SURROGATE_TURN_ENV_IDS}.items():
         if env_id not in gym.registry:
             gym.register(id=env_id, entry_point=entry_point, max_episode_steps=None)
 
