@@ -51,7 +51,7 @@ from agents.surrogate_legs import LegResult, SegmentFrames, fly_leg
 from agents.surrogate_swimmer import TAU_RATIO_RANGE, SurrogateSwimmer, TurnMapTable
 from agents.turn_decision_env import (DEFAULT_ACTION_COST, DEFAULT_ENV_KWARGS, DEFAULT_RANDOM_PATH, TurnEpisodes,
                                       _fixed_paths, _limits, parse_turn_action)
-from agents.candidate_miss import first_improving_distance, first_improving_sample
+from agents.candidate_miss import first_improving_distance, first_improving_sample, local_target
 from agents.turn_geometry import perpendicular_basis
 from agents.turn_map import TurnMap
 from agents.turn_planner import BEHIND_PENALTY_M, PlannerEpisode, RulePlanner
@@ -242,10 +242,8 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         if along <= 0.0:
             # the target behind: swimming on's miss grows; the first of the next BEHIND_SAMPLES samples
             # RECHECK_S apart at which a turn helps (agents.candidate_miss.first_improving_sample)
-            t_c, theta, psi, off = self.planner._candidate_turns(self._ep)
-            e1, e2 = perpendicular_basis(self.heading)
-            k = first_improving_sample(self.head, self.heading, e1, e2, theta, psi, off, self.planner._burst_phases,
-                                       target, BEHIND_PENALTY_M, pcfg.improvement_m, v * RECHECK_S, BEHIND_SAMPLES)
+            k = first_improving_sample(self._frames_now(), *self._local(target), BEHIND_PENALTY_M,
+                                       pcfg.improvement_m, v * RECHECK_S, BEHIND_SAMPLES)
             wait = (k if k > 0 else BEHIND_SAMPLES) * RECHECK_S
         elif lateral < pcfg.hit_fraction * reach:
             wait = along / v  # on course: nothing changes before the target is reached (or abeam)
@@ -264,13 +262,19 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
             elif pcfg.line_weight > 0.0:
                 wait = min(wait, RECHECK_S)
             else:
-                t_c, theta, psi, off = self.planner._candidate_turns(self._ep)
-                e1, e2 = perpendicular_basis(self.heading)
-                x = first_improving_distance(self.head, self.heading, e1, e2, theta, psi, off,
-                                             self.planner._burst_phases, target, BEHIND_PENALTY_M,
+                x = first_improving_distance(self._frames_now(), *self._local(target), BEHIND_PENALTY_M,
                                              lateral - pcfg.improvement_m, 0.0, along)
                 wait = min(wait, x / v)
         return max(1, math.ceil(wait / dt - 1e-9)) * dt
+
+    def _frames_now(self) -> np.ndarray:
+        """The planner's candidate turns in the heading's frame (``RulePlanner.candidate_frames``)."""
+        _, theta, psi, off = self.planner._candidate_turns(self._ep)
+        return self.planner.candidate_frames(theta, psi, off, self.planner._burst_phases)
+
+    def _local(self, target: np.ndarray) -> tuple[float, float, float]:
+        e1, e2 = perpendicular_basis(self.heading)
+        return local_target(self.head, self.heading, e1, e2, target)
 
     def _turn(self, plan: dict) -> tuple[float, tuple[bool, bool] | None]:
         """Fly a decided turn (module docstring, 3.): hover, burst, relax; the plan is remembered as the

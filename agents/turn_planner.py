@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from agents.candidate_miss import candidate_miss
+from agents.candidate_miss import candidate_frames, candidate_miss, local_target
 from agents.turn_geometry import angle_between, azimuth, perpendicular_basis, unit, wrap_angle
 from agents.turn_map import TurnMap
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M
@@ -388,7 +388,8 @@ class RulePlanner:
         if line_miss is RulePlanner._line_miss:
             # the paper's miss, compiled (agents.candidate_miss: the same formulas as below)
             e1, e2 = perpendicular_basis(d)
-            miss = candidate_miss(head, d, e1, e2, theta, psi, off, beta, target, BEHIND_PENALTY_M)
+            miss = candidate_miss(self.candidate_frames(theta, psi, off, beta), *local_target(head, d, e1, e2, target),
+                                  BEHIND_PENALTY_M)
             after = turn_ends(head, d, off, beta) if with_line else None
         else:
             miss, after = candidate_misses(head, d, theta, psi, off, beta, target, line_miss)
@@ -426,6 +427,16 @@ class RulePlanner:
     def _candidate_turns(self, ep: PlannerEpisode | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The turns a plan chooses from in this episode: (t_c s, theta rad, psi rad, offset (T, 3) m)."""
         return self._candidates
+
+    def candidate_frames(self, theta: np.ndarray, psi: np.ndarray, off: np.ndarray, beta: np.ndarray) -> np.ndarray:
+        """``agents.candidate_miss.candidate_frames`` of these candidates, (T, B, 6), remembered for the last set
+        (the rule planner's are the same every plan)."""
+        key = (theta, psi, off, beta)
+        cached = getattr(self, "_frames", None)
+        if cached is None or any(a is not b for a, b in zip(cached[0], key)):
+            cached = (key, candidate_frames(theta, psi, off, beta))
+            self._frames = cached
+        return cached[1]
 
     @functools.cached_property
     def _burst_phases(self) -> np.ndarray:

@@ -95,7 +95,8 @@ def speed_rows(n: int, repeats: int) -> list[dict]:
 def faithful_turns(k: int, cache: Path) -> list[dict]:
     """Up to ``k`` held-out turns of the default preset (cached), each with the surrogate's theta there."""
     from agents.turn_measurement import measure_turn
-    from flagellum_env.steady_start import SETTLE_TURNS, get_steady_start
+    from agents.turn_calibration import SETTLE_TURNS
+    from flagellum_env.steady_start import get_steady_start
     from physics.params import RPM_TO_RAD_S
 
     tmap = TurnMap.load(default_turn_map(DEFAULT_PRESET))

@@ -16,7 +16,7 @@ from gymnasium.utils import seeding
 
 import agents  # noqa: F401  (registers the ids)
 from agents.assets import default_turn_map
-from agents.candidate_miss import candidate_miss, first_improving_distance
+from agents.candidate_miss import candidate_frames, candidate_miss, first_improving_distance, local_target
 from agents.residual_planner import N_FEATURES
 from agents.surrogate_calibration import SurrogateCalibration, calibration_file
 from agents.surrogate_swimmer import TAU_RATIO_RANGE, SurrogateSwimmer, TurnMapTable
@@ -195,7 +195,8 @@ def test_the_compiled_candidate_misses_are_the_planners_numpy_formulas(tmap):
         d = rng.normal(size=3)
         d /= np.linalg.norm(d)
         e1, e2 = perpendicular_basis(d)
-        fast = candidate_miss(head, d, e1, e2, theta, psi, off, beta, target, BEHIND_PENALTY_M)
+        fast = candidate_miss(candidate_frames(theta, psi, off, beta), *local_target(head, d, e1, e2, target),
+                              BEHIND_PENALTY_M)
         slow, _ = candidate_misses(head, d, theta, psi, off, beta, target, _line_miss)
         np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-12)
 
@@ -208,8 +209,10 @@ def test_the_first_improving_distance_is_where_a_candidate_first_gets_below_the_
     head, d = np.zeros(3), np.array([1.0, 0.0, 0.0])
     e1, e2 = perpendicular_basis(d)
 
+    frames = candidate_frames(theta, psi, off, beta)
+
     def best(at, target):
-        return candidate_miss(head + at * d, d, e1, e2, theta, psi, off, beta, target, BEHIND_PENALTY_M).min()
+        return candidate_miss(frames, *local_target(head + at * d, d, e1, e2, target), BEHIND_PENALTY_M).min()
 
     later = 0  # with the real map the best turn improves at once or not before the target is abeam
     for ahead in (0.02, 0.04, 0.08, 0.16):
@@ -217,7 +220,7 @@ def test_the_first_improving_distance_is_where_a_candidate_first_gets_below_the_
             target = np.array([ahead, lateral, 0.3 * lateral])
             lat = float(np.hypot(lateral, 0.3 * lateral))
             threshold = lat - 0.005
-            x = first_improving_distance(head, d, e1, e2, theta, psi, off, beta, target, BEHIND_PENALTY_M,
+            x = first_improving_distance(frames, *local_target(head, d, e1, e2, target), BEHIND_PENALTY_M,
                                          threshold, 0.0, ahead)
             if x == 0.0:
                 assert best(0.0, target) <= threshold
@@ -231,8 +234,8 @@ def test_the_first_improving_distance_is_where_a_candidate_first_gets_below_the_
     one = (np.array([math.pi / 2]), np.array([0.0]), np.zeros((1, 3)), np.array([0.0]))
     target = np.array([0.1, 0.0, 0.05])
     assert np.allclose(e1, [0.0, 0.0, 1.0])
-    x = first_improving_distance(head, d, e1, e2, one[0], one[1], one[2], one[3], target, BEHIND_PENALTY_M, 0.045,
-                                 0.0, 0.1)
+    x = first_improving_distance(candidate_frames(*one), *local_target(head, d, e1, e2, target), BEHIND_PENALTY_M,
+                                 0.045, 0.0, 0.1)
     assert x == pytest.approx(0.055, abs=1e-12)
 
 
