@@ -96,7 +96,7 @@ def turn_features(plan: dict, targets: np.ndarray, reach_radius_m: float, end_to
     d = np.asarray(plan["heading"], dtype=np.float64)
     to_target = targets[0]
     after = targets[1] - targets[0] if len(targets) > 1 else np.zeros(3)
-    next_len = float(np.linalg.norm(after))
+    next_len = _norm(after)
     corner = angle_between(to_target, after) if next_len > 1e-9 else 0.0
     had, ratio, az_err = 0.0, 1.0, 0.0
     if previous is not None and "predicted_theta_deg" in previous:
@@ -109,7 +109,7 @@ def turn_features(plan: dict, targets: np.ndarray, reach_radius_m: float, end_to
         plan["t_c"] / 10.0,
         plan["predicted_miss_m"] / reach_radius_m,
         plan["miss_straight_m"] / reach_radius_m,
-        float(np.linalg.norm(to_target)) / FEATURE_LENGTH_M,
+        _norm(to_target) / FEATURE_LENGTH_M,
         math.degrees(angle_between(d, to_target)) / 90.0,
         math.degrees(corner) / 90.0,
         next_len / FEATURE_LENGTH_M,
@@ -124,8 +124,15 @@ def turn_features(plan: dict, targets: np.ndarray, reach_radius_m: float, end_to
 
 
 def _bounded(f: np.ndarray) -> np.ndarray:
-    """Features as the policy sees them: NaN -> 0, clipped to [-10, 10], float32."""
-    return np.clip(np.nan_to_num(f, nan=0.0, posinf=10.0, neginf=-10.0), -10.0, 10.0).astype(np.float32)
+    """Features as the policy sees them: NaN -> 0, clipped to [-10, 10] (+-inf to +-10), float32."""
+    out = np.clip(f, -10.0, 10.0)
+    out[np.isnan(out)] = 0.0
+    return out.astype(np.float32)
+
+
+def _norm(v: np.ndarray) -> float:
+    """|v| of a 3-vector: what ``np.linalg.norm`` computes (sqrt of the dot product), without its overhead."""
+    return math.sqrt(float(v @ v))
 
 
 def corrected_plan(plan: dict, action: np.ndarray, turn_map: TurnMap, limits: ResidualLimits) -> dict:
