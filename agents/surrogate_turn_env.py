@@ -180,18 +180,18 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         self.head, self.heading = np.zeros(3), np.array([1.0, 0.0, 0.0])
         self.time_s, self.energy_j, self.cross_integral, self.buckling_events = 0.0, 0.0, 0.0, 0
         self._progress = 0.0
+        self._acc_energy, self._acc_cross, self._acc_reached, self._off_path = 0.0, 0.0, 0, False
         self._ep = PlannerEpisode()
         self._plan: dict | None = None
         self._out_of_range: str | None = None
         self._done = False
         # the planner measures a heading after one period at omega_l (RulePlanner._decide, cruise)
         first = (self.planner.period_steps + 1) * cfg.control_dt
-        reward, end = self._collect(self._fly(self.head + self.swimmer.speed_m_s * first * self.heading, first,
-                                              stop_at_waypoint=True, power_w=self.swimmer.cruise_power_w))
+        end = self._collect(self._fly(self.head + self.swimmer.speed_m_s * first * self.heading, first,
+                                      stop_at_waypoint=True, power_w=self.swimmer.cruise_power_w))
         if end is None:
-            r2, end = self._advance()
-            reward += r2
-        self._pending = (reward, end)
+            end = self._advance()
+        self._pending = (self._reward(), end)
         return self._features(), self._info()
 
     def step(self, action: Any):
@@ -202,35 +202,32 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         self._pending = (0.0, None)
         if end is None:
             a = np.clip(a, -1.0, 1.0)
-            r, end = self._turn(corrected_plan(self._plan, a, self.turn_map, self.limits))
+            end = self._turn(corrected_plan(self._plan, a, self.turn_map, self.limits))
             if end is None:
-                r2, end = self._advance()
-                r += r2
-            reward += r - self.action_cost * float(a @ a)
+                end = self._advance()
+            reward += self._reward() - self.action_cost * float(a @ a)
         terminated, truncated = end if end is not None else (False, False)
         self._done = terminated or truncated
         return self._features(), float(reward), bool(terminated), bool(truncated), self._info()
 
     # --- the planner's loop, event by event ---------------------------------------------------
-    def _advance(self) -> tuple[float, tuple[bool, bool] | None]:
-        """Cruise until the planner plans a turn (``self._plan``; returns (reward, None)) or the episode ends
-        (returns (reward, (terminated, truncated)))."""
-        cfg, pl, tr = self.config, self.planner, self.tracker
-        reward = 0.0
+    def _advance(self) -> tuple[bool, bool] | None:
+        """Cruise until the planner plans a turn (``self._plan``; returns None) or the episode ends (returns
+        (terminated, truncated))."""
+        pl, tr = self.planner, self.tracker
         while True:
             target = tr.path.waypoints[tr.index]
             pl._track_segment(self._ep, target)
             plan = pl.rule_plan(self.head, self.heading, target, self._ep, RulePlanner._line_miss)
             if plan is not None:
                 self._plan = plan
-                return reward, None
+                return None
             wait = self._cruise_until_next_check(target)
             v = self.swimmer.speed_m_s
-            r, end = self._collect(self._fly(self.head + v * wait * self.heading, wait, stop_at_waypoint=True,
-                                             power_w=self.swimmer.cruise_power_w))
-            reward += r
+            end = self._collect(self._fly(self.head + v * wait * self.heading, wait, stop_at_waypoint=True,
+                                          power_w=self.swimmer.cruise_power_w))
             if end is not None:
-                return reward, end
+                return end
 
     def _cruise_until_next_check(self, target: np.ndarray) -> float:
         """How long (s, whole control steps) to swim straight before the plan can change (module docstring, 1.)."""
@@ -276,7 +273,7 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         e1, e2 = perpendicular_basis(self.heading)
         return local_target(self.head, self.heading, e1, e2, target)
 
-    def _turn(self, plan: dict) -> tuple[float, tuple[bool, bool] | None]:
+    def _turn(self, plan: dict) -> tuple[bool, bool] | None:
         """Fly a decided turn (module docstring, 3.): hover, burst, relax; the plan is remembered as the
         planner's last turn (the next features compare against it)."""
         cfg, sw, dt = self.config, self.swimmer, self.config.control_dt
@@ -285,10 +282,10 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         omega_phase = 2.0 * math.pi / sw.period_s
         togo = (plan["burst_phase"] - omega_phase * self.time_s) % (2.0 * math.pi)
         hover = max(1, math.ceil(togo / omega_phase / dt - 1e-9)) * dt
-        reward, end = self._collect(self._fly(self.head + sw.speed_m_s * hover * self.heading, hover,
-                                              stop_at_waypoint=False, power_w=sw.cruise_power_w))
+        end = self._collect(self._fly(self.head + sw.speed_m_s * hover * self.heading, hover,
+                                      stop_at_waypoint=False, power_w=sw.cruise_power_w))
         if end is not None:
-            return reward, end
+            return end
         steps = max(1, round(plan["t_c"] / dt))
         t_c = steps * dt
         out = sw.turn(self.heading, t_c, plan["burst_phase"])
@@ -307,9 +304,9 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         # the map's displacement covers the burst and its relaxation; the planner's wait differs by a cruise
         end_point = self.head + out.displacement + sw.speed_m_s * (wait - out.relax_s) * out.heading
         energy = sw.burst_energy_j(t_c) + sw.cruise_power_w * wait
-        r, end = self._collect(self._fly(end_point, t_c + wait, stop_at_waypoint=False, energy_j=energy))
+        end = self._collect(self._fly(end_point, t_c + wait, stop_at_waypoint=False, energy_j=energy))
         self.heading = out.heading
-        return reward + r, end
+        return end
 
     # --- legs ------------------------------------------------------------------------------------
     def _fly(self, end_point: np.ndarray, duration: float, stop_at_waypoint: bool, power_w: float = 0.0,
@@ -321,24 +318,33 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         leg.energy_j = (energy_j * frac) if energy_j is not None else power_w * leg.duration_s
         return leg
 
-    def _collect(self, leg: LegResult) -> tuple[float, tuple[bool, bool] | None]:
-        """Apply a flown leg to the episode; (its reward, None or (terminated, truncated))."""
-        tr = self.tracker
+    def _collect(self, leg: LegResult) -> tuple[bool, bool] | None:
+        """Apply a flown leg to the episode (its energy, waypoints and cross-track integral wait for ``_reward``);
+        None or (terminated, truncated)."""
         self.head = leg.end
         self.time_s += leg.duration_s
         self.energy_j += leg.energy_j
         self.cross_integral += leg.cross_integral
-        progress = tr.progress(self.head)
-        terms = reward_terms(self.config.reward, progress - self._progress, 0.0, 0.0, leg.energy_j, leg.reached,
-                             off_path=leg.off_path)
-        terms["cross_track"] = -self.config.reward.cross_track_per_cm_s * leg.cross_integral / 0.01
-        self._progress = progress
-        reward = float(sum(terms[t] for t in TERMS))
-        if tr.done or leg.off_path:
-            return reward, (True, False)
+        self._acc_energy += leg.energy_j
+        self._acc_cross += leg.cross_integral
+        self._acc_reached += leg.reached
+        self._off_path = self._off_path or leg.off_path
+        if self.tracker.done or leg.off_path:
+            return True, False
         if leg.timed_out:
-            return reward, (False, True)
-        return reward, None
+            return False, True
+        return None
+
+    def _reward(self) -> float:
+        """The reward of the legs flown since the last call: ``reward_terms`` (``flagellum_env.rewards``) of the
+        progress made, int e dt (passed as e x tau with tau = 1 s), the motor energy, the waypoints reached and the
+        off-path penalty."""
+        progress = self.tracker.progress(self.head)
+        terms = reward_terms(self.config.reward, progress - self._progress, self._acc_cross, 1.0, self._acc_energy,
+                             self._acc_reached, off_path=self._off_path)
+        self._progress = progress
+        self._acc_energy, self._acc_cross, self._acc_reached = 0.0, 0.0, 0
+        return float(sum(terms[t] for t in TERMS))
 
     # --- what the agent sees ----------------------------------------------------------------
     def _features(self) -> np.ndarray:

@@ -7,7 +7,7 @@ the observations at the decisions both reached (paired by index). Each finished 
 
 Usage::
 
-    python scripts/compare_surrogate.py --seeds 0 1 2 [--randomize] [--cache results/bench/surrogate_pairs.jsonl]
+    python scripts/compare_surrogate.py --seeds 0 1 2 [--randomize [--noise 0]] [--cache results/bench/surrogate_pairs.jsonl]
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ FEATURES = ("theta/max", "t_c/10", "miss/R", "straight miss/R", "distance/0.1m",
             "azimuth error/90")
 
 
-def episode(env_id: str, seed: int, randomize: bool) -> dict:
+def episode(env_id: str, seed: int, randomize: bool | dict) -> dict:
     kwargs = {"env_kwargs": {"reward": {"cross_track_per_cm_s": 0.05}, "randomize": randomize}}
     env = gym.make(env_id, **kwargs)
     c0 = time.process_time()
@@ -43,29 +43,34 @@ def episode(env_id: str, seed: int, randomize: bool) -> dict:
     return {"env_id": env_id, "seed": seed, "randomize": randomize, "return": ret,
             "is_success": info["is_success"], "waypoints_reached": info["waypoints_reached"], "turns": info["turns"],
             "time_s": info["time_s"], "mean_cross_track_m": info["mean_cross_track_m"],
-            "observations": observations, "cpu_s": round(time.process_time() - c0, 2), "error": info.get("error")}
+            "observations": observations, "cpu_s": round(time.process_time() - c0, 2), "error": info.get("error"),
+            "end": {k: info[k] for k in ("is_success",) if k in info}}
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     ap.add_argument("--randomize", action="store_true")
+    ap.add_argument("--noise", type=float, default=None,
+                    help="with --randomize: obs_noise_std instead of the default 0.01 (0: the swimmer only)")
     ap.add_argument("--cache", type=Path, default=Path("results/bench/surrogate_pairs.jsonl"))
     args = ap.parse_args(argv)
+    randomize = ({"obs_noise_std": args.noise} if args.noise is not None else True) if args.randomize else False
+    key_r = json.dumps(randomize, sort_keys=True)
     done = {}
     if args.cache.is_file():
         for line in args.cache.read_text().splitlines():
             rec = json.loads(line)
-            done[(rec["seed"], rec["randomize"])] = rec
+            done[(rec["seed"], json.dumps(rec["randomize"], sort_keys=True))] = rec
     rows = []
     for seed in args.seeds:
-        if (seed, args.randomize) not in done:
-            rec = episode("FlagellumTurn-v0", seed, args.randomize)
+        if (seed, key_r) not in done:
+            rec = episode("FlagellumTurn-v0", seed, randomize)
             args.cache.parent.mkdir(parents=True, exist_ok=True)
             with args.cache.open("a") as f:
                 f.write(json.dumps(rec) + "\n")
-            done[(seed, args.randomize)] = rec
-        phys, sur = done[(seed, args.randomize)], episode("FlagellumTurn-surrogate-v0", seed, args.randomize)
+            done[(seed, key_r)] = rec
+        phys, sur = done[(seed, key_r)], episode("FlagellumTurn-surrogate-v0", seed, randomize)
         n = min(len(phys["observations"]), len(sur["observations"]))
         diff = np.abs(np.array(phys["observations"][:n]) - np.array(sur["observations"][:n])).mean(axis=0)
         rows.append((seed, phys, sur, diff))
