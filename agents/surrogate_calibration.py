@@ -2,8 +2,10 @@
 
 The turn map (``agents.turn_map``) holds each burst's turn and the head's displacement over it, not the
 straight-swimming speed at omega_l nor the motor work |T omega| dt that ``FlagellumSteer-v0`` charges
-(``flagellum_env.rewards``, term ``energy``). ``scripts/calibrate_surrogate.py`` measures both on the preset's
-physics (a few CPU seconds) and writes them as ``agents/turn_maps/<preset>_surrogate.json``; this module reads it.
+(``flagellum_env.rewards``, term ``energy``), nor how a randomised swimmer's turn differs from the map's.
+``scripts/calibrate_surrogate.py`` measures the first two and ``scripts/calibrate_surrogate_shift.py`` the last on
+the preset's physics (seconds of CPU each), into ``agents/turn_maps/<preset>_surrogate.json``; this module reads
+it.
 """
 
 from __future__ import annotations
@@ -30,7 +32,10 @@ class SurrogateCalibration:
     mean motor power at omega_l, W; cruise_end_to_end_ratio: L'/L while cruising (the observation's entry the turn
     features read); burst_t_s, burst_energy_j: (K,) burst length (s, from 0, increasing) and the
     cumulative motor energy of a burst that long at omega_h (J), linear in between, extrapolated at the last
-    slope beyond; omega_l_rpm, omega_h_rpm: the speeds measured at, rpm."""
+    slope beyond; omega_l_rpm, omega_h_rpm: the speeds measured at, rpm; burst_time_exponents: e_k of the burst
+    time law t_map = t_c prod(f_k^e_k) per randomised factor f_k (``youngs_modulus``, ``viscosity``,
+    ``head_radius``, ``pitch``, ``helix_radius``: the swimmer's value over the map's), from
+    ``scripts/calibrate_surrogate_shift.py``."""
 
     preset: str
     omega_l_rpm: float
@@ -40,6 +45,7 @@ class SurrogateCalibration:
     cruise_end_to_end_ratio: float
     burst_t_s: np.ndarray
     burst_energy_j: np.ndarray
+    burst_time_exponents: dict[str, float]
 
     def burst_energy(self, t_c: float) -> float:
         """Motor energy (J) of a burst of ``t_c`` s at omega_h."""
@@ -65,6 +71,7 @@ class SurrogateCalibration:
                        omega_h_rpm=float(doc["omega_h_rpm"]), cruise_speed_m_s=float(doc["cruise_speed_m_s"]),
                        cruise_power_w=float(doc["cruise_power_w"]),
                        cruise_end_to_end_ratio=float(doc["cruise_end_to_end_ratio"]), burst_t_s=burst[:, 0].copy(),
-                       burst_energy_j=burst[:, 1].copy())
+                       burst_energy_j=burst[:, 1].copy(),
+                       burst_time_exponents={str(k): float(v) for k, v in doc["burst_time_exponents"].items()})
         except (KeyError, TypeError, ValueError) as exc:
             raise ValueError(f"surrogate calibration {str(path)!r} is damaged: {exc}") from None

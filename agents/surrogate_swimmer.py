@@ -14,28 +14,29 @@ phases; psi through its unit vector, so its wrap does not matter). Below the sho
 linearly to 0 at t_c = 0; beyond the longest the map says nothing (``SurrogateTurn.in_range`` False, the longest
 burst's values are used).
 
-Another swimmer (E, mu randomised like ``FlagellumSteer-v0``, ``flagellum_env.config.draw_randomization``): the
-paper's nondimensionalisation (Sec. 2: time in units of the viscous time tau = mu L^4 / EI, motor speed
-omega_bar = omega tau) makes a swimmer of tau at omega_h the nominal swimmer (tau_0) at omega_h tau / tau_0 with
-times scaled by tau / tau_0. The map's dependence on the burst speed near omega_h is a power law: the burst length of
-a given theta on the rising branch scales as omega_h^-alpha with alpha = ``BURST_SPEED_EXPONENT`` = 2.31 (the
-faithful maps at 90 and 150 rpm, results/turn_maps/burst_90.json and agents/turn_maps/faithful.json: alpha from 2.28
-to 2.37 for theta = 10-120 deg; ``burst_speed_exponent`` recomputes it). Hence a burst of t_c s of this swimmer
-turns it as the map's burst of
+Another swimmer (E, mu, the head radius b, the helix pitch and radius randomised like ``FlagellumSteer-v0``,
+``flagellum_env.config.draw_randomization``): a parameter error moves when the flagellum buckles, so to first order
+the swimmer's burst of t_c turns it as the map's burst of another length (agents/online_turn_map.py). Measured on
+the default preset one parameter at a time at +-5 % (``scripts/calibrate_surrogate_shift.py``, a burst of 3.3 s
+read back on the map's rising branch) and written as a power law per factor f_k (swimmer's value / map's),
 
-    t_map = t_c (tau / tau_0)^(alpha - 1)                                                   (``map_time``)
+    t_map = t_c prod_k f_k^e_k,     e = E -1.24, mu +1.25, b +0.29, pitch -2.14, helix radius +2.15     (``map_time``)
 
-(a swimmer with a larger tau buckles earlier, as measured: results/online_turn_map/sensitivity.jsonl, E 5 % lower
-or mu 5 % higher turn more), and its relaxation lasts tau / tau_0 times the map's. The cruise speed and the wobble
-period are the nominal ones (set by omega_l and the geometry, not by tau); motor energies scale with mu (Stokes
-drag is linear in mu at a given motor speed). The calibrated range of tau / tau_0 is ``TAU_RATIO_RANGE``.
-The head radius and the helix geometry move the buckling time too (the sensitivity file's seed 16), which this
-model does not have: the surrogate draws them (same stream as the physics env) but they change nothing.
+(``SurrogateCalibration.burst_time_exponents``). E and mu enter as the viscous time tau = mu L^4 / EI does, and
+their exponent agrees with the paper's nondimensionalisation (Sec. 2: time in units of tau, motor speed as
+omega tau): a swimmer of tau at omega_h is the nominal one at omega_h tau / tau_0 with times scaled by tau / tau_0,
+and the faithful maps at 90 and 150 rpm give t_c(theta) ~ omega_h^-alpha with alpha = 2.28-2.37 on the rising branch
+(``burst_speed_exponent``), hence an exponent alpha - 1 = 1.31 for tau. The helix geometry weighs more: 4 % less
+pitch turns the swimmer 1.4-2.2 times as far as the map says (scripts/compare_surrogate.py, randomised pairs). The
+relaxation lasts tau / tau_0 times the map's; the cruise speed and the wobble period stay nominal; motor energies
+scale with mu (Stokes drag is linear in mu at a given motor speed). Each factor must lie within
+``FACTOR_RANGE`` (measured at +-5 %, the physics envs randomise +-10 % and +-5 %).
 """
 
 from __future__ import annotations
 
 import bisect
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -46,11 +47,12 @@ from agents.turn_geometry import perpendicular_basis
 from agents.turn_map import TurnMap
 from physics.params import SwimmerParams
 
-#: t_c(theta) ~ omega_h^-alpha near 150 rpm on the rising branch (module docstring; ``burst_speed_exponent``).
-BURST_SPEED_EXPONENT = 2.31
-#: tau / tau_0 the surrogate accepts: the power law was fit between 90 and 150 rpm (tau / tau_0 = 0.6 to 1);
-#: above 1 it extrapolates, up to the +-10 % of E and mu the physics envs randomise (tau / tau_0 up to 1.22).
-TAU_RATIO_RANGE = (0.6, 1.25)
+#: Each randomised factor (swimmer / map) the surrogate accepts: the burst time law was measured at +-5 %; the
+#: physics envs randomise E, mu and b by +-10 % and the helix by +-5 %.
+FACTOR_RANGE = (0.85, 1.15)
+#: factor name -> the ``SwimmerParams`` field it is read from (E scales G alike: ``draw_randomization``)
+FACTOR_FIELDS = {"youngs_modulus": "youngs_modulus", "viscosity": "viscosity", "head_radius": "head_radius",
+                 "pitch": "pitch", "helix_radius": "helix_radius"}
 
 
 def burst_speed_exponent(slow: TurnMap, fast: TurnMap, thetas_deg=(10.0, 20.0, 30.0, 45.0, 60.0, 90.0, 120.0)
@@ -140,19 +142,27 @@ class TurnMapTable:
 
 class SurrogateSwimmer:
     """The kinematic swimmer of one episode (module docstring). ``turn_map`` and ``calibration`` are the nominal
-    swimmer's; ``params`` this episode's swimmer (``draw_randomization``); ValueError if its tau / tau_0 lies
-    outside ``TAU_RATIO_RANGE``."""
+    swimmer's; ``params`` this episode's swimmer (``draw_randomization``); ValueError naming the value if a factor
+    lies outside ``FACTOR_RANGE`` or another parameter differs from the map's."""
 
     def __init__(self, turn_map: TurnMap, calibration: SurrogateCalibration, table: TurnMapTable,
                  params: SwimmerParams | None = None) -> None:
         self.turn_map, self.calibration, self.table = turn_map, calibration, table
         params = turn_map.params if params is None else params
+        lo, hi = FACTOR_RANGE
+        self.time_factor = 1.0
+        for name, field in FACTOR_FIELDS.items():
+            f = getattr(params, field) / getattr(turn_map.params, field)
+            if not lo <= f <= hi:
+                raise ValueError(f"swimmer with {field} = {getattr(params, field):.4g} ({f:.3g} x the map's) is outside "
+                                 f"the surrogate's calibrated range [{lo}, {hi}] x the map's")
+            self.time_factor *= f ** calibration.burst_time_exponents[name]
+        others = [f.name for f in dataclasses.fields(SwimmerParams) if f.name not in (*FACTOR_FIELDS.values(),
+                  "shear_modulus") and getattr(params, f.name) != getattr(turn_map.params, f.name)]
+        if others:
+            raise ValueError(f"swimmer differs from the map's in {others}; the surrogate is calibrated for "
+                             f"{sorted(FACTOR_FIELDS)} only")
         self.tau_ratio = params.viscous_time / turn_map.params.viscous_time
-        lo, hi = TAU_RATIO_RANGE
-        if not lo <= self.tau_ratio <= hi:
-            raise ValueError(f"swimmer with tau/tau_0 = mu L^4/EI over the map's = {self.tau_ratio:.4g} is outside "
-                             f"the surrogate's calibrated range [{lo}, {hi}]")
-        self.time_factor = self.tau_ratio ** (BURST_SPEED_EXPONENT - 1.0)
         self.mu_ratio = params.viscosity / turn_map.params.viscosity
         self.speed_m_s = calibration.cruise_speed_m_s
         self.period_s = turn_map.period_s

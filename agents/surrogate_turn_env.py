@@ -24,8 +24,7 @@ evaluated on the legs (straight lines) instead of at every control step.
 
 Calibrated range (one-line ``ValueError`` at construction): the default preset's map and swimmer (``preset``
 "faithful", no ``params`` or ``numerics`` override, ``omega_l``/``omega_h`` of the map reachable by the action),
-the rule planner, and randomisation fractions of E and mu whose extreme swimmers keep tau / tau_0 within
-``TAU_RATIO_RANGE``. A burst whose map time leaves the map's burst lengths sets ``info["out_of_range"]`` for the
+the rule planner, and randomisation fractions within ``FACTOR_RANGE`` (up to 15 %). A burst whose map time leaves the map's burst lengths sets ``info["out_of_range"]`` for the
 rest of the episode, with ``info["out_of_range_reason"]`` naming the value (and a warning once per env).
 """
 
@@ -48,7 +47,7 @@ from agents.registration import TURN_SURROGATE_ENV_ID
 from agents.residual_planner import ResidualLimits, base_planner, corrected_plan, turn_features
 from agents.surrogate_calibration import SurrogateCalibration, calibration_file
 from agents.surrogate_legs import LegResult, SegmentFrames, fly_leg
-from agents.surrogate_swimmer import TAU_RATIO_RANGE, SurrogateSwimmer, TurnMapTable
+from agents.surrogate_swimmer import FACTOR_RANGE, SurrogateSwimmer, TurnMapTable
 from agents.turn_decision_env import (DEFAULT_ACTION_COST, DEFAULT_ENV_KWARGS, DEFAULT_RANDOM_PATH, TurnEpisodes,
                                       _fixed_paths, _limits, parse_turn_action)
 from agents.candidate_miss import first_improving_distance, first_improving_sample, local_target
@@ -84,9 +83,9 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
 
     ## Arguments
 
-    ``FlagellumTurn-v0``'s. Within ``env_kwargs`` the surrogate uses ``reward``, ``randomize`` (E, mu: the turn's
-    timing; head radius, geometry: drawn, no effect; ``obs_noise_std``: no effect, the features are computed from
-    the exact state), ``reach_radius_m``, ``max_sim_time_s``, ``time_factor``, ``off_path_m``, ``control_dt``,
+    ``FlagellumTurn-v0``'s. Within ``env_kwargs`` the surrogate uses ``reward``, ``randomize`` (E, mu, the head
+    radius and the helix geometry: the turn's timing, ``agents.surrogate_swimmer``; ``obs_noise_std``: no effect,
+    the features are computed from the exact state), ``reach_radius_m``, ``max_sim_time_s``, ``time_factor``, ``off_path_m``, ``control_dt``,
     ``n_lookahead``, ``buckling_threshold``; the rest is validated as ``FlagellumSteer-v0`` validates it and has
     nothing to act on. ``render_mode`` must be None (no rod to draw). Outside the calibrated range (module
     docstring): ``ValueError`` naming the value and what is allowed.
@@ -392,11 +391,10 @@ def _check_calibrated(cfg, tmap: TurnMap, calibration: SurrogateCalibration) -> 
                          "allowed: 'flat'")
     r = cfg.randomize
     if r is not None:
-        lo, hi = TAU_RATIO_RANGE
-        # tau = mu L^4 / EI: its extremes under the drawn factors
-        extremes = ((1.0 - r.viscosity) / (1.0 + r.youngs_modulus), (1.0 + r.viscosity) / (1.0 - r.youngs_modulus))
-        if extremes[0] < lo or extremes[1] > hi:
-            raise ValueError(f"randomize youngs_modulus={r.youngs_modulus:g}, viscosity={r.viscosity:g} draw "
-                             f"swimmers with tau/tau_0 from {extremes[0]:.3g} to {extremes[1]:.3g}, outside the "
-                             f"surrogate's calibrated range [{lo}, {hi}]; allowed: fractions keeping it inside "
-                             "(e.g. 0.1 each)")
+        lo, hi = FACTOR_RANGE
+        for name in ("youngs_modulus", "viscosity", "head_radius", "geometry"):
+            f = getattr(r, name)
+            if not (lo <= 1.0 - f and 1.0 + f <= hi):
+                raise ValueError(f"randomize {name}={f:g} draws factors from {1 - f:.3g} to {1 + f:.3g}, outside the "
+                                 f"surrogate's calibrated range [{lo}, {hi}]; allowed: fractions up to "
+                                 f"{min(1 - lo, hi - 1):.2g}")
