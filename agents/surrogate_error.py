@@ -23,7 +23,8 @@ from agents.turn_map import TurnMap
 
 def leave_one_out_theta(turn_map: TurnMap, calibration: SurrogateCalibration) -> list[dict]:
     """One row per burst length of the map: ``t_c`` (s), ``extrapolated`` (the first or last), ``on_rising_branch``
-    (t_c below the branch's peak), ``peak`` (the peak itself: dropped, it is read across the peak), ``errors_deg`` (predicted - measured theta per measured phase) and ``mean_abs_deg``,
+    (t_c below the branch's peak), ``peak`` (the peak itself: dropped, it is read across the peak), ``errors_deg``
+    (predicted - measured theta per measured phase) and ``mean_abs_deg``,
     ``max_abs_deg``."""
     tcs = turn_map.t_c_values()
     peak = turn_map.rising_branch()[0][-1]

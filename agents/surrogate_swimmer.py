@@ -154,8 +154,8 @@ class SurrogateSwimmer:
         for name, field in FACTOR_FIELDS.items():
             f = getattr(params, field) / getattr(turn_map.params, field)
             if not lo <= f <= hi:
-                raise ValueError(f"swimmer with {field} = {getattr(params, field):.4g} ({f:.3g} x the map's) is outside "
-                                 f"the surrogate's calibrated range [{lo}, {hi}] x the map's")
+                raise ValueError(f"swimmer with {field} = {getattr(params, field):.4g} ({f:.3g} x the map's) is "
+                                 f"outside the surrogate's calibrated range [{lo}, {hi}] x the map's")
             self.time_factor *= f ** calibration.burst_time_exponents[name]
         others = [f.name for f in dataclasses.fields(SwimmerParams) if f.name not in (*FACTOR_FIELDS.values(),
                   "shear_modulus") and getattr(params, f.name) != getattr(turn_map.params, f.name)]

@@ -24,7 +24,8 @@ evaluated on the legs (straight lines) instead of at every control step.
 
 Calibrated range (one-line ``ValueError`` at construction): the default preset's map and swimmer (``preset``
 "faithful", no ``params`` or ``numerics`` override, ``omega_l``/``omega_h`` of the map reachable by the action),
-the rule planner, and randomisation fractions within ``FACTOR_RANGE`` (up to 15 %). A burst whose map time leaves the map's burst lengths sets ``info["out_of_range"]`` for the
+the rule planner, and randomisation fractions within ``FACTOR_RANGE`` (up to 15 %). A burst whose map time
+leaves the map's burst lengths sets ``info["out_of_range"]`` for the
 rest of the episode, with ``info["out_of_range_reason"]`` naming the value (and a warning once per env).
 """
 
@@ -55,7 +56,6 @@ from agents.turn_geometry import perpendicular_basis
 from agents.turn_map import TurnMap
 from agents.turn_planner import BEHIND_PENALTY_M, PlannerEpisode, RulePlanner
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M, draw_randomization, make_config
-from flagellum_env.paths import WaypointPath
 from flagellum_env.rewards import TERMS, reward_terms
 from flagellum_env.tracking import PathTracker
 from physics.presets import DEFAULT_PRESET
@@ -85,7 +85,8 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
 
     ``FlagellumTurn-v0``'s. Within ``env_kwargs`` the surrogate uses ``reward``, ``randomize`` (E, mu, the head
     radius and the helix geometry: the turn's timing, ``agents.surrogate_swimmer``; ``obs_noise_std``: no effect,
-    the features are computed from the exact state), ``reach_radius_m``, ``max_sim_time_s``, ``time_factor``, ``off_path_m``, ``control_dt``,
+    the features are computed from the exact state), ``reach_radius_m``, ``max_sim_time_s``, ``time_factor``,
+    ``off_path_m``, ``control_dt``,
     ``n_lookahead``, ``buckling_threshold``; the rest is validated as ``FlagellumSteer-v0`` validates it and has
     nothing to act on. ``render_mode`` must be None (no rod to draw). Outside the calibrated range (module
     docstring): ``ValueError`` naming the value and what is allowed.

@@ -124,7 +124,8 @@ def faithful_turns(k: int, cache: Path) -> list[dict]:
     out = []
     for t_c, phase in HELD_OUT[:k]:
         rec = dict(done[(t_c, phase)])
-        rec["surrogate_theta_deg"] = math.degrees(sw.turn(np.array([1.0, 0.0, 0.0]), t_c, math.radians(phase)).theta_rad)
+        turn = sw.turn(np.array([1.0, 0.0, 0.0]), t_c, math.radians(phase))
+        rec["surrogate_theta_deg"] = math.degrees(turn.theta_rad)
         rec["error_deg"] = rec["surrogate_theta_deg"] - rec["theta_deg"]
         out.append(rec)
     return out
@@ -146,7 +147,8 @@ def main(argv: list[str] | None = None) -> int:
     load1 = load_average()
     print(f"\n{ID} through gym.make, one process, CPU time (time.process_time), median of {args.repeats} x "
           f"{args.decisions} decisions (resets included)\n")
-    print("| swimmer | policy | decisions per CPU s (median) | range | per wall s | us per decision | decisions per episode |")
+    print("| swimmer | policy | decisions per CPU s (median) | range | per wall s | us per decision | "
+          "decisions per episode |")
     print("|---|---|---:|---|---:|---:|---:|")
     for r in rows:
         print(f"| {r['swimmer']} | {r['policy']} | {r['median_per_cpu_s']:,.0f} | {r['min_per_cpu_s']:,.0f}-"

@@ -7,7 +7,8 @@ the observations at the decisions both reached (paired by index). Each finished 
 
 Usage::
 
-    python scripts/compare_surrogate.py --seeds 0 1 2 [--randomize [--noise 0]] [--cache results/bench/surrogate_pairs.jsonl]
+    python scripts/compare_surrogate.py --seeds 0 1 2 [--randomize [--noise 0]]
+                                        [--cache results/bench/surrogate_pairs.jsonl]
 """
 
 from __future__ import annotations
