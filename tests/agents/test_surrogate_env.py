@@ -72,6 +72,14 @@ def test_gymnasium_env_checker_passes():
         check_env(env, skip_render_check=True)
 
 
+def test_stable_baselines3_env_checker_passes():
+    sb3_env_checker = pytest.importorskip("stable_baselines3.common.env_checker")
+    env = gym.make(ID)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sb3_env_checker.check_env(env, warn=True)
+
+
 def test_a_seed_fixes_the_episode_and_another_seed_changes_it():
     kw = {"env_kwargs": {"randomize": True, "reward": {"cross_track_per_cm_s": 0.05}}}
     actions = [np.array([0.5, -0.3], np.float32), np.array([-1.0, 1.0], np.float32)]
