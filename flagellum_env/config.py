@@ -245,11 +245,6 @@ def _sub_config(value: Any, cls: type, name: str) -> Any:
     raise ValueError(f"{name}={value!r} must be a {cls.__name__}, a dict of its fields or None")
 
 
-def randomization(value: Any) -> RandomizationConfig | None:
-    """The ``randomize`` argument as a ``RandomizationConfig`` (None for False/None); ValueError naming a bad one."""
-    return _randomization(value)
-
-
 def _randomization(value: Any) -> RandomizationConfig | None:
     if value is None or value is False:
         return None
