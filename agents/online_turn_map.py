@@ -61,8 +61,9 @@ class OnlineMapConfig:
     clip((theta - ``flip_turn_from_deg``) / ``flip_turn_span_deg``, 0, 1), combined with the swimmer's own (below).
     Measured on 30 randomised swimmers (E, mu, b +-10 %, helix +-4 %; ``scripts/turn_shift_sensitivity.py``,
     ``results/online_turn_map/``) with bursts of 3.25 / 3.5 / 3.625 s (the map's 55 / 85 / 117 deg): 3 / 9 / 13
-    of 31 turns came out more than 45 deg off the map's azimuth, nearly all of them 145-179 deg off (a flip), the
-    rest within 14 deg rms; only the largest (150-169 deg) went anywhere (49-89 deg off). Direction readings come
+    of 31 turns came out more than 45 deg off the map's azimuth, 3 / 4 / 10 of them 137-179 deg off (a flip), the
+    others turns of 150-169 deg (49-105 deg off) or of 7-33 deg (ill-defined); the rest within 9-14 deg rms
+    (docs/planner.md). Direction readings come
     only from turns planned up to ``psi_max_theta_deg`` (a larger turn may have flipped by its size, which says
     nothing of smaller ones). Once
     ``lift_after_turns`` turns in a row confirmed the corrected map (a turn of at least
