@@ -343,8 +343,7 @@ def expected_misses(head: np.ndarray, d: np.ndarray, target: np.ndarray, out, be
     """Expected miss (m) of every candidate turn (T,) at every flagellum phase ``beta`` (B,) rad: (T, B).
 
     Each candidate's outcomes (``OnlineTurnMap.outcomes``: K timing points, each with direction errors
-    -- three Gauss-Hermite points of its normal part, the same three about the other lobe (psi + pi, with the
-    chance that the swimmer buckles that way) and ``uniform_nodes`` evenly spread ones for the
+    -- three Gauss-Hermite points of its normal part and ``uniform_nodes`` evenly spread ones for the
     chance that the direction is anything) are predicted as the rule planner predicts one turn -- the
     head moves by the map's displacement, then swims along the new heading -- and scored by
     ``line_miss`` against ``target``; a head position (after the turn, and after its forward travel)
@@ -353,12 +352,10 @@ def expected_misses(head: np.ndarray, d: np.ndarray, target: np.ndarray, out, be
     nodes, w = GAUSS_HERMITE_3
     uniform = 2.0 * np.pi * np.arange(uniform_nodes) / uniform_nodes
     q = out.direction_anything[..., None]                                                   # (T, K, 1)
-    flip = out.direction_flip[..., None]                                                    # (T, K, 1)
-    normal = nodes * out.direction_std[..., None]                                           # (T, K, 3)
-    dpsi = np.concatenate([normal, normal + np.pi,
+    dpsi = np.concatenate([nodes * out.direction_std[..., None],
                            np.broadcast_to(uniform, out.direction_std.shape + (uniform_nodes,))], axis=-1)
-    wj = np.concatenate([(1.0 - q) * (1.0 - flip) * w, (1.0 - q) * flip * w,
-                         np.broadcast_to(q / uniform_nodes, q.shape[:2] + (uniform_nodes,))], axis=-1)  # (T, K, J)
+    wj = np.concatenate([(1.0 - q) * w, np.broadcast_to(q / uniform_nodes, q.shape[:2] + (uniform_nodes,))],
+                        axis=-1)                                                            # (T, K, J)
     e1, e2 = perpendicular_basis(d)
     az = beta + (out.psi[..., None] + dpsi)[..., None]                                      # (T, K, J, B)
     across = np.cos(az)[..., None] * e1 + np.sin(az)[..., None] * e2

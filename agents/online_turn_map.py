@@ -54,18 +54,11 @@ class OnlineMapConfig:
     ratio clock read -3.8 s on a development swimmer within +-10 %).
 
     The direction of a turn (``OnlineTurnMap.outcomes``): its azimuth error is normal with the
-    standard deviation ``direction_std_deg`` about the map's azimuth, or, with the probability of a flip, about
-    the other lobe's (azimuth + 180 deg: the flagellum buckles to the other side); for turns beyond
-    ``large_turn_deg`` it is, with a probability rising linearly from 0 to 1 over the next
-    ``large_turn_ramp_deg``, anything (uniform). The flip's probability for a turn of theta is
-    clip((theta - ``flip_turn_from_deg``) / ``flip_turn_span_deg``, 0, 1), combined with the swimmer's own (below).
-    Measured on 30 randomised swimmers (E, mu, b +-10 %, helix +-4 %; ``scripts/turn_shift_sensitivity.py``,
-    ``results/online_turn_map/``) with bursts of 3.25 / 3.5 / 3.625 s (the map's 55 / 85 / 117 deg): 3 / 9 / 13
-    of 31 turns came out more than 45 deg off the map's azimuth, 3 / 4 / 10 of them 137-179 deg off (a flip), the
-    others turns of 150-169 deg (49-105 deg off) or of 7-33 deg (ill-defined); the rest within 9-14 deg rms
-    (docs/planner.md). Direction readings come
-    only from turns planned up to ``psi_max_theta_deg`` (a larger turn may have flipped by its size, which says
-    nothing of smaller ones). Once
+    standard deviation ``direction_std_deg`` for turns up to ``large_turn_deg``, and with a
+    probability rising linearly from 0 to 1 over the next ``large_turn_ramp_deg`` it is anything
+    (uniform): across 31 randomised swimmers (``results/online_turn_map/``) the direction of turns up
+    to ~80 deg stayed within ~35 deg of the map's (one 72 deg), while every turn of 94 deg or more came
+    out 35-180 deg off; on development swimmers turns of 114-136 deg came out 128-170 deg off. Once
     ``lift_after_turns`` turns in a row confirmed the corrected map (a turn of at least
     ``psi_min_theta_deg`` planned that turned within ``confirm_theta_deg`` + ``confirm_theta_fraction``
     x the planned angle, its new heading within ``confirm_azimuth_deg`` of the predicted azimuth),
@@ -97,33 +90,25 @@ class OnlineMapConfig:
     (relative change of the steady strain L'/L - 1) + rate_shift_s x (relative change of the
     flagellum's lab rotation rate), both at omega_l; cruise_residual_std_s: what the fit leaves
     unexplained (leave-one-out rms); min_cruise_samples: fewer samples give no reading. Fitted
-    across 30 randomised swimmers of the faithful preset (E, mu, b within +-10 %, helix within
-    +-4 %; a burst of 3.25 s at 150 rpm, mid rising branch) by ``scripts/turn_shift_sensitivity.py --fit``
-    (``results/online_turn_map/``): the shift's rms over them is 0.28 s (prior_shift_std_s); after the cruise
-    reading 0.19 s (0.21 s leave-one-out).
-
-    A flipped lobe (``flip_strain_lo``, ``flip_strain_hi``): across those 30 swimmers the turn's azimuth stayed
-    within 25 deg of the map's for every swimmer whose cruise strain was up to 13.3 % above the map swimmer's,
-    and came out 148-174 deg off (the flagellum buckled to the other side) for the three at 13.9-23.3 % above;
-    on development paths a swimmer at +7.7 % flipped too. So before any turn has shown the swimmer's direction,
-    its turns go the other way (azimuth + 180 deg) with a probability rising linearly from 0 at a relative
-    strain change of ``flip_strain_lo`` to 1 at ``flip_strain_hi`` (``OnlineTurnMap.flip_probability``); a
-    direction reading (a turn of at least ``psi_min_theta_deg``) settles it.
+    across 31 randomised swimmers of the faithful preset (E, mu, b within +-10 %, helix within
+    +-4 %) by ``scripts/turn_shift_sensitivity.py --fit`` (``results/online_turn_map/``, the rows without
+    ``head_rotation``: the torque-free swimmer, whose rising branch ran to 8.2 s): the shift's rms over them is
+    1.1 s (prior_shift_std_s); after the cruise reading 0.49 s (0.55 s leave-one-out). On the default swimmer
+    (head held) the same fit gives 0.28 s, 2.06 s, 20.4 s and 0.21 s, and its turns flip to the other lobe
+    (docs/planner.md); the planner refitted to those numbers, with a flip in its direction model, lost paths
+    on fresh development swimmers at +-10 % (23 against 26 of 32, none gained), so these defaults stay.
     """
 
-    prior_shift_std_s: float = 0.28
-    strain_shift_s: float = 2.06
-    rate_shift_s: float = 20.4
-    cruise_residual_std_s: float = 0.21
+    prior_shift_std_s: float = 1.1
+    strain_shift_s: float = 7.64
+    rate_shift_s: float = 7.27
+    cruise_residual_std_s: float = 0.55
     min_cruise_samples: int = 20
     theta_noise_deg: float = 4.0
     theta_noise_fraction: float = 0.1
     direction_std_deg: float = 20.0
-    large_turn_deg: float = 130.0
-    large_turn_ramp_deg: float = 30.0
-    flip_turn_from_deg: float = 45.0
-    flip_turn_span_deg: float = 170.0
-    psi_max_theta_deg: float = 70.0
+    large_turn_deg: float = 80.0
+    large_turn_ramp_deg: float = 20.0
     confirmed_direction_std_deg: float = 10.0
     confirmed_margin_deg: float = 20.0
     lift_after_turns: int = 2
@@ -140,8 +125,6 @@ class OnlineMapConfig:
     prior_bias_std_s: float = 0.3
     burst_max_sigmas: float = 2.5
     cruise_match_tol: float = 0.01
-    flip_strain_lo: float = 0.06
-    flip_strain_hi: float = 0.14
 
     def __post_init__(self) -> None:
         if not isinstance(self.fly_by_ratio, bool):
@@ -149,16 +132,14 @@ class OnlineMapConfig:
         require_finite("OnlineMapConfig.ratio_valid", self.ratio_valid, 0.0, 1.0, lo_open=True)
         for name in ("prior_shift_std_s", "theta_noise_deg", "max_shift_s", "cruise_residual_std_s",
                      "ratio_shift_std_s", "prior_bias_std_s", "burst_max_sigmas", "direction_std_deg",
-                     "large_turn_ramp_deg", "flip_turn_span_deg", "psi_max_theta_deg", "confirmed_direction_std_deg", "clock_slope_per_s"):
+                     "large_turn_ramp_deg", "confirmed_direction_std_deg", "clock_slope_per_s"):
             require_finite(f"OnlineMapConfig.{name}", getattr(self, name), 0.0, lo_open=True)
-        for name in ("theta_noise_fraction", "large_turn_deg", "flip_turn_from_deg", "min_theta_deg", "psi_min_theta_deg", "min_cruise_samples",
+        for name in ("theta_noise_fraction", "large_turn_deg", "min_theta_deg", "psi_min_theta_deg", "min_cruise_samples",
                      "lift_after_turns", "confirm_theta_deg", "confirm_theta_fraction", "confirm_azimuth_deg",
                      "confirmed_margin_deg", "cruise_match_tol"):
             require_finite(f"OnlineMapConfig.{name}", getattr(self, name), 0.0)
         for name in ("strain_shift_s", "rate_shift_s"):
             require_finite(f"OnlineMapConfig.{name}", getattr(self, name))
-        require_finite("OnlineMapConfig.flip_strain_lo", self.flip_strain_lo)
-        require_finite("OnlineMapConfig.flip_strain_hi", self.flip_strain_hi, self.flip_strain_lo, lo_open=True)
 
 
 def shift_reading(t_branch: np.ndarray, theta_branch: np.ndarray, t_c: float, theta_obs_deg: float,
@@ -222,8 +203,7 @@ class TurnOutcomes:
     planned map time; theta (T, K) rad, psi (T, K) rad (the direction offset applied), offset (T, K, 3) m
     (the map's head displacement: along the heading, the phase node's direction, their cross product)
     at the sigma points of the timing; direction_std (T, K) rad: spread of each point's azimuth (its normal
-    part), direction_anything (T, K): the probability that the azimuth is anything instead; direction_flip
-    (T, K): the probability that its normal part is about psi + pi instead of psi (the other lobe);
+    part), direction_anything (T, K): the probability that the azimuth is anything instead;
     weights (K,): of the timing's sigma points (the direction's normal part uses the same rule,
     ``GAUSS_HERMITE_3``).
     """
@@ -235,7 +215,6 @@ class TurnOutcomes:
     offset: np.ndarray
     direction_std: np.ndarray
     direction_anything: np.ndarray
-    direction_flip: np.ndarray
     weights: np.ndarray
 
 
@@ -266,7 +245,6 @@ class OnlineTurnMap:
         self.confirmed = 0  # turns in a row that confirmed the corrected map (``OnlineMapConfig``)
         self.confirmed_upto_deg = 0.0  # the largest of them, deg
         self.follows_model = False  # the cruise matched the map's swimmer and no turn has contradicted the map since
-        self.flip_probability = 0.0  # that turns go to the other lobe (OnlineMapConfig.flip_strain_lo/hi)
         self.readings: list[dict] = []
 
     @property
@@ -375,12 +353,9 @@ class OnlineTurnMap:
         self._combine(reading, std)
         matched = 0.0 < cfg.cruise_match_tol and max(abs(d_strain), abs(d_rate)) <= cfg.cruise_match_tol
         self.follows_model = matched  # the swimmer cruises like the map's (OnlineMapConfig)
-        if not self._psi_weight:  # no turn has shown the direction yet
-            self.flip_probability = float(np.clip((d_strain - cfg.flip_strain_lo)
-                                                  / (cfg.flip_strain_hi - cfg.flip_strain_lo), 0.0, 1.0))
         rec = {"strain_relative_change": d_strain, "rate_relative_change": d_rate, "shift_reading_s": reading,
                "shift_reading_std_s": std, "shift_s": self.shift_s, "shift_std_s": self.shift_std_s,
-               "cruise_matched": matched, "flip_probability": self.flip_probability}
+               "cruise_matched": matched}
         self.readings.append(rec)
         return rec
 
@@ -424,15 +399,12 @@ class OnlineTurnMap:
                 s, std = reading
                 self._combine(s, std)
                 rec.update(shift_reading_s=s, shift_reading_std_s=std)
-        size = theta_obs_deg if planned_theta_deg is None else max(theta_obs_deg, planned_theta_deg)
-        if (azimuth_error_rad is not None and theta_obs_deg >= self.config.psi_min_theta_deg
-                and size <= self.config.psi_max_theta_deg):
+        if azimuth_error_rad is not None and theta_obs_deg >= self.config.psi_min_theta_deg:
             # the reading is the total offset: the one already applied plus the error seen
             total = wrap_angle(self.psi_offset_rad + float(azimuth_error_rad))
             wt = math.sin(math.radians(min(theta_obs_deg, 90.0)))
             self._psi_sum += wt * complex(math.cos(total), math.sin(total))
             self._psi_weight += wt
-            self.flip_probability = 0.0  # the offset now holds whichever lobe the swimmer buckles to
             rec["psi_reading_deg"] = math.degrees(total)
         rec.update(shift_s=self.shift_s, shift_std_s=self.shift_std_s, bias_s=self.bias_s, bias_std_s=self.bias_std_s,
                    psi_offset_deg=math.degrees(self.psi_offset_rad), confirmed=self.confirmed)
@@ -445,22 +417,16 @@ class OnlineTurnMap:
         bias's (the ratio already absorbs the shift), else the shift's."""
         return self.bias_std_s if (self.config.fly_by_ratio and self._ratio is not None) else self.shift_std_s
 
-    def direction_spread(self, theta_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def direction_spread(self, theta_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """How the azimuth of turns of ``theta_rad`` (rad, any shape) may err (``OnlineMapConfig``): (standard
-        deviation rad of its normal part, probability that it is anything instead, probability that its normal
-        part is about the other lobe, psi + pi), each of that shape. A confirmed map (``map_confirmed``) moves the
-        start of both ramps to ``confirmed_margin_deg`` beyond the largest confirming turn."""
+        deviation rad of its normal part, probability that it is anything instead), each of that shape."""
         cfg = self.config
         shape = np.shape(theta_rad)
-        std, start, flip_from = cfg.direction_std_deg, cfg.large_turn_deg, cfg.flip_turn_from_deg
+        std, start = cfg.direction_std_deg, cfg.large_turn_deg
         if self.map_confirmed:
-            beyond = self.confirmed_upto_deg + cfg.confirmed_margin_deg
-            std, start, flip_from = cfg.confirmed_direction_std_deg, max(start, beyond), max(flip_from, beyond)
-        deg = np.degrees(theta_rad)
-        anything = np.clip((deg - start) / cfg.large_turn_ramp_deg, 0.0, 1.0)
-        by_size = np.clip((deg - flip_from) / cfg.flip_turn_span_deg, 0.0, 1.0)
-        flip = 1.0 - (1.0 - self.flip_probability) * (1.0 - by_size)
-        return np.full(shape, math.radians(std)), anything, flip
+            std, start = cfg.confirmed_direction_std_deg, max(start, self.confirmed_upto_deg + cfg.confirmed_margin_deg)
+        anything = np.clip((np.degrees(theta_rad) - start) / cfg.large_turn_ramp_deg, 0.0, 1.0)
+        return np.full(shape, math.radians(std)), anything
 
     def outcomes(self, control_dt: float, max_theta_rad: float = math.inf) -> TurnOutcomes:
         """The turns the planner may choose now and, for each, sigma points of their outcome
@@ -479,9 +445,9 @@ class OnlineTurnMap:
         theta = np.interp(at, t_full, th_full)
         psi = np.interp(at, t_psi, psi_full) + self.psi_offset_rad
         offset = np.stack([np.interp(at, t_psi, off_full[:, k]) for k in range(3)], axis=-1)
-        std, anything, flip = self.direction_spread(theta)
+        std, anything = self.direction_spread(theta)
         return TurnOutcomes(t_fly=t_map - self.shift_s, map_t=t_map, theta=theta, psi=psi, offset=offset,
-                            direction_std=std, direction_anything=anything, direction_flip=flip, weights=weights)
+                            direction_std=std, direction_anything=anything, weights=weights)
 
     def turn_at(self, map_t: float) -> tuple[float, float]:
         """The map's turn at map time ``map_t`` (s): (theta rad, psi rad with the direction offset)."""

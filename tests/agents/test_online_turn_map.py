@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
-
 import math
 from pathlib import Path
 
@@ -109,8 +107,7 @@ def test_flying_by_ratio_the_timing_spread_is_the_bias(faithful_map):
     om = OnlineTurnMap(faithful_map)
     om.shift_var, om.bias_var = 0.9 ** 2, 0.2 ** 2
     assert om.timing_std_s == pytest.approx(0.2)
-    no_ratio = OnlineMapConfig(fly_by_ratio=False)
-    assert OnlineTurnMap(faithful_map, no_ratio).timing_std_s == pytest.approx(no_ratio.prior_shift_std_s)
+    assert OnlineTurnMap(faithful_map, OnlineMapConfig(fly_by_ratio=False)).timing_std_s == pytest.approx(1.1)
 
 
 def test_config_is_validated():
@@ -159,43 +156,6 @@ def test_cruise_reading_moves_the_prior_and_noisy_readings_weigh_less(faithful_m
     assert OnlineTurnMap(faithful_map, cfg).observe_cruise(few, ref) is None  # too few samples
 
 
-@pytest.mark.parametrize("strain_change, p", [(-0.2, 0.0), (0.05, 0.0), (0.06, 0.0), (0.10, 0.5), (0.14, 1.0),
-                                              (0.3, 1.0)])
-def test_a_stretched_swimmer_may_buckle_to_the_other_lobe_until_a_turn_shows_its_direction(faithful_map, strain_change,
-                                                                                         p):
-    ref = _cruise(4.6e-3, -0.667)
-    om = OnlineTurnMap(faithful_map)
-    rec = om.observe_cruise(_cruise(4.6e-3 * (1.0 + strain_change), -0.667), ref)
-    assert rec["flip_probability"] == pytest.approx(p, abs=1e-12) and om.flip_probability == rec["flip_probability"]
-    cfg = om.config
-    out = om.outcomes(0.1)
-    by_size = np.clip((np.degrees(out.theta) - cfg.flip_turn_from_deg) / cfg.flip_turn_span_deg, 0.0, 1.0)
-    np.testing.assert_allclose(out.direction_flip, 1.0 - (1.0 - p) * (1.0 - by_size), atol=1e-12)
-    om.observe(3.25, 55.0, math.radians(170.0))  # a turn that went to the other side: the offset takes it
-    assert om.flip_probability == 0.0 and abs(math.degrees(om.psi_offset_rad)) > 90.0
-    after = om.outcomes(0.1)  # the turns' own risk stays
-    np.testing.assert_allclose(after.direction_flip, np.clip((np.degrees(after.theta) - cfg.flip_turn_from_deg)
-                                                             / cfg.flip_turn_span_deg, 0.0, 1.0), atol=1e-12)
-    om.reset()
-    assert om.flip_probability == 0.0
-
-
-def test_large_turns_flip_more_often_and_give_no_direction_reading(faithful_map):
-    cfg = OnlineMapConfig(flip_turn_from_deg=45.0, flip_turn_span_deg=170.0, psi_max_theta_deg=70.0)
-    om = OnlineTurnMap(faithful_map, cfg)
-    _, _, flip = om.direction_spread(np.radians([30.0, 45.0, 130.0, 300.0]))
-    np.testing.assert_allclose(flip, [0.0, 0.0, 0.5, 1.0], atol=1e-12)
-    rec = om.observe(3.6, 110.0, math.radians(175.0), planned_theta_deg=112.0)  # flipped by its size: no reading
-    assert "psi_reading_deg" not in rec and om.psi_offset_rad == 0.0
-    rec = om.observe(3.3, 60.0, math.radians(-12.0), planned_theta_deg=62.0)
-    assert rec["psi_reading_deg"] == pytest.approx(-12.0)
-
-
-def test_the_flip_ramp_must_rise():
-    with pytest.raises(ValueError, match="flip_strain_hi"):
-        OnlineMapConfig(flip_strain_lo=0.1, flip_strain_hi=0.1)
-
-
 def test_adaptive_planner_reads_the_nominal_swimmer_as_nominal_and_learns_from_its_turns():
     from agents.path_following import make_controller, run_episode
     from flagellum_env.paths import path_from_waypoints
@@ -222,11 +182,10 @@ def test_adaptive_planner_reads_the_nominal_swimmer_as_nominal_and_learns_from_i
 
 
 def test_direction_spread_grows_with_the_turn_until_turns_confirm_the_map(faithful_map):
-    om = OnlineTurnMap(faithful_map, OnlineMapConfig(lift_after_turns=2, fly_by_ratio=False, large_turn_deg=80.0,
-                                                     large_turn_ramp_deg=20.0, psi_max_theta_deg=180.0))
+    om = OnlineTurnMap(faithful_map, OnlineMapConfig(lift_after_turns=2, fly_by_ratio=False))
 
     def spread(theta_deg: float) -> tuple[float, float]:
-        std, anything, _ = om.direction_spread(np.radians(theta_deg))
+        std, anything = om.direction_spread(np.radians(theta_deg))
         return round(math.degrees(float(std)), 9), round(float(anything), 9)
 
     assert spread(30.0) == spread(80.0) == (20.0, 0.0)
@@ -333,9 +292,7 @@ def test_turn_flown_by_ratio_reads_shift_from_ratio_and_bias_from_angle(faithful
     rec = om.observe(6.0, float(np.interp(6.7, t_b, th_b)), None, ratio_end=om.ratio_for(6.5))
     assert rec["shift_reading_s"] == pytest.approx(0.5, abs=1e-6)
     assert rec["bias_reading_s"] == pytest.approx(0.2, abs=1e-6)
-    cfg = om.config  # the prior and the ratio reading combined by their weights
-    w0, w = cfg.prior_shift_std_s ** -2, cfg.ratio_shift_std_s ** -2
-    assert om.shift_s == pytest.approx(0.5 * w / (w0 + w), rel=1e-6) and 0.0 < om.bias_s < 0.2
+    assert 0.4 < om.shift_s < 0.5 and 0.0 < om.bias_s < 0.2
     # the clock read during the burst instead of at its end: the same readings
     clocked = OnlineTurnMap(faithful_map).observe(6.0, float(np.interp(6.7, t_b, th_b)), None, ratio_end=0.47,
                                                   clock_shift_s=0.5)
@@ -436,15 +393,14 @@ def test_large_turns_only_where_any_direction_will_do(faithful_map):
     behind = p._plan_turn(np.zeros(3), D, np.array([-0.15, 0.0, 0.0]), NODE, ep)
     p, ep = _planner(faithful_map)
     abeam = p._plan_turn(np.zeros(3), D, np.array([0.0, 0.15, 0.0]), NODE, ep)
-    # straight behind, a turn near the branch's peak points back whatever its direction; abeam, about the
-    # quarter turn the target asks for, at the risk that a turn that large flips (OnlineMapConfig)
-    assert behind["theta_deg"] > 120.0 and 40.0 < abeam["theta_deg"] <= 95.0
-    # once turns up to 90 deg confirmed the map (direction spread 10 deg, no flip below 110 deg) and the timing is
-    # known, the same turn is expected to miss by less
+    # straight behind, a turn near the branch's peak points back whatever its direction; abeam, a turn
+    # beyond ~80 deg (whose direction is not predictable before turns confirm the map) loses
+    assert behind["theta_deg"] > 120.0 and 40.0 < abeam["theta_deg"] <= 85.0
+    # once turns confirmed the map (direction spread 10 deg) and the timing is known, abeam takes the full turn
     p, ep = _planner(faithful_map)
-    ep.online.confirmed, ep.online.confirmed_upto_deg, ep.online.bias_var = 2, 90.0, 0.02 ** 2
+    ep.online.confirmed, ep.online.bias_var = 2, 0.02 ** 2
     full = p._plan_turn(np.zeros(3), D, np.array([0.0, 0.15, 0.0]), NODE, ep)
-    assert full["theta_deg"] >= abeam["theta_deg"] and full["predicted_miss_m"] < 0.5 * abeam["predicted_miss_m"]
+    assert full["theta_deg"] > abeam["theta_deg"] + 5.0 and full["predicted_miss_m"] < abeam["predicted_miss_m"]
 
 
 def test_expected_miss_without_spread_is_the_rule_planners_miss(faithful_map):
@@ -457,7 +413,7 @@ def test_expected_miss_without_spread_is_the_rule_planners_miss(faithful_map):
     om.bias_var = 1e-12
     out = om.outcomes(0.1)
     sharp = TurnOutcomes(out.t_fly, out.map_t, out.theta, out.psi, out.offset, np.zeros_like(out.direction_std),
-                         np.zeros_like(out.direction_anything), np.zeros_like(out.direction_flip), out.weights)
+                         np.zeros_like(out.direction_anything), out.weights)
     beta = np.radians(np.arange(0.0, 360.0, 5.0))
     target = np.array([0.05, 0.1, 0.02])
     score = expected_misses(np.zeros(3), D, target, sharp, beta, graded_line_miss, None, 0.06, 0.085)
@@ -474,18 +430,6 @@ def test_expected_miss_without_spread_is_the_rule_planners_miss(faithful_map):
     far = expected_misses(np.zeros(3), D, target, sharp, beta, graded_line_miss,
                           (np.array([0.0, 0.5, 0.0]), np.array([0.1, 0.5, 0.0])), 0.06, 0.085)
     assert np.all(far >= score + 0.5)
-    # a certain flip (the other lobe) is the rule planner's miss with the azimuth turned by pi
-    flipped = dataclasses.replace(sharp, direction_flip=np.ones_like(out.direction_flip))
-    other = dataclasses.replace(sharp, psi=out.psi + np.pi)
-    np.testing.assert_allclose(expected_misses(np.zeros(3), D, target, flipped, beta, graded_line_miss, None, 0.06,
-                                               0.085),
-                               expected_misses(np.zeros(3), D, target, other, beta, graded_line_miss, None, 0.06,
-                                               0.085), atol=1e-12)
-    half = dataclasses.replace(sharp, direction_flip=np.full_like(out.direction_flip, 0.5))
-    mixed = expected_misses(np.zeros(3), D, target, half, beta, graded_line_miss, None, 0.06, 0.085)
-    np.testing.assert_allclose(mixed, 0.5 * score + 0.5 * expected_misses(np.zeros(3), D, target, other, beta,
-                                                                          graded_line_miss, None, 0.06, 0.085),
-                               atol=1e-12)
 
 
 def test_swim_on_then_turn_for_a_target_just_behind(faithful_map):
