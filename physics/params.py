@@ -166,7 +166,8 @@ class NumericsConfig:
     hydro_model: str = _f("lsbt", "-", "flagellum hydrodynamics: lsbt (nonlocal, eqn 8, dense) or rft "
                           "(local resistive-force theory, O(N), banded)", choices=("lsbt", "rft"))
     head_model: str = _f("higdon", "-", "head hydrodynamics: higdon (flow coupling with the flagellum, "
-                         "eqns 10-11) or stokes (own drag and torque only)", choices=("higdon", "stokes"))
+                         "eqns 10-11) or stokes (own drag and torque only); with hydro_model=rft the head is "
+                         "always a Stokes sphere (the local model has no coupling)", choices=("higdon", "stokes"))
     rft_coefficients: str = _f("lighthill", "-", "drag coefficients of the rft model",
                                choices=("lighthill", "gray_hancock"))
     rft_scale_perp: float = _f(1.0, "-", "rft only: factor on the normal drag coefficient zeta_perp of "
