@@ -35,7 +35,7 @@ from typing import Any, Protocol
 import numpy as np
 from scipy.linalg import lapack, lu_factor, solve_banded
 
-from physics.forces.contact import add_blocks_to_dense
+from physics.forces.contact import ContactState, add_blocks_to_dense
 from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel
 from physics.forces.force_terms import Hydrodynamics, LocalResistance
 from physics.model.geometry import nodes_of
@@ -58,7 +58,7 @@ class StepState(Protocol):
 
     def step_context(self, h: float) -> StepContext: ...
 
-    def keep_contact_state(self, cstate: tuple, energy: float, count: int) -> None: ...
+    def keep_contact_state(self, cstate: ContactState, energy: float, count: int) -> None: ...
 
 
 _EYE = np.eye(3)
