@@ -10,6 +10,7 @@ Usage::
     python scripts/compare_surrogate.py --seeds 0 1 2 [--randomize [--noise 0]]
                                         [--cache results/bench/surrogate_pairs.jsonl]
     python scripts/compare_surrogate.py --eval-paths        # the 20 shipped evaluation paths
+    python scripts/compare_surrogate.py --paths DIR         # the path files in DIR (e.g. scripts/make_eval_paths.py's)
 """
 
 from __future__ import annotations
@@ -58,6 +59,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="with --randomize: obs_noise_std instead of the default 0.01 (0: the swimmer only)")
     ap.add_argument("--eval-paths", action="store_true",
                     help="fly the 20 shipped evaluation paths (agents/eval_paths, seed 0) instead of random ones")
+    ap.add_argument("--paths", type=Path, default=None, metavar="DIR",
+                    help="fly the path files (JSON) in DIR (seed 0) instead of random ones")
     ap.add_argument("--cache", type=Path, default=Path("results/bench/surrogate_pairs.jsonl"))
     args = ap.parse_args(argv)
     randomize = ({"obs_noise_std": args.noise} if args.noise is not None else True) if args.randomize else False
@@ -68,7 +71,10 @@ def main(argv: list[str] | None = None) -> int:
             rec = json.loads(line)
             done[(rec["seed"], json.dumps(rec["randomize"], sort_keys=True), rec.get("path"))] = rec
     rows = []
-    runs = ([(0, str(p)) for p in sorted(eval_paths_dir().glob("*.json"))] if args.eval_paths
+    if args.paths is not None and not sorted(args.paths.glob("*.json")):
+        ap.error(f"--paths {str(args.paths)!r}: no path files (*.json) there")
+    folder = eval_paths_dir() if args.eval_paths else args.paths
+    runs = ([(0, str(p)) for p in sorted(folder.glob("*.json"))] if folder is not None
             else [(seed, None) for seed in args.seeds])
     for seed, path in runs:
         if (seed, key_r, path) not in done:
