@@ -50,7 +50,7 @@ from agents.surrogate_calibration import SurrogateCalibration, calibration_file
 from agents.surrogate_legs import LegResult, SegmentFrames, fly_leg
 from agents.surrogate_swimmer import FACTOR_RANGE, SurrogateSwimmer, TurnMapTable
 from agents.turn_decision_env import (DEFAULT_ACTION_COST, DEFAULT_ENV_KWARGS, DEFAULT_RANDOM_PATH, TurnEpisodes,
-                                      _fixed_paths, _limits, parse_turn_action)
+                                      fixed_paths, parse_turn_action, refuse_unknown_arguments, residual_limits)
 from agents.candidate_miss import first_improving_distance, first_improving_sample, local_target
 from agents.turn_geometry import perpendicular_basis
 from agents.turn_map import TurnMap
@@ -105,10 +105,7 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
                  random_path: Mapping[str, Any] | None = None, limits: ResidualLimits | Mapping[str, Any] | None = None,
                  action_cost: float = DEFAULT_ACTION_COST, render_mode: str | None = None, planner: str = "rule",
                  **unknown: Any) -> None:
-        if unknown:
-            raise ValueError(f"unknown argument(s) {sorted(unknown)} for {self.env_id}; known arguments: "
-                             "preset, turn_map, env_kwargs, paths, random_path, limits, action_cost, render_mode, "
-                             "planner")
+        refuse_unknown_arguments(self.env_id, unknown)
         kind, _, planner_config = base_planner(planner)
         if kind != "rule":
             raise ValueError(f"planner={planner!r} is not available in {self.env_id}; allowed: 'rule' or "
@@ -143,9 +140,9 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         self.table = TurnMapTable(tmap)
         self.params = tmap.params
         self.planner = RulePlanner(tmap, None, cfg.control_dt, DEFAULT_REACH_RADIUS_M, None, planner_config)
-        self.limits = _limits(limits) or ResidualLimits()
+        self.limits = residual_limits(limits) or ResidualLimits()
         self.action_cost = require_finite("action_cost", action_cost, 0.0)
-        self.paths = _fixed_paths(paths)
+        self.paths = fixed_paths(paths)
         self.set_random_path(DEFAULT_RANDOM_PATH if random_path is None else random_path)
         self.observation_space = spaces.Box(-10.0, 10.0, (self.planner_features,), np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)

@@ -54,6 +54,16 @@ DEFAULT_ENV_KWARGS: dict[str, Any] = {"reward": {"cross_track_per_cm_s": 0.05}}
 DEFAULT_RANDOM_PATH: dict[str, Any] = {"n_waypoints": 3, "segment_length_m": [0.12, 0.2], "min_turn_deg": 30.0,
                                        "max_turn_deg": 150.0, "planar": [True, False]}
 RESET_OPTIONS = ("path",)
+#: The keyword arguments of every ``FlagellumTurn`` env (this one and ``agents.surrogate_turn_env``).
+TURN_ENV_ARGUMENTS = ("preset", "turn_map", "env_kwargs", "paths", "random_path", "limits", "action_cost",
+                      "render_mode", "planner")
+
+
+def refuse_unknown_arguments(env_id: str, unknown: Mapping[str, Any]) -> None:
+    """ValueError (one line) naming keyword arguments a ``FlagellumTurn`` env does not take, and those it does."""
+    if unknown:
+        raise ValueError(f"unknown argument(s) {sorted(unknown)} for {env_id}; known arguments: "
+                         + ", ".join(TURN_ENV_ARGUMENTS))
 INFO_KEYS = ("path", "is_success", "waypoints_reached", "mean_cross_track_m", "time_s", "energy_J",
              "buckling_events", "turns")
 
@@ -169,10 +179,7 @@ class TurnDecisionEnv(TurnEpisodes, gym.Env):
                  random_path: Mapping[str, Any] | None = None, limits: ResidualLimits | Mapping[str, Any] | None = None,
                  action_cost: float = DEFAULT_ACTION_COST, render_mode: str | None = None, planner: str = "rule",
                  **unknown: Any) -> None:
-        if unknown:
-            raise ValueError(f"unknown argument(s) {sorted(unknown)} for {self.env_id}; known arguments: "
-                             "preset, turn_map, env_kwargs, paths, random_path, limits, action_cost, render_mode, "
-                             "planner")
+        refuse_unknown_arguments(self.env_id, unknown)
         kind, planner_cls, planner_config = base_planner(planner)  # ValueError for a planner not allowed
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode={render_mode!r} is not allowed; choose one of "
@@ -198,9 +205,9 @@ class TurnDecisionEnv(TurnEpisodes, gym.Env):
             raise ValueError(f"turn_map={str(tmap_file)!r}: " + missing_turn_map_message(tmap_file, preset,
                                                                                            given=turn_map is not None))
         tmap = TurnMap.load(tmap_file)
-        self.planner = planner_cls.for_env(self.base, tmap, planner_config, limits=_limits(limits))
+        self.planner = planner_cls.for_env(self.base, tmap, planner_config, limits=residual_limits(limits))
         self.action_cost = require_finite("action_cost", action_cost, 0.0)
-        self.paths = _fixed_paths(paths)
+        self.paths = fixed_paths(paths)
         self.set_random_path(DEFAULT_RANDOM_PATH if random_path is None else random_path)
         self.observation_space = spaces.Box(-10.0, 10.0, (self.planner.n_features,), np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
@@ -307,7 +314,7 @@ class TurnDecisionCoarseEnv(TurnDecisionEnv):
 
 
 # --- validation ------------------------------------------------------------------------------
-def _limits(value: Any) -> ResidualLimits | None:
+def residual_limits(value: Any) -> ResidualLimits | None:
     if value is None or isinstance(value, ResidualLimits):
         return value
     if isinstance(value, Mapping):
@@ -330,7 +337,7 @@ def _fixed_path(spec: Any, name: str) -> WaypointPath:
     return path
 
 
-def _fixed_paths(paths: Any) -> list[WaypointPath] | None:
+def fixed_paths(paths: Any) -> list[WaypointPath] | None:
     if paths is None:
         return None
     if isinstance(paths, (str, bytes, os.PathLike, WaypointPath, Mapping)) or not isinstance(paths, Sequence):
