@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from agents.turn_map import TurnMap
+from agents.turn_map import TurnMap, leading_within
 from agents.turn_geometry import wrap_angle
 from agents.turn_measurement import CruiseObservables
 from physics.validation import require_finite
@@ -438,8 +438,7 @@ class OnlineTurnMap:
         t_lo = max(control_dt, control_dt + self.shift_s)
         t_map = np.arange(t_lo, max(self.t_peak_s, t_lo) + 1e-9, control_dt)
         if math.isfinite(max_theta_rad):
-            over = np.flatnonzero(np.interp(t_map, t_full, th_full) > max_theta_rad)
-            t_map = t_map[:max(1, int(over[0]))] if over.size else t_map
+            t_map = t_map[:leading_within(np.interp(t_map, t_full, th_full), max_theta_rad)]
         nodes, weights = GAUSS_HERMITE_3
         at = t_map[:, None] + nodes[None, :] * self.timing_std_s                          # (T, K)
         theta = np.interp(at, t_full, th_full)

@@ -47,6 +47,13 @@ DEFAULT_T_C_S = (1.0, 1.5, 2.0, 2.5, 2.75, 3.0, 3.125, 3.25, 3.375, 3.5, 3.625, 
 DEFAULT_PHASES_DEG = (0.0, 90.0, 180.0, 270.0)
 
 
+def leading_within(theta_rad: np.ndarray, cap_rad: float) -> int:
+    """How many of the candidate turns ``theta_rad`` (rad, in order of burst length) a planner keeps under the cap
+    ``cap_rad`` (``PlannerConfig.burst_cap_deg``): those before the first larger one, at least one."""
+    over = np.flatnonzero(np.asarray(theta_rad) > cap_rad)
+    return max(1, int(over[0])) if over.size else len(theta_rad)
+
+
 class TurnMapMismatch(ValueError):
     """A turn map used for physical parameters or motor speeds other than its own."""
 

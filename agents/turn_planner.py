@@ -30,7 +30,7 @@ import numpy as np
 
 from agents.candidate_miss import candidate_frames, candidate_miss, local_target
 from agents.turn_geometry import angle_between, azimuth, perpendicular_basis, unit, wrap_angle
-from agents.turn_map import TurnMap
+from agents.turn_map import TurnMap, leading_within
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M
 from physics.validation import require_finite
 
@@ -451,9 +451,8 @@ class RulePlanner:
         t_branch, theta_branch = tm.rising_branch()
         t_c = np.arange(self.control_dt, t_branch[-1] + 1e-9, self.control_dt)
         theta = np.radians(np.interp(t_c, t_branch, theta_branch))
-        over = np.flatnonzero(theta > math.radians(self.config.burst_cap_deg))
-        if over.size:
-            t_c, theta = t_c[:max(1, int(over[0]))], theta[:max(1, int(over[0]))]
+        keep = leading_within(theta, math.radians(self.config.burst_cap_deg))
+        t_c, theta = t_c[:keep], theta[:keep]
         psi = np.radians([tm.psi_for(t) for t in t_c])
         off = np.array([tm.offset_for(t) for t in t_c])
         return t_c, theta, psi, off
