@@ -47,7 +47,7 @@ from agents.controller_spec import CONTROLLER_ENV_DEFAULTS
 from agents.registration import TURN_SURROGATE_ENV_ID
 from agents.residual_planner import ResidualLimits, base_planner, corrected_plan, turn_features
 from agents.surrogate_calibration import SurrogateCalibration, calibration_file
-from agents.surrogate_legs import LegResult, SegmentFrames, fly_leg
+from agents.surrogate_episode import SurrogateEpisode, surrogate_info
 from agents.surrogate_swimmer import FACTOR_RANGE, SurrogateSwimmer, TurnMapTable
 from agents.turn_decision_env import (DEFAULT_ACTION_COST, DEFAULT_ENV_KWARGS, DEFAULT_RANDOM_PATH, TurnEpisodes,
                                       fixed_paths, parse_turn_action, refuse_unknown_arguments, residual_limits)
@@ -56,7 +56,6 @@ from agents.turn_geometry import perpendicular_basis
 from agents.turn_map import TurnMap
 from agents.turn_planner import BEHIND_PENALTY_M, PlannerEpisode, RulePlanner
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M, draw_randomization, make_config
-from flagellum_env.rewards import TERMS, reward_terms
 from flagellum_env.tracking import PathTracker
 from physics.presets import DEFAULT_PRESET
 from physics.validation import require_finite
@@ -168,28 +167,26 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         self.path = path
         reach = cfg.reach_radius_m or path.reach_radius_m or DEFAULT_REACH_RADIUS_M
         self.tracker = PathTracker(path, reach)
-        self._frames = SegmentFrames(self.tracker)
         self.planner.reach_radius_m = reach
         max_time = (cfg.max_sim_time_s if cfg.max_sim_time_s is not None
                     else cfg.time_factor * path.length_m / self.calibration.cruise_speed_m_s)
         self.max_steps = max(1, math.ceil(max_time / cfg.control_dt - 1e-9))
         self.time_limit_s = self.max_steps * cfg.control_dt
-        self.head, self.heading = np.zeros(3), np.array([1.0, 0.0, 0.0])
-        self.time_s, self.energy_j, self.cross_integral, self.buckling_events = 0.0, 0.0, 0.0, 0
-        self._progress = 0.0
-        self._acc_energy, self._acc_cross, self._acc_reached, self._off_path = 0.0, 0.0, 0, False
+        self.episode = SurrogateEpisode(self.swimmer, self.tracker, cfg, self.time_limit_s)
         self._ep = PlannerEpisode()
         self._plan: dict | None = None
-        self._out_of_range: str | None = None
         self._done = False
         # the planner measures a heading after one period at omega_l (RulePlanner._decide, cruise)
-        first = (self.planner.period_steps + 1) * cfg.control_dt
-        end = self._collect(self._fly(self.head + self.swimmer.speed_m_s * first * self.heading, first,
-                                      stop_at_waypoint=True, power_w=self.swimmer.cruise_power_w))
+        end = self.episode.cruise((self.planner.period_steps + 1) * cfg.control_dt)
         if end is None:
             end = self._advance()
-        self._pending = (self._reward(), end)
+        self._pending = (self.episode.reward(), end)
         return self._features(), self._info()
+
+    @property
+    def heading(self) -> np.ndarray:
+        """The swimmer's heading now, (3,) unit."""
+        return self.episode.heading
 
     def step(self, action: Any):
         if self._done:
@@ -202,7 +199,7 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
             end = self._turn(corrected_plan(self._plan, a, self.turn_map, self.limits))
             if end is None:
                 end = self._advance()
-            reward += self._reward() - self.action_cost * float(a @ a)
+            reward += self.episode.reward() - self.action_cost * float(a @ a)
         terminated, truncated = end if end is not None else (False, False)
         self._done = terminated or truncated
         return self._features(), float(reward), bool(terminated), bool(truncated), self._info()
@@ -211,26 +208,23 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
     def _advance(self) -> tuple[bool, bool] | None:
         """Cruise until the planner plans a turn (``self._plan``; returns None) or the episode ends (returns
         (terminated, truncated))."""
-        pl, tr = self.planner, self.tracker
+        pl, tr, run = self.planner, self.tracker, self.episode
         while True:
             target = tr.path.waypoints[tr.index]
             pl._track_segment(self._ep, target)
-            plan = pl.rule_plan(self.head, self.heading, target, self._ep, RulePlanner._line_miss)
+            plan = pl.rule_plan(run.head, run.heading, target, self._ep, RulePlanner._line_miss)
             if plan is not None:
                 self._plan = plan
                 return None
-            wait = self._cruise_until_next_check(target)
-            v = self.swimmer.speed_m_s
-            end = self._collect(self._fly(self.head + v * wait * self.heading, wait, stop_at_waypoint=True,
-                                          power_w=self.swimmer.cruise_power_w))
+            end = run.cruise(self._cruise_until_next_check(target))
             if end is not None:
                 return end
 
     def _cruise_until_next_check(self, target: np.ndarray) -> float:
         """How long (s, whole control steps) to swim straight before the plan can change (module docstring, 1.)."""
         cfg, pcfg, dt = self.config, self.planner.config, self.config.control_dt
-        v, rel = self.swimmer.speed_m_s, target - self.head
-        along = float(rel @ self.heading)
+        v, rel = self.swimmer.speed_m_s, target - self.episode.head
+        along = float(rel @ self.episode.heading)
         lateral = math.sqrt(max(float(rel @ rel) - along * along, 0.0))
         reach = self.tracker.reach_radius_m
         if along <= 0.0:
@@ -267,104 +261,40 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         return self.planner.candidate_frames(theta, psi, off, self.planner._burst_phases)
 
     def _local(self, target: np.ndarray) -> tuple[float, float, float]:
-        e1, e2 = perpendicular_basis(self.heading)
-        return local_target(self.head, self.heading, e1, e2, target)
+        run = self.episode
+        e1, e2 = perpendicular_basis(run.heading)
+        return local_target(run.head, run.heading, e1, e2, target)
 
     def _turn(self, plan: dict) -> tuple[bool, bool] | None:
         """Fly a decided turn (module docstring, 3.): hover, burst, relax; the plan is remembered as the
         planner's last turn (the next features compare against it)."""
-        cfg, sw, dt = self.config, self.swimmer, self.config.control_dt
+        dt, run = self.config.control_dt, self.episode
         self._ep.turns.append(plan)
-        # hover: the phase node's azimuth about the heading turns once per period (phase 0 at t = 0)
-        omega_phase = 2.0 * math.pi / sw.period_s
-        togo = (plan["burst_phase"] - omega_phase * self.time_s) % (2.0 * math.pi)
-        hover = max(1, math.ceil(togo / omega_phase / dt - 1e-9)) * dt
-        end = self._collect(self._fly(self.head + sw.speed_m_s * hover * self.heading, hover,
-                                      stop_at_waypoint=False, power_w=sw.cruise_power_w))
+        end = run.hover_to_phase(plan["burst_phase"])
         if end is not None:
             return end
-        steps = max(1, round(plan["t_c"] / dt))
-        t_c = steps * dt
-        out = sw.turn(self.heading, t_c, plan["burst_phase"])
-        if not out.in_range and self._out_of_range is None:
-            t_max = self.table.t_c[-1]
-            self._out_of_range = (f"burst of {t_c:.3g} s reads the map at t_c = {out.map_time_s:.4g} s, beyond its "
-                                  f"calibrated burst lengths [0, {t_max:g}] s (the longest used)")
-            if not self._warned:
-                self._warned = True
-                gym.logger.warn(f"{self.env_id}: {self._out_of_range}; reported in info['out_of_range']")
-        if out.end_ratio < cfg.buckling_threshold:
-            self.buckling_events += 1
         pcfg = self.planner.config
-        wait = min(max(out.relax_s, 2 * self.planner.period_steps * dt), pcfg.max_relax_factor * self.turn_map.relax_s)
-        wait = max(1, math.ceil(wait / dt - 1e-9)) * dt
-        # the map's displacement covers the burst and its relaxation; the planner's wait differs by a cruise
-        end_point = self.head + out.displacement + sw.speed_m_s * (wait - out.relax_s) * out.heading
-        energy = sw.burst_energy_j(t_c) + sw.cruise_power_w * wait
-        end = self._collect(self._fly(end_point, t_c + wait, stop_at_waypoint=False, energy_j=energy))
-        self.heading = out.heading
+        _, end = run.burst(max(1, round(plan["t_c"] / dt)) * dt, plan["burst_phase"],
+                           2 * self.planner.period_steps * dt, pcfg.max_relax_factor * self.turn_map.relax_s)
+        if run.out_of_range is not None and not self._warned:
+            self._warned = True
+            gym.logger.warn(f"{self.env_id}: {run.out_of_range}; reported in info['out_of_range']")
         return end
-
-    # --- legs ------------------------------------------------------------------------------------
-    def _fly(self, end_point: np.ndarray, duration: float, stop_at_waypoint: bool, power_w: float = 0.0,
-             energy_j: float | None = None) -> LegResult:
-        cfg = self.config
-        leg = fly_leg(self.tracker, self._frames, self.head, end_point, duration, self.time_s, self.time_limit_s,
-                      cfg.off_path_m, stop_at_waypoint)
-        frac = leg.duration_s / duration if duration > 0.0 else 1.0
-        leg.energy_j = (energy_j * frac) if energy_j is not None else power_w * leg.duration_s
-        return leg
-
-    def _collect(self, leg: LegResult) -> tuple[bool, bool] | None:
-        """Apply a flown leg to the episode (its energy, waypoints and cross-track integral wait for ``_reward``);
-        None or (terminated, truncated)."""
-        self.head = leg.end
-        self.time_s += leg.duration_s
-        self.energy_j += leg.energy_j
-        self.cross_integral += leg.cross_integral
-        self._acc_energy += leg.energy_j
-        self._acc_cross += leg.cross_integral
-        self._acc_reached += leg.reached
-        self._off_path = self._off_path or leg.off_path
-        if self.tracker.done or leg.off_path:
-            return True, False
-        if leg.timed_out:
-            return False, True
-        return None
-
-    def _reward(self) -> float:
-        """The reward of the legs flown since the last call: ``reward_terms`` (``flagellum_env.rewards``) of the
-        progress made, int e dt (passed as e x tau with tau = 1 s), the motor energy, the waypoints reached and the
-        off-path penalty."""
-        progress = self.tracker.progress(self.head)
-        terms = reward_terms(self.config.reward, progress - self._progress, self._acc_cross, 1.0, self._acc_energy,
-                             self._acc_reached, off_path=self._off_path)
-        self._progress = progress
-        self._acc_energy, self._acc_cross, self._acc_reached = 0.0, 0.0, 0
-        return float(sum(terms[t] for t in TERMS))
 
     # --- what the agent sees ----------------------------------------------------------------
     def _features(self) -> np.ndarray:
         if self._done or self._pending[1] is not None or self._plan is None:
             return np.zeros(self.planner_features, np.float32)
         cfg = self.config
-        targets = self.tracker.targets(cfg.n_lookahead) - self.head
-        steps = math.floor(self.time_s / cfg.control_dt + 1e-9)
+        targets = self.tracker.targets(cfg.n_lookahead) - self.episode.head
+        steps = math.floor(self.episode.time_s / cfg.control_dt + 1e-9)
         ep = self._ep
         return turn_features(self._plan, targets, self.tracker.reach_radius_m,
                              self.calibration.cruise_end_to_end_ratio, max(0.0, 1.0 - steps / self.max_steps),
                              ep.turns[-1] if ep.turns else None, len(ep.turns), self._max_theta)
 
     def _info(self) -> dict[str, Any]:
-        tr = self.tracker
-        info = {"path": self.path.name, "is_success": bool(tr.done), "waypoints_reached": int(tr.index),
-                "mean_cross_track_m": self.cross_integral / self.time_s if self.time_s > 0.0 else 0.0,
-                "time_s": float(self.time_s), "energy_J": float(self.energy_j),
-                "buckling_events": int(self.buckling_events), "turns": len(self._ep.turns),
-                "out_of_range": self._out_of_range is not None}
-        if self._out_of_range is not None:
-            info["out_of_range_reason"] = self._out_of_range
-        return info
+        return surrogate_info(self.path.name, self.tracker, self.episode, len(self._ep.turns))
 
 
 def _check_calibrated(cfg, tmap: TurnMap, calibration: SurrogateCalibration) -> None:
