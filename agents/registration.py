@@ -16,6 +16,13 @@ and in ``SURROGATE_TURN_ENV_IDS`` (no rod: ``agents.surrogate_turn_env``, the tu
 |--------------------------------|------------------------------------------------|-----------------------------|
 | ``FlagellumTurn-surrogate-v0`` | ``agents.surrogate_turn_env.SurrogateTurnEnv`` | faithful's turn map, no rod |
 
+and in ``BURST_ENV_IDS`` (the burst action design of ``agents.burst_design``: no planner inside, for agents that
+learn from scratch):
+
+| id                              | class (entry point)                              | model                       |
+|---------------------------------|--------------------------------------------------|-----------------------------|
+| ``FlagellumBurst-surrogate-v0`` | ``agents.surrogate_burst_env.SurrogateBurstEnv`` | faithful's turn map, no rod |
+
 Every episode ends within the base env's time budget, a few to some tens of decisions, so no ``TimeLimit`` is
 added. Light on purpose, like ``flagellum_env.registration``: it imports Gymnasium only; the entry points are
 strings that ``gymnasium.make`` loads. ``gym.make("agents:FlagellumTurn-v0")`` imports the package itself (a
@@ -30,6 +37,7 @@ TURN_ENV_ID = "FlagellumTurn-v0"
 TURN_FAST_ENV_ID = "FlagellumTurn-fast-v0"
 TURN_COARSE_ENV_ID = "FlagellumTurn-coarse-v0"
 TURN_SURROGATE_ENV_ID = "FlagellumTurn-surrogate-v0"
+BURST_SURROGATE_ENV_ID = "FlagellumBurst-surrogate-v0"
 
 #: id -> entry point
 TURN_ENV_IDS: dict[str, str] = {
@@ -42,12 +50,17 @@ TURN_ENV_IDS: dict[str, str] = {
 SURROGATE_TURN_ENV_IDS: dict[str, str] = {
     TURN_SURROGATE_ENV_ID: "agents.surrogate_turn_env:SurrogateTurnEnv",
 }
+#: id -> entry point of the burst action design (``agents.burst_design``: one action = one burst command, no
+#: planner), for agents that learn from scratch
+BURST_ENV_IDS: dict[str, str] = {
+    BURST_SURROGATE_ENV_ID: "agents.surrogate_burst_env:SurrogateBurstEnv",
+}
 
 
 def register_turn_envs() -> None:
-    """Register every id of ``TURN_ENV_IDS`` and ``SURROGATE_TURN_ENV_IDS`` that is not registered yet
+    """Register every id of ``TURN_ENV_IDS``, ``SURROGATE_TURN_ENV_IDS`` and ``BURST_ENV_IDS`` not registered yet
     (re-importing registers nothing twice)."""
-    for env_id, entry_point in {**TURN_ENV_IDS, **SURROGATE_TURN_ENV_IDS}.items():
+    for env_id, entry_point in {**TURN_ENV_IDS, **SURROGATE_TURN_ENV_IDS, **BURST_ENV_IDS}.items():
         if env_id not in gym.registry:
             gym.register(id=env_id, entry_point=entry_point, max_episode_steps=None)
 

@@ -55,7 +55,7 @@ from agents.candidate_miss import first_improving_distance, first_improving_samp
 from agents.turn_geometry import perpendicular_basis
 from agents.turn_map import TurnMap
 from agents.turn_planner import BEHIND_PENALTY_M, PlannerEpisode, RulePlanner
-from flagellum_env.config import DEFAULT_REACH_RADIUS_M, draw_randomization, make_config
+from flagellum_env.config import DEFAULT_REACH_RADIUS_M, SteerConfig, draw_randomization, make_config
 from flagellum_env.tracking import PathTracker
 from physics.presets import DEFAULT_PRESET
 from physics.validation import require_finite
@@ -109,33 +109,11 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         if kind != "rule":
             raise ValueError(f"planner={planner!r} is not available in {self.env_id}; allowed: 'rule' or "
                              "'rule@line=W' (the adaptive planner's online map reads the rod's cruise)")
-        if render_mode is not None:
-            raise ValueError(f"render_mode={render_mode!r} is not allowed in {self.env_id} (no rod to draw); "
-                             "allowed: None")
         self.render_mode = None
-        preset = self.default_preset if preset is None else preset
-        if preset != DEFAULT_PRESET:
-            raise ValueError(f"preset={preset!r} is outside the surrogate's calibration; allowed: "
-                             f"{DEFAULT_PRESET!r} (the map it replays)")
-        self.preset = preset
-        env_kwargs = DEFAULT_ENV_KWARGS if env_kwargs is None else env_kwargs
-        if not isinstance(env_kwargs, Mapping):
-            raise ValueError(f"env_kwargs={env_kwargs!r} must be a dict of FlagellumSteer-v0 arguments or None")
-        for name, why in (("path", "give paths= or random_path="), ("render_mode", "give render_mode=")):
-            if name in env_kwargs:
-                raise ValueError(f"env_kwargs must not hold {name!r}; {why}")
-        try:
-            cfg = make_config(**{**CONTROLLER_ENV_DEFAULTS[kind], "preset": preset, **dict(env_kwargs)})
-        except ValueError as exc:
-            raise ValueError(f"env_kwargs: {exc}") from None
-        self.config = cfg
-        tmap_file = Path(turn_map) if turn_map is not None else default_turn_map(preset)
-        if not tmap_file.is_file():
-            raise ValueError(f"turn_map={str(tmap_file)!r}: " + missing_turn_map_message(tmap_file, preset,
-                                                                                           given=turn_map is not None))
-        self.turn_map = tmap = TurnMap.load(tmap_file)
-        self.calibration = SurrogateCalibration.load(calibration_file(DEFAULT_PRESET))
-        _check_calibrated(cfg, tmap, self.calibration)
+        self.preset, self.config, self.turn_map, self.calibration = surrogate_setup(
+            self.env_id, self.default_preset if preset is None else preset, turn_map, env_kwargs, render_mode,
+            CONTROLLER_ENV_DEFAULTS[kind])
+        cfg, tmap = self.config, self.turn_map
         self.table = TurnMapTable(tmap)
         self.params = tmap.params
         self.planner = RulePlanner(tmap, None, cfg.control_dt, DEFAULT_REACH_RADIUS_M, None, planner_config)
@@ -295,6 +273,37 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
 
     def _info(self) -> dict[str, Any]:
         return surrogate_info(self.path.name, self.tracker, self.episode, len(self._ep.turns))
+
+
+def surrogate_setup(env_id: str, preset: str, turn_map: str | os.PathLike | None,
+                    env_kwargs: Mapping[str, Any] | None, render_mode: str | None, defaults: Mapping[str, Any]
+                    ) -> tuple[str, SteerConfig, TurnMap, SurrogateCalibration]:
+    """(preset, config, turn map, calibration) of a surrogate env, ``env_kwargs`` merged over ``defaults`` and
+    ``DEFAULT_ENV_KWARGS``'s place; ValueError (one line, naming the value and what is allowed) for a request
+    outside the calibration (``_check_calibrated``), a rendering or a bad argument."""
+    if render_mode is not None:
+        raise ValueError(f"render_mode={render_mode!r} is not allowed in {env_id} (no rod to draw); allowed: None")
+    if preset != DEFAULT_PRESET:
+        raise ValueError(f"preset={preset!r} is outside the surrogate's calibration; allowed: "
+                         f"{DEFAULT_PRESET!r} (the map it replays)")
+    env_kwargs = DEFAULT_ENV_KWARGS if env_kwargs is None else env_kwargs
+    if not isinstance(env_kwargs, Mapping):
+        raise ValueError(f"env_kwargs={env_kwargs!r} must be a dict of FlagellumSteer-v0 arguments or None")
+    for name, why in (("path", "give paths= or random_path="), ("render_mode", "give render_mode=")):
+        if name in env_kwargs:
+            raise ValueError(f"env_kwargs must not hold {name!r}; {why}")
+    try:
+        cfg = make_config(**{**defaults, "preset": preset, **dict(env_kwargs)})
+    except ValueError as exc:
+        raise ValueError(f"env_kwargs: {exc}") from None
+    tmap_file = Path(turn_map) if turn_map is not None else default_turn_map(preset)
+    if not tmap_file.is_file():
+        raise ValueError(f"turn_map={str(tmap_file)!r}: " + missing_turn_map_message(tmap_file, preset,
+                                                                                       given=turn_map is not None))
+    tmap = TurnMap.load(tmap_file)
+    calibration = SurrogateCalibration.load(calibration_file(DEFAULT_PRESET))
+    _check_calibrated(cfg, tmap, calibration)
+    return preset, cfg, tmap, calibration
 
 
 def _check_calibrated(cfg, tmap: TurnMap, calibration: SurrogateCalibration) -> None:

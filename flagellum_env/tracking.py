@@ -55,6 +55,11 @@ class PathTracker:
     def _segment(self) -> int:
         return min(self.index, self.path.n_waypoints - 1)
 
+    def segment(self) -> tuple[np.ndarray, np.ndarray]:
+        """The current segment's start and end, ((3,), (3,)) m (the last one once the path is complete)."""
+        i = self._segment()
+        return self._vertices[i], self._vertices[i + 1]
+
     def _projection(self, position: np.ndarray) -> tuple[float, np.ndarray]:
         """(clipped arc length along the current segment, m; closest point on it, (3,) m)."""
         i = self._segment()

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 import agents
-from agents.registration import SURROGATE_TURN_ENV_IDS, TURN_ENV_IDS
+from agents.registration import BURST_ENV_IDS, SURROGATE_TURN_ENV_IDS, TURN_ENV_IDS
 from agents.residual_planner import N_FEATURES
 from agents.turn_decision_env import TurnDecisionEnv
 from flagellum_env.paths import path_from_waypoints
@@ -76,7 +76,8 @@ def test_import_agents_registers_the_turn_ids_with_their_classes():
                       "print(sorted((i, s.entry_point, s.max_episode_steps) for i, s in gym.registry.items() "
                       "if i.startswith('Flagellum')))")
     assert r.returncode == 0, r.stderr
-    assert r.stdout.strip() == str(sorted((i, e, None) for i, e in {**TURN_ENV_IDS, **SURROGATE_TURN_ENV_IDS}.items()))
+    assert r.stdout.strip() == str(sorted((i, e, None) for i, e in {**TURN_ENV_IDS, **SURROGATE_TURN_ENV_IDS,
+                                                                    **BURST_ENV_IDS}.items()))
     assert sorted(TURN_ENV_IDS) == ["FlagellumTurn-coarse-v0", "FlagellumTurn-fast-v0", "FlagellumTurn-v0"]
 
 

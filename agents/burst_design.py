@@ -1,0 +1,111 @@
+"""The burst action design of ``FlagellumBurst-*``: one decision = one turn primitive, for agents with no planner.
+
+Why not ``FlagellumSteer-v0``'s action (the motor speed, held for ``control_dt`` = 2 s)? A turn is a burst at
+omega_h of length t_c, and the turn angle rises steeply with t_c (the default's map: 6 deg at 2 s, 85 deg at
+3.5 s, 138 deg at 3.75 s, then the chaotic post-buckling branch), so a 2 s hold reaches a handful of turns and a
+random policy spends its time in deep post-buckling; the direction of a turn is set by the flagellum's phase at
+the burst's start (Huang & Jawed 2020, Fig. 5e), which a 2 s step cannot time. ``scripts/action_resolution.py``
+measures the turns each design reaches per decision (docs/rl.md). Here one action sets the primitive the
+planners fly:
+
+    a = (a_0, a_1, a_2) in [-1, 1]^3 (clipped)
+    t_c    = max(a_0, 0) x t_c_max, rounded to control steps        burst length at omega_h, s (0: no burst)
+    beta   = pi a_1                                                  the phase node's azimuth at the burst's start
+    cruise = cruise_min + (a_2 + 1) / 2 x (cruise_max - cruise_min)  swim straight at omega_l afterwards, s
+
+and the env flies it: hover at omega_l until the phase node's azimuth about the heading reaches beta, burst for
+t_c, relax at omega_l (at least two wobble periods), then cruise; a cruise ends early at a waypoint, so that the
+agent decides again when its target changes. ``t_c_max`` (4.5 s) ends past the map's largest turn (3.75 s) with
+room for a swimmer 15 % slower to buckle; the post-buckling branch beyond is out of reach.
+
+The observation (``burst_observation``, ``N_BURST_FEATURES`` values) is the task in the heading's frame
+(d, e1, e2) = (heading, ``perpendicular_basis(heading)``), the frame beta is measured in: the next two waypoints
+and the current segment's line relative to the head, the time left, and what the last decision did (its burst
+length and the turn seen since: the angle between the headings at the two decisions), from which an agent can
+tell a swimmer that turns more or less than the nominal one.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from agents.turn_geometry import perpendicular_basis
+from physics.validation import require_finite
+
+#: Length scale of the observation, m (the paths' segments are 5-40 cm).
+OBS_SCALE_M = 0.1
+#: Observation size: 2 targets x (3 + 1), segment direction (3), offset from its line (3), time left, last burst
+#: length, last turn.
+N_BURST_FEATURES = 17
+
+
+@dataclass(frozen=True)
+class BurstLimits:
+    """What one action can ask for: bursts up to ``t_c_max_s`` (s), cruises of ``cruise_min_s`` to
+    ``cruise_max_s`` (s). ValueError naming a value that is not finite, not positive or out of order."""
+
+    t_c_max_s: float = 4.5
+    cruise_min_s: float = 2.0
+    cruise_max_s: float = 60.0
+
+    def __post_init__(self) -> None:
+        for name in ("t_c_max_s", "cruise_min_s", "cruise_max_s"):
+            require_finite(f"BurstLimits.{name}", getattr(self, name), 0.0)
+            if not getattr(self, name) > 0.0:
+                raise ValueError(f"BurstLimits.{name}={getattr(self, name)!r} must be > 0 (seconds)")
+        if not self.cruise_min_s <= self.cruise_max_s:
+            raise ValueError(f"BurstLimits.cruise_min_s={self.cruise_min_s!r} must be <= cruise_max_s="
+                             f"{self.cruise_max_s!r}")
+
+
+@dataclass(frozen=True)
+class BurstCommand:
+    """A decoded action: ``t_c_s`` burst length (s, whole control steps, 0: none), ``beta_rad`` the phase node's
+    azimuth to burst at (rad, [-pi, pi]), ``cruise_s`` (s, whole control steps, >= one)."""
+
+    t_c_s: float
+    beta_rad: float
+    cruise_s: float
+
+
+def parse_burst_action(action) -> np.ndarray:
+    """An action as (3,) float64 (not clipped); ValueError unless it is three finite numbers."""
+    try:
+        raw = np.asarray(action)
+        a = np.empty(0) if np.iscomplexobj(raw) else np.asarray(raw, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        a = np.empty(0)
+    if a.size != 3 or not np.all(np.isfinite(a)):
+        raise ValueError(f"action={action!r} must be three finite numbers in [-1, 1] (burst length, burst phase, "
+                         "cruise time)")
+    return a
+
+
+def decode_burst_action(action, limits: BurstLimits, control_dt: float) -> BurstCommand:
+    """The command of an action (module docstring), times rounded to whole ``control_dt`` steps (s)."""
+    a = np.clip(parse_burst_action(action), -1.0, 1.0)
+    steps = round(max(float(a[0]), 0.0) * limits.t_c_max_s / control_dt)
+    cruise = limits.cruise_min_s + 0.5 * (float(a[2]) + 1.0) * (limits.cruise_max_s - limits.cruise_min_s)
+    return BurstCommand(steps * control_dt, math.pi * float(a[1]), max(1, round(cruise / control_dt)) * control_dt)
+
+
+def burst_observation(head: np.ndarray, heading: np.ndarray, targets: np.ndarray, segment: tuple[np.ndarray, np.ndarray],
+                      time_left: float, last_t_c_fraction: float, last_turn_rad: float) -> np.ndarray:
+    """The observation (module docstring), (N_BURST_FEATURES,) float32. ``head`` (3,) m, ``heading`` (3,) unit,
+    ``targets`` (2, 3) m (the next two waypoints, the last repeated), ``segment`` the current segment's ends
+    ((3,), (3,)) m, ``time_left`` in [0, 1], ``last_t_c_fraction`` the last burst's t_c / t_c_max, ``last_turn_rad``
+    the angle between the headings at the last decision and now (rad)."""
+    e1, e2 = perpendicular_basis(heading)
+    frame = np.stack([heading, e1, e2])
+    rel = (targets - head) @ frame.T / OBS_SCALE_M
+    a, b = segment
+    u = b - a
+    n = math.sqrt(float(u @ u))
+    u = u / n if n > 0.0 else heading
+    off = (head - a) - float((head - a) @ u) * u
+    out = np.concatenate([rel.reshape(-1), np.sqrt((rel * rel).sum(axis=1)), frame @ u, frame @ off / OBS_SCALE_M,
+                          [time_left, last_t_c_fraction, last_turn_rad / math.pi]])
+    return np.clip(out, -10.0, 10.0).astype(np.float32)
