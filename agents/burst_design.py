@@ -8,15 +8,17 @@ the burst's start (Huang & Jawed 2020, Fig. 5e), which a 2 s step cannot time. `
 measures the turns each design reaches per decision (docs/rl.md). Here one action sets the primitive the
 planners fly:
 
-    a = (a_0, a_1, a_2) in [-1, 1]^3 (clipped)
+    a = (a_0, a_1, a_2, a_3) in [-1, 1]^4 (clipped)
     t_c    = max(a_0, 0) x t_c_max, rounded to control steps        burst length at omega_h, s (0: no burst)
-    beta   = pi a_1                                                  the phase node's azimuth at the burst's start
-    cruise = cruise_min + (a_2 + 1) / 2 x (cruise_max - cruise_min)  swim straight at omega_l afterwards, s
+    beta   = atan2(a_2, a_1)                                         the phase node's azimuth at the burst's start
+    cruise = cruise_min + (a_3 + 1) / 2 x (cruise_max - cruise_min)  swim straight at omega_l afterwards, s
 
 and the env flies it: hover at omega_l until the phase node's azimuth about the heading reaches beta, burst for
 t_c, relax at omega_l (at least two wobble periods), then cruise; a cruise ends early at a waypoint, so that the
 agent decides again when its target changes. ``t_c_max`` (4.5 s) ends past the map's largest turn (3.75 s) with
-room for a swimmer 15 % slower to buckle; the post-buckling branch beyond is out of reach.
+room for a swimmer 15 % slower to buckle; the post-buckling branch beyond is out of reach. The azimuth is given
+as a direction (a_1, a_2), not as one number: a turn's direction lies ~130 deg from beta on the rising branch
+(the map's psi), and an angle in one action entry would put a seam where a Gaussian policy cannot cross it.
 
 The observation (``burst_observation``, ``N_BURST_FEATURES`` values) is the task in the heading's frame
 (d, e1, e2) = (heading, ``perpendicular_basis(heading)``), the frame beta is measured in: the next two waypoints
@@ -37,6 +39,8 @@ from physics.validation import require_finite
 
 #: Length scale of the observation, m (the paths' segments are 5-40 cm).
 OBS_SCALE_M = 0.1
+#: Action size: burst length, the burst phase's direction (2), cruise time.
+N_BURST_ACTIONS = 4
 #: Observation size: 2 targets x (3 + 1), segment direction (3), offset from its line (3), time left, last burst
 #: length, last turn.
 N_BURST_FEATURES = 17
@@ -72,15 +76,15 @@ class BurstCommand:
 
 
 def parse_burst_action(action) -> np.ndarray:
-    """An action as (3,) float64 (not clipped); ValueError unless it is three finite numbers."""
+    """An action as (N_BURST_ACTIONS,) float64 (not clipped); ValueError unless it is four finite numbers."""
     try:
         raw = np.asarray(action)
         a = np.empty(0) if np.iscomplexobj(raw) else np.asarray(raw, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError):
         a = np.empty(0)
-    if a.size != 3 or not np.all(np.isfinite(a)):
-        raise ValueError(f"action={action!r} must be three finite numbers in [-1, 1] (burst length, burst phase, "
-                         "cruise time)")
+    if a.size != N_BURST_ACTIONS or not np.all(np.isfinite(a)):
+        raise ValueError(f"action={action!r} must be four finite numbers in [-1, 1] (burst length, the burst "
+                         "phase's direction (2), cruise time)")
     return a
 
 
@@ -88,8 +92,9 @@ def decode_burst_action(action, limits: BurstLimits, control_dt: float) -> Burst
     """The command of an action (module docstring), times rounded to whole ``control_dt`` steps (s)."""
     a = np.clip(parse_burst_action(action), -1.0, 1.0)
     steps = round(max(float(a[0]), 0.0) * limits.t_c_max_s / control_dt)
-    cruise = limits.cruise_min_s + 0.5 * (float(a[2]) + 1.0) * (limits.cruise_max_s - limits.cruise_min_s)
-    return BurstCommand(steps * control_dt, math.pi * float(a[1]), max(1, round(cruise / control_dt)) * control_dt)
+    cruise = limits.cruise_min_s + 0.5 * (float(a[3]) + 1.0) * (limits.cruise_max_s - limits.cruise_min_s)
+    return BurstCommand(steps * control_dt, math.atan2(float(a[2]), float(a[1])),
+                        max(1, round(cruise / control_dt)) * control_dt)
 
 
 def burst_observation(head: np.ndarray, heading: np.ndarray, targets: np.ndarray, segment: tuple[np.ndarray, np.ndarray],

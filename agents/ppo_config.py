@@ -17,6 +17,8 @@ hyperparameters (flat, as in rl-zoo3's ``hyperparams/ppo.yml``) and a ``task`` s
       ...                       # any other PPO argument (PPO_KEYS)
       policy_kwargs: {net_arch: [64, 64], log_std_init: -1.0}
       task:
+        design: residual        # or burst: a burst command per decision, no planner (agents.burst_design)
+        tier: physics           # or surrogate: the turn-level surrogate of the default preset's map
         preset: coarse
         turn_map: null          # null: the preset's turn map (agents.assets.default_turn_map)
         planner: rule            # the planner corrected: rule or adaptive (agents.residual_planner)
@@ -45,6 +47,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from agents.burst_design import BurstLimits
 from agents.residual_planner import ResidualLimits, base_planner
 from flagellum_env.paths import RandomPathConfig, WaypointPath, random_path
 from physics.presets import DEFAULT_PRESET, preset_names
@@ -56,7 +59,14 @@ PPO_KEYS = ("learning_rate", "n_steps", "batch_size", "n_epochs", "gamma", "gae_
 NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma")
 TOP_KEYS = ("policy", "n_envs", "n_timesteps", "max_wall_time_s", "seed", "checkpoint_every", "normalize", "task",
             "init_from", *PPO_KEYS)
-TASK_KEYS = ("preset", "turn_map", "planner", "limits", "action_cost", "env_kwargs", "curriculum", "validation")
+TASK_KEYS = ("design", "tier", "preset", "turn_map", "planner", "limits", "action_cost", "env_kwargs", "curriculum",
+             "validation")
+#: ``task.design``: what an action is. "residual": a correction of the planner's turn (``FlagellumTurn-*``);
+#: "burst": a burst command with no planner (``FlagellumBurst-*``, ``agents.burst_design``).
+DESIGNS = ("residual", "burst")
+#: ``task.tier``: the swimmer trained on. "physics": the rod at ``task.preset``; "surrogate": the turn-level
+#: surrogate of the default preset's map (``agents.surrogate_swimmer``).
+TIERS = ("physics", "surrogate")
 #: Seeds from here on are the held-out evaluation paths.
 HELD_OUT_SEED0 = 1000
 
@@ -114,6 +124,8 @@ class TrainConfig:
     init_from: str | None = None
     source: str = "<dict>"
     planner: str = "rule"
+    design: str = "residual"
+    tier: str = "physics"
 
     def stage_at(self, decisions: int) -> CurriculumStage:
         """The curriculum stage in force after ``decisions`` decisions."""
@@ -173,15 +185,30 @@ class TrainConfig:
         preset = task.get("preset", DEFAULT_PRESET)
         if preset not in preset_names():
             raise ValueError(f"{where}: {name}.task.preset={preset!r} is not allowed; choose one of {preset_names()}")
+        design, tier = task.get("design", "residual"), task.get("tier", "physics")
+        for key, value, allowed in (("design", design, DESIGNS), ("tier", tier, TIERS)):
+            if value not in allowed:
+                raise ValueError(f"{where}: {name}.task.{key}={value!r} is not allowed; allowed: {list(allowed)}")
+        if tier == "surrogate" and preset != DEFAULT_PRESET:
+            raise ValueError(f"{where}: {name}.task.preset={preset!r} is not allowed with tier 'surrogate'; allowed: "
+                             f"{DEFAULT_PRESET!r} (the map the surrogate replays)")
         planner = task.get("planner", "rule")
+        if design == "burst" and ("planner" in task or "action_cost" in task):
+            raise ValueError(f"{where}: {name}.task: design 'burst' has no planner and no action_cost; remove "
+                             f"{[k for k in ('planner', 'action_cost') if k in task]}")
         try:
             base_planner(planner)
         except ValueError as exc:
             raise ValueError(f"{where}: {name}.task.{exc}") from None
         limits = dict(task.get("limits") or {})
         try:
-            ResidualLimits(**limits)
+            if design == "burst":
+                BurstLimits(**limits)
+            else:
+                ResidualLimits(**limits)
         except TypeError as exc:
+            raise ValueError(f"{where}: {name}.task.limits: {exc}") from None
+        except ValueError as exc:
             raise ValueError(f"{where}: {name}.task.limits: {exc}") from None
         cost = require_finite(f"{where}: {name}.task.action_cost", task.get("action_cost", 0.0), 0.0)
         normalize = dict(body.get("normalize") or {"norm_obs": True, "norm_reward": True})
@@ -212,7 +239,7 @@ class TrainConfig:
                    normalize=normalize, ppo={k: body[k] for k in PPO_KEYS if k in body}, preset=preset,
                    turn_map=task.get("turn_map"), limits=limits, action_cost=cost,
                    env_kwargs=dict(task.get("env_kwargs") or {}), init_from=init_from,
-                   source=source, planner=planner)
+                   source=source, planner=planner, design=design, tier=tier)
 
 
 def _only(d: Mapping[str, Any], allowed: tuple[str, ...], where: str) -> None:

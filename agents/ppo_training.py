@@ -44,12 +44,14 @@ from typing import Any
 import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 
+from agents.burst_design import BurstLimits
 from agents.ppo_config import TrainConfig
 from agents.residual_planner import ResidualLimits
 from batch.provenance import git_commit
 from physics.errors import is_interrupt
 
-MODE = "residual"
+#: meta.json's "mode" by ``task.design``: a residual agent corrects a planner; a scratch agent has none.
+MODES = {"residual": "residual", "burst": "scratch"}
 CHECKPOINT_PREFIX = "rl_model"
 EPISODE_FIELDS = ("decisions", "wall_time_s", "stage", "return", "length", "is_success", "waypoints_reached",
                   "mean_cross_track_m", "time_s", "energy_J", "buckling_events")
@@ -98,9 +100,21 @@ def agent_env(config: TrainConfig) -> tuple[str, dict[str, Any]]:
     that later changes of the defaults do not change it): the config's task on the last curriculum stage's
     paths, nominal or randomised as trained. ``PPO.load`` and ``VecNormalize.load`` of the agent's files on
     ``make_vec_env(env_id, env_kwargs=make_kwargs)`` reproduce it with plain stable-baselines3."""
-    from agents.registration import TURN_COARSE_ENV_ID, TURN_ENV_ID, TURN_FAST_ENV_ID
+    from agents.registration import (BURST_SURROGATE_ENV_ID, TURN_COARSE_ENV_ID, TURN_ENV_ID, TURN_FAST_ENV_ID,
+                                     TURN_SURROGATE_ENV_ID)
 
-    env_id = {"fast": TURN_FAST_ENV_ID, "coarse": TURN_COARSE_ENV_ID}.get(config.preset, TURN_ENV_ID)
+    if config.design == "burst":
+        if config.tier != "surrogate":
+            raise ValueError(f"task.design 'burst' with tier {config.tier!r} is not available yet; allowed: tier "
+                             "'surrogate'")
+        return BURST_SURROGATE_ENV_ID, {"preset": config.preset, "turn_map": config.turn_map,
+                                        "env_kwargs": dict(config.env_kwargs),
+                                        "limits": dataclasses.asdict(BurstLimits(**config.limits)),
+                                        "random_path": dict(config.curriculum[-1].random_path)}
+    if config.tier == "surrogate":
+        env_id = TURN_SURROGATE_ENV_ID
+    else:
+        env_id = {"fast": TURN_FAST_ENV_ID, "coarse": TURN_COARSE_ENV_ID}.get(config.preset, TURN_ENV_ID)
     return env_id, {"preset": config.preset, "turn_map": config.turn_map, "env_kwargs": dict(config.env_kwargs),
                     "limits": dataclasses.asdict(ResidualLimits(**config.limits)), "action_cost": config.action_cost,
                     "random_path": dict(config.curriculum[-1].random_path),
@@ -118,9 +132,10 @@ def trained_head_rotation(preset: str, env_kwargs: dict[str, Any]) -> str:
 
 
 def _make_env(config: TrainConfig, rank: int, paths=None):
-    """A picklable factory of one TurnDecisionEnv: training (the curriculum's first stage, the
-    config's randomisation) or, with ``paths``, validation (those paths, nominal parameters)."""
+    """A picklable factory of the agent's env (``agent_env``, unwrapped): training (the curriculum's first stage,
+    the config's randomisation) or, with ``paths``, validation (those paths, nominal parameters)."""
     parent = os.getpid()
+    env_id, make_kwargs = agent_env(config)
 
     def factory():
         if os.getpid() != parent:  # a SubprocVecEnv worker: quiet on Ctrl-C, gone with its parent
@@ -128,14 +143,16 @@ def _make_env(config: TrainConfig, rank: int, paths=None):
 
             signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops training and closes the workers
             watch_parent(parent, interval_s=0.2)  # exit before a finished step hits the closed pipe
-        from agents.turn_decision_env import TurnDecisionEnv
+        import gymnasium as gym
+
+        import agents  # noqa: F401  (registers the ids in a spawned worker)
 
         kwargs = dict(config.env_kwargs)
         if paths:
             kwargs.pop("randomize", None)
-        env = TurnDecisionEnv(preset=config.preset, turn_map=config.turn_map, env_kwargs=kwargs,
-                              paths=paths, random_path=None if paths else config.curriculum[0].random_path,
-                              limits=config.limits, action_cost=config.action_cost, planner=config.planner)
+        env_class = gym.envs.registration.load_env_creator(gym.spec(env_id).entry_point)
+        env = env_class(**{**make_kwargs, "env_kwargs": kwargs, "paths": paths,
+                           "random_path": None if paths else config.curriculum[0].random_path})
         env.reset(seed=config.seed + rank)
         return env
     return factory
@@ -158,6 +175,9 @@ def run_identity(config: TrainConfig) -> dict[str, Any]:
         "action_cost": config.action_cost, "env_kwargs": dict(config.env_kwargs), "policy": config.policy,
         "policy_kwargs": dict(config.ppo.get("policy_kwargs") or {}), "n_envs": config.n_envs,
         "normalize": dict(config.normalize), "seed": config.seed, "init_from": config.init_from,
+        # runs from before the designs and tiers existed have neither (residual on the physics)
+        **({"design": config.design} if config.design != "residual" else {}),
+        **({"tier": config.tier} if config.tier != "physics" else {}),
         # the rule planner's runs from before the choice existed have no "planner"
         **({"planner": config.planner} if config.planner != "rule" else {})}, default=str))
 
@@ -330,7 +350,9 @@ def write_training_curve(out: Path, config: TrainConfig) -> Path | None:
 
     if not (out / "episodes.csv").is_file() or (out / "episodes.csv").stat().st_size == 0:
         return None
-    fig = training_figure(out, title=f"{config.name}: PPO residual on the {config.planner} planner, {config.preset}")
+    what = (f"PPO residual on the {config.planner} planner" if config.design == "residual"
+            else "PPO from scratch, burst actions")
+    fig = training_figure(out, title=f"{config.name}: {what}, {config.preset} ({config.tier})")
     fig.savefig(out / "training_curve.png", dpi=110)
     return out / "training_curve.png"
 
@@ -438,7 +460,8 @@ class _Bookkeeping(BaseCallback):
 
         env_id, make_kwargs = agent_env(self.config)
         self.meta.update({
-            "name": self.config.name, "mode": MODE, "preset": self.config.preset, "turn_map": self.config.turn_map,
+            "name": self.config.name, "mode": MODES[self.config.design], "design": self.config.design,
+            "tier": self.config.tier, "preset": self.config.preset, "turn_map": self.config.turn_map,
             "head_rotation": trained_head_rotation(self.config.preset, self.config.env_kwargs),
             "planner": self.config.planner,
             "config": self.config.source, "n_envs": self.config.n_envs,

@@ -19,7 +19,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
 
-from agents.burst_design import N_BURST_FEATURES, BurstLimits, burst_observation, decode_burst_action
+from agents.burst_design import N_BURST_ACTIONS, N_BURST_FEATURES, BurstLimits, burst_observation, decode_burst_action
 from agents.controller_spec import CONTROLLER_ENV_DEFAULTS
 from agents.registration import BURST_SURROGATE_ENV_ID
 from agents.surrogate_episode import SurrogateEpisode, surrogate_info
@@ -61,8 +61,9 @@ class SurrogateBurstEnv(TurnEpisodes, gym.Env):
     ## Spaces
 
     Observation ``Box(-10, 10, (N_BURST_FEATURES,), float32)`` (``burst_observation``); action
-    ``Box(-1, 1, (3,), float32)``: burst length, burst phase, cruise time (``decode_burst_action``). An action that
-    is not three finite numbers raises ``ValueError``; entries outside [-1, 1] are clipped.
+    ``Box(-1, 1, (4,), float32)``: burst length, the burst phase's direction (2), cruise time
+    (``decode_burst_action``). An action that is not four finite numbers raises ``ValueError``; entries outside
+    [-1, 1] are clipped.
 
     ## Rewards, episode end, ``info``
 
@@ -103,7 +104,7 @@ class SurrogateBurstEnv(TurnEpisodes, gym.Env):
         self.paths = fixed_paths(paths)
         self.set_random_path(DEFAULT_RANDOM_PATH if random_path is None else random_path)
         self.observation_space = spaces.Box(-10.0, 10.0, (N_BURST_FEATURES,), np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (N_BURST_ACTIONS,), np.float32)
         dt = self.config.control_dt
         self.period_steps = max(2, round(self.turn_map.period_s / dt))
         self.relax_wait_s = (2 * self.period_steps * dt, PlannerConfig().max_relax_factor * self.turn_map.relax_s)

@@ -21,26 +21,27 @@ ONE_TURN = path_from_waypoints([[0.12, 0.0, 0.0], [0.12, 0.15, 0.0]], name="one_
 def test_gymnasium_check_env_passes():
     env = gym.make(ID).unwrapped
     check_env(env, skip_render_check=True)
-    assert env.observation_space.shape == (N_BURST_FEATURES,) and env.action_space.shape == (3,)
+    assert env.observation_space.shape == (N_BURST_FEATURES,) and env.action_space.shape == (4,)
 
 
 def test_decoding_maps_the_box_onto_burst_length_phase_and_cruise():
     lim = BurstLimits(t_c_max_s=4.5, cruise_min_s=2.0, cruise_max_s=60.0)
-    none = decode_burst_action([-0.3, 0.5, -1.0], lim, 0.1)
+    none = decode_burst_action([-0.3, 0.0, 0.5, -1.0], lim, 0.1)
     assert none.t_c_s == 0.0 and none.beta_rad == pytest.approx(0.5 * math.pi) and none.cruise_s == pytest.approx(2.0)
-    full = decode_burst_action([1.0, -1.0, 1.0], lim, 0.1)
+    full = decode_burst_action([1.0, -1.0, -1e-9, 1.0], lim, 0.1)
     assert full.t_c_s == pytest.approx(4.5) and full.beta_rad == pytest.approx(-math.pi)
     assert full.cruise_s == pytest.approx(60.0)
-    mid = decode_burst_action([0.72, 0.0, 0.0], lim, 0.1)   # 3.24 s -> whole steps of 0.1 s
+    mid = decode_burst_action([0.72, 0.3, 0.3, 0.0], lim, 0.1)   # 3.24 s -> whole steps of 0.1 s
     assert mid.t_c_s == pytest.approx(3.2) and mid.cruise_s == pytest.approx(31.0)
-    assert decode_burst_action([5.0, 0.0, 9.0], lim, 0.1) == decode_burst_action([1.0, 0.0, 1.0], lim, 0.1)
+    assert mid.beta_rad == pytest.approx(0.25 * math.pi)
+    assert decode_burst_action([5.0, 0.0, 3.0, 9.0], lim, 0.1) == decode_burst_action([1.0, 0.0, 1.0, 1.0], lim, 0.1)
 
 
-@pytest.mark.parametrize("bad", [[0.1, 0.2], [0.1, np.nan, 0.0], "abc", [1j, 0, 0]])
+@pytest.mark.parametrize("bad", [[0.1, 0.2, 0.3], [0.1, np.nan, 0.0, 0.0], "abc", [1j, 0, 0, 0]])
 def test_an_action_that_is_not_three_finite_numbers_is_refused(bad):
     env = gym.make(ID).unwrapped
     env.reset(seed=0)
-    with pytest.raises(ValueError, match="three finite numbers"):
+    with pytest.raises(ValueError, match="four finite numbers"):
         env.step(bad)
 
 
@@ -60,7 +61,7 @@ def test_no_burst_swims_straight_for_the_cruise_asked():
     env = gym.make(ID, paths=[ONE_TURN]).unwrapped
     env.reset(seed=0)
     d0, t0 = env.episode.heading.copy(), env.episode.time_s
-    obs, _, term, trunc, info = env.step(np.array([-1.0, 0.0, -1.0]))
+    obs, _, term, trunc, info = env.step(np.array([-1.0, 1.0, 0.0, -1.0]))
     assert not (term or trunc) and info["turns"] == 0
     assert np.array_equal(env.episode.heading, d0)
     assert env.episode.time_s - t0 == pytest.approx(2.0)
@@ -72,7 +73,7 @@ def test_a_burst_turns_the_heading_by_the_maps_theta_and_the_observation_says_so
     env.reset(seed=0)
     d0 = env.episode.heading.copy()
     t_c = 3.5
-    obs, _, _, _, info = env.step(np.array([t_c / env.limits.t_c_max_s, 0.25, -1.0]))
+    obs, _, _, _, info = env.step(np.array([t_c / env.limits.t_c_max_s, 0.7, 0.7, -1.0]))
     turned = angle_between(d0, env.episode.heading)
     thetas = [p.theta_deg for p in env.turn_map.points if p.t_c == t_c]
     assert info["turns"] == 1
@@ -100,7 +101,7 @@ def test_episodes_end_and_a_seed_repeats_them():
         obs, _ = env.reset(seed=seed)
         out = [obs]
         for _ in range(200):
-            obs, r, term, trunc, info = env.step(rng.uniform(-1, 1, 3))
+            obs, r, term, trunc, info = env.step(rng.uniform(-1, 1, 4))
             out.append(obs)
             if term or trunc:
                 return np.concatenate(out), info

@@ -1,0 +1,72 @@
+"""Training from scratch on the burst design (task.design "burst", task.tier "surrogate"): the config's checks and a
+short run on FlagellumBurst-surrogate-v0 that writes an agent, resumes and refuses another design."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from agents.ppo_config import TrainConfig
+
+PATHS = {"n_waypoints": 1, "segment_length_m": [0.05, 0.08], "min_turn_deg": 30.0, "max_turn_deg": 90.0}
+TINY = {"scratch": {"n_envs": 2, "n_timesteps": 64, "seed": 0, "checkpoint_every": 32, "n_steps": 16,
+                    "batch_size": 16, "n_epochs": 1, "policy_kwargs": {"net_arch": [8], "log_std_init": -0.5},
+                    "task": {"design": "burst", "tier": "surrogate", "limits": {"cruise_max_s": 30.0},
+                             "curriculum": [{"name": "one", "until": 64, "random_path": PATHS}],
+                             "validation": {"seeds": [5, 6], "every": 32, "random_path": PATHS}}}}
+
+
+def _with(task_changes=None, drop=()):
+    doc = json.loads(json.dumps(TINY))
+    doc["scratch"]["task"].update(task_changes or {})
+    for k in drop:
+        doc["scratch"]["task"].pop(k)
+    return doc
+
+
+@pytest.mark.parametrize("changes, fragment", [
+    ({"design": "bursts"}, "task.design='bursts' is not allowed; allowed: ['residual', 'burst']"),
+    ({"tier": "reduced"}, "task.tier='reduced' is not allowed; allowed: ['physics', 'surrogate']"),
+    ({"planner": "adaptive"}, "design 'burst' has no planner and no action_cost"),
+    ({"preset": "coarse"}, "task.preset='coarse' is not allowed with tier 'surrogate'"),
+    ({"limits": {"t_c_max": 3.0}}, "t_c_max"),
+    ({"limits": {"cruise_min_s": 0.0}}, "cruise_min_s"),
+])
+def test_bad_scratch_settings_are_refused_naming_the_key(changes, fragment):
+    with pytest.raises(ValueError) as err:
+        TrainConfig.from_dict(_with(changes))
+    assert fragment in str(err.value) and "\n" not in str(err.value)
+
+
+def test_shipped_scratch_config_loads():
+    cfg = TrainConfig.from_yaml("agents/configs/ppo_scratch_surrogate.yml")
+    assert (cfg.design, cfg.tier, cfg.preset) == ("burst", "surrogate", "faithful")
+    assert all(s < 1000 for s in cfg.validation.seeds)
+
+
+def test_a_short_scratch_run_writes_an_agent_resumes_and_refuses_another_design(tmp_path):
+    from stable_baselines3 import PPO
+
+    from agents.ppo_training import agent_env, train
+
+    out = tmp_path / "run"
+    half = json.loads(json.dumps(TINY))
+    half["scratch"]["n_timesteps"] = 32
+    result = train(TrainConfig.from_dict(half), out, progress=False)
+    assert result.decisions == 32
+    meta = json.loads((out / "meta.json").read_text())
+    assert (meta["mode"], meta["design"], meta["tier"]) == ("scratch", "burst", "surrogate")
+    assert meta["env_id"] == "FlagellumBurst-surrogate-v0" and meta["make_kwargs"]["limits"]["cruise_max_s"] == 30.0
+    assert agent_env(TrainConfig.from_dict(TINY)) == (meta["env_id"], meta["make_kwargs"])
+    result = train(TrainConfig.from_dict(TINY), out, resume=True, progress=False)
+    assert result.decisions == 64
+    with np.load(out / "eval" / "evaluations.npz") as d:
+        assert list(d["timesteps"]) == [32, 64]
+    model = PPO.load(str(out / "model.zip"), device="cpu")
+    assert model.action_space.shape == (4,) and model.observation_space.shape == (17,)
+    other = _with({"design": "residual", "tier": "physics", "preset": "coarse"}, drop=("limits",))
+    other["scratch"]["n_timesteps"] = 96
+    with pytest.raises(ValueError, match="design"):
+        train(TrainConfig.from_dict(other), out, resume=True, progress=False)
