@@ -59,11 +59,14 @@ TURN_ENV_ARGUMENTS = ("preset", "turn_map", "env_kwargs", "paths", "random_path"
                       "render_mode", "planner")
 
 
-def refuse_unknown_arguments(env_id: str, unknown: Mapping[str, Any]) -> None:
-    """ValueError (one line) naming keyword arguments a ``FlagellumTurn`` env does not take, and those it does."""
+def refuse_unknown_arguments(env_id: str, unknown: Mapping[str, Any],
+                             known: Sequence[str] = TURN_ENV_ARGUMENTS) -> None:
+    """ValueError (one line) naming keyword arguments an env does not take, and those it does (``known``; default
+    a ``FlagellumTurn`` env's)."""
     if unknown:
-        raise ValueError(f"unknown argument(s) {sorted(unknown)} for {env_id}; known arguments: "
-                         + ", ".join(TURN_ENV_ARGUMENTS))
+        raise ValueError(f"unknown argument(s) {sorted(unknown)} for {env_id}; known arguments: " + ", ".join(known))
+
+
 INFO_KEYS = ("path", "is_success", "waypoints_reached", "mean_cross_track_m", "time_s", "energy_J",
              "buckling_events", "turns")
 
@@ -185,26 +188,8 @@ class TurnDecisionEnv(TurnEpisodes, gym.Env):
             raise ValueError(f"render_mode={render_mode!r} is not allowed; choose one of "
                              f"{[None] + self.metadata['render_modes']}")
         self.render_mode = render_mode
-        preset = self.default_preset if preset is None else preset
-        if preset not in preset_names():
-            raise ValueError(f"preset={preset!r} is not allowed; choose one of {preset_names()}")
-        self.preset = preset
-        env_kwargs = DEFAULT_ENV_KWARGS if env_kwargs is None else env_kwargs
-        if not isinstance(env_kwargs, Mapping):
-            raise ValueError(f"env_kwargs={env_kwargs!r} must be a dict of FlagellumSteer-v0 arguments or None")
-        for name, why in (("path", "give paths= or random_path="), ("render_mode", "give render_mode=")):
-            if name in env_kwargs:
-                raise ValueError(f"env_kwargs must not hold {name!r}; {why}")
-        kwargs = {**CONTROLLER_ENV_DEFAULTS[kind], "preset": preset, **dict(env_kwargs)}
-        try:
-            self.base = FlagellumSteerEnv(path="random", render_mode=render_mode, **kwargs)
-        except ValueError as exc:
-            raise ValueError(f"env_kwargs: {exc}") from None
-        tmap_file = Path(turn_map) if turn_map is not None else default_turn_map(preset)
-        if not tmap_file.is_file():
-            raise ValueError(f"turn_map={str(tmap_file)!r}: " + missing_turn_map_message(tmap_file, preset,
-                                                                                           given=turn_map is not None))
-        tmap = TurnMap.load(tmap_file)
+        self.preset = self.default_preset if preset is None else preset
+        self.base, tmap = steer_base_env(self.preset, turn_map, env_kwargs, render_mode, CONTROLLER_ENV_DEFAULTS[kind])
         self.planner = planner_cls.for_env(self.base, tmap, planner_config, limits=residual_limits(limits))
         self.action_cost = require_finite("action_cost", action_cost, 0.0)
         self.paths = fixed_paths(paths)
@@ -261,14 +246,7 @@ class TurnDecisionEnv(TurnEpisodes, gym.Env):
 
     def _info(self, base_info: dict[str, Any]) -> dict[str, Any]:
         """The episode so far (module docstring), from the base env's last ``info``."""
-        out = {"path": self._path_name, "is_success": bool(base_info["is_success"]),
-               "waypoints_reached": int(base_info["waypoint_index"]),
-               "mean_cross_track_m": float(np.mean(self._cross)) if self._cross else 0.0,
-               "time_s": float(base_info["sim_time_s"]), "energy_J": float(base_info["energy_used_j"]),
-               "buckling_events": int(base_info["buckling_events"]), "turns": self._turns}
-        if base_info.get("error"):
-            out["error"] = base_info["error"]
-        return out
+        return decision_info(self._path_name, base_info, self._cross, self._turns)
 
     def _advance(self) -> tuple[float, bool, bool, dict[str, Any]]:
         """Run control steps until the planner waits for a decision or the episode ends."""
@@ -311,6 +289,46 @@ class TurnDecisionCoarseEnv(TurnDecisionEnv):
 
     env_id: ClassVar[str] = TURN_COARSE_ENV_ID
     default_preset: ClassVar[str] = "coarse"
+
+
+# --- shared with agents.burst_decision_env -------------------------------------------------------
+def steer_base_env(preset: str, turn_map: str | os.PathLike | None, env_kwargs: Mapping[str, Any] | None,
+                   render_mode: str | None, defaults: Mapping[str, Any]) -> tuple[FlagellumSteerEnv, TurnMap]:
+    """(``FlagellumSteer-v0`` on random paths, the turn map) of a turn-level env: ``env_kwargs`` (None:
+    ``DEFAULT_ENV_KWARGS``) merged over ``defaults`` (a controller kind's ``CONTROLLER_ENV_DEFAULTS``) and
+    ``preset``; ``turn_map`` None: the preset's. ValueError (one line) naming a bad preset, argument or map."""
+    if preset not in preset_names():
+        raise ValueError(f"preset={preset!r} is not allowed; choose one of {preset_names()}")
+    env_kwargs = DEFAULT_ENV_KWARGS if env_kwargs is None else env_kwargs
+    if not isinstance(env_kwargs, Mapping):
+        raise ValueError(f"env_kwargs={env_kwargs!r} must be a dict of FlagellumSteer-v0 arguments or None")
+    for name, why in (("path", "give paths= or random_path="), ("render_mode", "give render_mode=")):
+        if name in env_kwargs:
+            raise ValueError(f"env_kwargs must not hold {name!r}; {why}")
+    kwargs = {**defaults, "preset": preset, **dict(env_kwargs)}
+    try:
+        base = FlagellumSteerEnv(path="random", render_mode=render_mode, **kwargs)
+    except ValueError as exc:
+        raise ValueError(f"env_kwargs: {exc}") from None
+    tmap_file = Path(turn_map) if turn_map is not None else default_turn_map(preset)
+    if not tmap_file.is_file():
+        raise ValueError(f"turn_map={str(tmap_file)!r}: " + missing_turn_map_message(tmap_file, preset,
+                                                                                       given=turn_map is not None))
+    return base, TurnMap.load(tmap_file)
+
+
+def decision_info(path_name: str, base_info: Mapping[str, Any], cross_track_m: Sequence[float],
+                  turns: int) -> dict[str, Any]:
+    """A turn-level env's ``info`` (``INFO_KEYS``, and ``error`` after a simulation error) from the base env's
+    last ``info``, the cross-track errors of the control steps so far (m) and the turns flown."""
+    out = {"path": path_name, "is_success": bool(base_info["is_success"]),
+           "waypoints_reached": int(base_info["waypoint_index"]),
+           "mean_cross_track_m": float(np.mean(cross_track_m)) if cross_track_m else 0.0,
+           "time_s": float(base_info["sim_time_s"]), "energy_J": float(base_info["energy_used_j"]),
+           "buckling_events": int(base_info["buckling_events"]), "turns": turns}
+    if base_info.get("error"):
+        out["error"] = base_info["error"]
+    return out
 
 
 # --- validation ------------------------------------------------------------------------------

@@ -102,6 +102,14 @@ class ObservationLayout:
         s = model.slices()
         return cls(s["waypoints"], s["orientation"], s["shape"], model.length_scale_m, int(slots[0]))
 
+    def read(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(the observed targets minus the head, (k, 3); the phase node minus the head, (3,)), both m in the start
+        frame, from one flat observation (float64), as the planner reads them."""
+        rot = obs[self.orientation].reshape(3, 3).T  # columns X_b, Y_b, Z_b in the start frame
+        rel = (obs[self.waypoints].reshape(-1, 3) * self.length_scale_m) @ rot.T  # targets - head, start frame
+        node = obs[self.shape].reshape(-1, 3)[self.phase_slot] * self.length_scale_m @ rot.T
+        return rel, node
+
 
 @dataclass
 class PlannerEpisode:
@@ -149,6 +157,49 @@ def hover_phase_stuck(hover_steps: int, travel_rad: float, period_steps: int, re
     return hover_steps > 1.5 * period_steps and abs(travel_rad) < 2.0 * math.pi and restarts < max_restarts
 
 
+def hover_check(prev_phase: float, phase: float, target: float, hover_steps: int, travel_rad: float,
+                period_steps: int, restarts: int, limit_periods: float, max_restarts: int) -> tuple[bool, bool, bool]:
+    """(reached, timed_out, stuck) after a hover's ``hover_steps``-th control step: the phase reached ``target``
+    (``burst_phase_reached``), more than ``limit_periods`` map periods hovered (burst at the phase it has), or,
+    neither holding, the phase swings instead of turning (``hover_phase_stuck``: measure the heading again)."""
+    reached = burst_phase_reached(prev_phase, phase, target)
+    timed_out = hover_steps > limit_periods * period_steps
+    stuck = not reached and not timed_out and hover_phase_stuck(hover_steps, travel_rad, period_steps, restarts,
+                                                                max_restarts)
+    return reached, timed_out, stuck
+
+
+def wobble_period_steps(period_s: float, control_dt: float) -> int:
+    """Control steps of one wobble period (the map's ``period_s``, s, at ``control_dt`` s), at least 2."""
+    return max(2, round(period_s / control_dt))
+
+
+def period_heading(heads: list[np.ndarray], period_steps: int) -> np.ndarray:
+    """The heading as the planner measures it: the unit head displacement over the last ``period_steps`` control
+    steps (one wobble period); ``heads`` the head after each control step (m), at least ``period_steps`` + 1."""
+    return unit(heads[-1] - heads[-1 - period_steps])
+
+
+def heading_steady(heads: list[np.ndarray], period_steps: int, settle_tol_deg: float) -> bool:
+    """Whether the headings over the last two periods (``period_heading``) differ by less than ``settle_tol_deg``."""
+    k = period_steps
+    if len(heads) < 2 * k + 1:
+        return False
+    a = heads[-1] - heads[-1 - k]
+    b = heads[-1 - k] - heads[-1 - 2 * k]
+    return math.degrees(angle_between(a, b)) < settle_tol_deg
+
+
+def relax_over(heads: list[np.ndarray], waited_steps: int, period_steps: int, config: PlannerConfig,
+               map_relax_s: float, control_dt: float) -> bool:
+    """Whether the relaxation after a burst is over, ``waited_steps`` control steps (``control_dt`` s) at omega_l
+    after it: at least two periods and the heading steady (``heading_steady``), or ``config.max_relax_factor`` x
+    the map's relaxation ``map_relax_s`` (s) waited."""
+    limit = config.max_relax_factor * map_relax_s / control_dt
+    return waited_steps >= 2 * period_steps and (heading_steady(heads, period_steps, config.settle_tol_deg)
+                                                 or waited_steps >= limit)
+
+
 class RulePlanner:
     """Rule-based controller with a stable-baselines3-like ``predict``.
 
@@ -173,7 +224,7 @@ class RulePlanner:
         self.reach_radius_m = float(reach_radius_m)
         self.action_of = action_of
         self.config = config or PlannerConfig()
-        self.period_steps = max(2, round(turn_map.period_s / self.control_dt))
+        self.period_steps = wobble_period_steps(turn_map.period_s, self.control_dt)
         self.min_turn_rad = math.radians(max(self.config.min_turn_deg, 0.0))
         self._episodes: list[PlannerEpisode] = []
 
@@ -246,9 +297,8 @@ class RulePlanner:
     # --- the rules -------------------------------------------------------------------------
     def _decide(self, ep: PlannerEpisode, obs: np.ndarray) -> float:
         """Motor speed (rpm) for the next control step."""
-        lay, tm = self.layout, self.turn_map
-        rot = obs[lay.orientation].reshape(3, 3).T  # columns X_b, Y_b, Z_b in the start frame
-        rel = (obs[lay.waypoints].reshape(-1, 3) * lay.length_scale_m) @ rot.T  # targets - head, start frame
+        tm = self.turn_map
+        rel, node = self.layout.read(obs)
         if ep.prev_rel is not None:
             # the head moved by prev - now for the same target; if the target switched, the old
             # second target is the new first one. The smaller implied move is the right one.
@@ -259,7 +309,6 @@ class RulePlanner:
         ep.prev_rel = rel
         ep.heads.append(ep.head.copy())
         ep.step += 1
-        node = obs[lay.shape].reshape(-1, 3)[lay.phase_slot] * lay.length_scale_m @ rot.T
         target = ep.head + rel[0]
         wl, wh = tm.omega_l_rpm, tm.omega_h_rpm
 
@@ -269,9 +318,8 @@ class RulePlanner:
             ep.mode, ep.low_since = "relax", ep.step
             return wl
         if ep.mode == "relax":
-            waited = ep.step - ep.low_since
-            limit = self.config.max_relax_factor * tm.relax_s / self.control_dt
-            if waited >= 2 * self.period_steps and (self._heading_steady(ep) or waited >= limit):
+            if relax_over(ep.heads, ep.step - ep.low_since, self.period_steps, self.config, tm.relax_s,
+                          self.control_dt):
                 ep.mode = "cruise"
                 self._turn_settled(ep)
             return wl
@@ -280,10 +328,10 @@ class RulePlanner:
             if ep.prev_phase is not None:
                 ep.hover_steps += 1
                 ep.hover_travel += wrap_angle(phase - ep.prev_phase)
-                reached = burst_phase_reached(ep.prev_phase, phase, ep.target_phase)
-                timed_out = ep.hover_steps > self.HOVER_LIMIT_PERIODS * self.period_steps
-                if not reached and not timed_out and hover_phase_stuck(
-                        ep.hover_steps, ep.hover_travel, self.period_steps, ep.hover_restarts, self.HOVER_RESTARTS):
+                reached, timed_out, stuck = hover_check(
+                    ep.prev_phase, phase, ep.target_phase, ep.hover_steps, ep.hover_travel, self.period_steps,
+                    ep.hover_restarts, self.HOVER_LIMIT_PERIODS, self.HOVER_RESTARTS)
+                if stuck:
                     # the phase swings instead of turning: the heading it is measured about is off the
                     # flagellum's axis (a heading still turning after the last burst); measure it again
                     ep.hover_restarts += 1
@@ -348,15 +396,7 @@ class RulePlanner:
         return plan
 
     def _heading(self, ep: PlannerEpisode) -> np.ndarray:
-        return unit(ep.heads[-1] - ep.heads[-1 - self.period_steps])
-
-    def _heading_steady(self, ep: PlannerEpisode) -> bool:
-        k = self.period_steps
-        if len(ep.heads) < 2 * k + 1:
-            return False
-        a = ep.heads[-1] - ep.heads[-1 - k]
-        b = ep.heads[-1 - k] - ep.heads[-1 - 2 * k]
-        return math.degrees(angle_between(a, b)) < self.config.settle_tol_deg
+        return period_heading(ep.heads, self.period_steps)
 
     def _plan_turn(self, head: np.ndarray, d: np.ndarray, target: np.ndarray, node: np.ndarray,
                    ep: PlannerEpisode | None = None) -> dict | None:
