@@ -22,9 +22,11 @@ as a direction (a_1, a_2), not as one number: a turn's direction lies ~130 deg f
 
 The observation (``burst_observation``, ``N_BURST_FEATURES`` values) is the task in the heading's frame
 (d, e1, e2) = (heading, ``perpendicular_basis(heading)``), the frame beta is measured in: the next two waypoints
-and the current segment's line relative to the head, the time left, and what the last decision did (its burst
-length and the turn seen since: the angle between the headings at the two decisions), from which an agent can
-tell a swimmer that turns more or less than the nominal one.
+(each as a vector, its distance, its unit direction, its angle off the heading and its azimuth about the heading
+as (cos, sin): the turn a policy must make, spelled so that the burst's length is a function of one entry and
+its phase direction a fixed rotation of two) and the current segment's line relative to the head, the time left,
+and what the last decision did (its burst length and the turn seen since: the angle between the headings at the
+two decisions), from which an agent can tell a swimmer that turns more or less than the nominal one.
 """
 
 from __future__ import annotations
@@ -41,9 +43,9 @@ from physics.validation import require_finite
 OBS_SCALE_M = 0.1
 #: Action size: burst length, the burst phase's direction (2), cruise time.
 N_BURST_ACTIONS = 4
-#: Observation size: 2 targets x (3 + 1), segment direction (3), offset from its line (3), time left, last burst
-#: length, last turn.
-N_BURST_FEATURES = 17
+#: Observation size: 2 targets x (vector (3), distance, unit direction (3), angle off the heading, azimuth (cos,
+#: sin)), segment direction (3), offset from its line (3), time left, last burst length, last turn.
+N_BURST_FEATURES = 29
 
 
 @dataclass(frozen=True)
@@ -106,11 +108,18 @@ def burst_observation(head: np.ndarray, heading: np.ndarray, targets: np.ndarray
     e1, e2 = perpendicular_basis(heading)
     frame = np.stack([heading, e1, e2])
     rel = (targets - head) @ frame.T / OBS_SCALE_M
+    dist = np.sqrt((rel * rel).sum(axis=1))
+    unit = rel / np.maximum(dist, 1e-12)[:, None]
+    off_heading = np.arccos(np.clip(unit[:, 0], -1.0, 1.0)) / math.pi
+    across = np.hypot(rel[:, 1], rel[:, 2])
+    cos_az = np.where(across > 0.0, rel[:, 1] / np.maximum(across, 1e-12), 1.0)
+    sin_az = np.where(across > 0.0, rel[:, 2] / np.maximum(across, 1e-12), 0.0)
+    per_target = np.column_stack([rel, dist, unit, off_heading, cos_az, sin_az])
     a, b = segment
     u = b - a
     n = math.sqrt(float(u @ u))
     u = u / n if n > 0.0 else heading
     off = (head - a) - float((head - a) @ u) * u
-    out = np.concatenate([rel.reshape(-1), np.sqrt((rel * rel).sum(axis=1)), frame @ u, frame @ off / OBS_SCALE_M,
+    out = np.concatenate([per_target.reshape(-1), frame @ u, frame @ off / OBS_SCALE_M,
                           [time_left, last_t_c_fraction, last_turn_rad / math.pi]])
     return np.clip(out, -10.0, 10.0).astype(np.float32)

@@ -84,14 +84,19 @@ def test_a_burst_turns_the_heading_by_the_maps_theta_and_the_observation_says_so
 
 def test_the_observation_is_the_task_in_the_headings_frame():
     head, d = np.zeros(3), np.array([1.0, 0.0, 0.0])
-    targets = np.array([[0.1, 0.0, 0.0], [0.1, 0.1, 0.0]])
+    targets = np.array([[0.1, 0.0, 0.0], [0.1, -0.1, 0.0]])
     obs = burst_observation(head, d, targets, (np.zeros(3), targets[0]), 0.5, 0.0, 0.0)
-    assert obs[:3] == pytest.approx([1.0, 0.0, 0.0]) and obs[6] == pytest.approx(1.0)
-    assert obs[8:11] == pytest.approx([1.0, 0.0, 0.0]) and obs[11:14] == pytest.approx([0.0, 0.0, 0.0])
-    assert obs[14] == pytest.approx(0.5)
+    first, second = obs[:10], obs[10:20]
+    assert first[:4] == pytest.approx([1.0, 0.0, 0.0, 1.0]) and first[4:7] == pytest.approx([1.0, 0.0, 0.0])
+    assert first[7] == pytest.approx(0.0) and first[8:10] == pytest.approx([1.0, 0.0])   # dead ahead
+    # the second: 10 cm ahead and 10 cm along -y = +e2 (e1 = z, e2 = d x e1 = -y): 45 deg off, azimuth 90 deg
+    assert second[:4] == pytest.approx([1.0, 0.0, 1.0, math.sqrt(2.0)], rel=1e-6)
+    assert second[7] == pytest.approx(0.25) and second[8:10] == pytest.approx([0.0, 1.0], abs=1e-7)
+    assert obs[20:23] == pytest.approx([1.0, 0.0, 0.0]) and obs[23:26] == pytest.approx([0.0, 0.0, 0.0])
+    assert obs[26] == pytest.approx(0.5)
     # a head 1 cm off the segment's line (along +z: e1 of the heading's frame)
     off = burst_observation(np.array([0.02, 0.0, 0.01]), d, targets, (np.zeros(3), targets[0]), 0.5, 0.0, 0.0)
-    assert off[11:14] == pytest.approx([0.0, 0.1, 0.0], abs=1e-6)
+    assert off[23:26] == pytest.approx([0.0, 0.1, 0.0], abs=1e-6)
 
 
 def test_episodes_end_and_a_seed_repeats_them():

@@ -8,6 +8,7 @@ import json
 import numpy as np
 import pytest
 
+from agents.burst_design import N_BURST_ACTIONS, N_BURST_FEATURES
 from agents.ppo_config import TrainConfig
 
 PATHS = {"n_waypoints": 1, "segment_length_m": [0.05, 0.08], "min_turn_deg": 30.0, "max_turn_deg": 90.0}
@@ -65,7 +66,7 @@ def test_a_short_scratch_run_writes_an_agent_resumes_and_refuses_another_design(
     with np.load(out / "eval" / "evaluations.npz") as d:
         assert list(d["timesteps"]) == [32, 64]
     model = PPO.load(str(out / "model.zip"), device="cpu")
-    assert model.action_space.shape == (4,) and model.observation_space.shape == (17,)
+    assert model.action_space.shape == (N_BURST_ACTIONS,) and model.observation_space.shape == (N_BURST_FEATURES,)
     other = _with({"design": "residual", "tier": "physics", "preset": "coarse"}, drop=("limits",))
     other["scratch"]["n_timesteps"] = 96
     with pytest.raises(ValueError, match="design"):
