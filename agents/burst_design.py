@@ -32,13 +32,17 @@ two decisions), from which an agent can tell a swimmer that turns more or less t
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from agents.turn_geometry import perpendicular_basis
 from physics.validation import require_finite
 
+#: The keyword arguments of every ``FlagellumBurst`` env.
+BURST_ENV_ARGUMENTS = ("preset", "turn_map", "env_kwargs", "paths", "random_path", "limits", "render_mode")
 #: Length scale of the observation, m (the paths' segments are 5-40 cm).
 OBS_SCALE_M = 0.1
 #: Action size: burst length, the burst phase's direction (2), cruise time.
@@ -65,6 +69,21 @@ class BurstLimits:
         if not self.cruise_min_s <= self.cruise_max_s:
             raise ValueError(f"BurstLimits.cruise_min_s={self.cruise_min_s!r} must be <= cruise_max_s="
                              f"{self.cruise_max_s!r}")
+
+
+def burst_limits(limits: BurstLimits | Mapping[str, Any] | None) -> BurstLimits:
+    """``limits`` as ``BurstLimits`` (None: the defaults); ValueError naming an unknown key or a bad value."""
+    if limits is None:
+        return BurstLimits()
+    if isinstance(limits, BurstLimits):
+        return limits
+    if not isinstance(limits, Mapping):
+        raise ValueError(f"limits={limits!r} must be BurstLimits, a dict of its fields or None")
+    known = ("t_c_max_s", "cruise_min_s", "cruise_max_s")
+    unknown = sorted(set(limits) - set(known))
+    if unknown:
+        raise ValueError(f"unknown limits key(s) {unknown}; allowed: {list(known)}")
+    return BurstLimits(**{k: float(v) for k, v in limits.items()})
 
 
 @dataclass(frozen=True)

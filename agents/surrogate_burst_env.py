@@ -19,37 +19,19 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
 
-from agents.burst_design import N_BURST_ACTIONS, N_BURST_FEATURES, BurstLimits, burst_observation, decode_burst_action
+from agents.burst_design import (BURST_ENV_ARGUMENTS, N_BURST_ACTIONS, N_BURST_FEATURES, BurstLimits, burst_limits,
+                                 burst_observation, decode_burst_action)
 from agents.controller_spec import CONTROLLER_ENV_DEFAULTS
 from agents.registration import BURST_SURROGATE_ENV_ID
 from agents.surrogate_episode import SurrogateEpisode, surrogate_info
 from agents.surrogate_swimmer import SurrogateSwimmer, TurnMapTable
 from agents.surrogate_turn_env import surrogate_setup
-from agents.turn_decision_env import DEFAULT_RANDOM_PATH, TurnEpisodes, fixed_paths
+from agents.turn_decision_env import DEFAULT_RANDOM_PATH, TurnEpisodes, fixed_paths, refuse_unknown_arguments
 from agents.turn_geometry import angle_between
-from agents.turn_planner import PlannerConfig
+from agents.turn_planner import PlannerConfig, wobble_period_steps
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M, draw_randomization
 from flagellum_env.tracking import PathTracker
 from physics.presets import DEFAULT_PRESET
-
-#: The keyword arguments of every ``FlagellumBurst`` env.
-BURST_ENV_ARGUMENTS = ("preset", "turn_map", "env_kwargs", "paths", "random_path", "limits", "render_mode")
-
-
-def burst_limits(limits: BurstLimits | Mapping[str, Any] | None) -> BurstLimits:
-    """``limits`` as ``BurstLimits`` (None: the defaults); ValueError naming an unknown key or a bad value."""
-    if limits is None:
-        return BurstLimits()
-    if isinstance(limits, BurstLimits):
-        return limits
-    if not isinstance(limits, Mapping):
-        raise ValueError(f"limits={limits!r} must be BurstLimits, a dict of its fields or None")
-    known = ("t_c_max_s", "cruise_min_s", "cruise_max_s")
-    unknown = sorted(set(limits) - set(known))
-    if unknown:
-        raise ValueError(f"unknown limits key(s) {unknown}; allowed: {list(known)}")
-    return BurstLimits(**{k: float(v) for k, v in limits.items()})
-
 
 class SurrogateBurstEnv(TurnEpisodes, gym.Env):
     """
@@ -92,9 +74,7 @@ class SurrogateBurstEnv(TurnEpisodes, gym.Env):
                  env_kwargs: Mapping[str, Any] | None = None, paths: Sequence[Any] | None = None,
                  random_path: Mapping[str, Any] | None = None, limits: BurstLimits | Mapping[str, Any] | None = None,
                  render_mode: str | None = None, **unknown: Any) -> None:
-        if unknown:
-            raise ValueError(f"unknown argument(s) {sorted(unknown)} for {self.env_id}; known arguments: "
-                             + ", ".join(BURST_ENV_ARGUMENTS))
+        refuse_unknown_arguments(self.env_id, unknown, BURST_ENV_ARGUMENTS)
         self.render_mode = None
         self.preset, self.config, self.turn_map, self.calibration = surrogate_setup(
             self.env_id, DEFAULT_PRESET if preset is None else preset, turn_map, env_kwargs, render_mode,
@@ -106,7 +86,7 @@ class SurrogateBurstEnv(TurnEpisodes, gym.Env):
         self.observation_space = spaces.Box(-10.0, 10.0, (N_BURST_FEATURES,), np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (N_BURST_ACTIONS,), np.float32)
         dt = self.config.control_dt
-        self.period_steps = max(2, round(self.turn_map.period_s / dt))
+        self.period_steps = wobble_period_steps(self.turn_map.period_s, dt)
         self.relax_wait_s = (2 * self.period_steps * dt, PlannerConfig().max_relax_factor * self.turn_map.relax_s)
         self._episode = 0
         self._swimmer_rng: np.random.Generator | None = None
