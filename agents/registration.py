@@ -17,10 +17,11 @@ and in ``SURROGATE_TURN_ENV_IDS`` (no rod: ``agents.surrogate_turn_env``, the tu
 | ``FlagellumTurn-surrogate-v0`` | ``agents.surrogate_turn_env.SurrogateTurnEnv`` | faithful's turn map, no rod |
 
 and in ``BURST_ENV_IDS`` (the burst action design of ``agents.burst_design``: no planner inside, for agents that
-learn from scratch):
+learn from scratch; the two are twins, with the same spaces, rewards and ``info`` keys):
 
 | id                              | class (entry point)                              | model                       |
 |---------------------------------|--------------------------------------------------|-----------------------------|
+| ``FlagellumBurst-v0``           | ``agents.burst_decision_env.BurstDecisionEnv``   | the rod, faithful (default) |
 | ``FlagellumBurst-surrogate-v0`` | ``agents.surrogate_burst_env.SurrogateBurstEnv`` | faithful's turn map, no rod |
 
 Every episode ends within the base env's time budget, a few to some tens of decisions, so no ``TimeLimit`` is
@@ -37,6 +38,7 @@ TURN_ENV_ID = "FlagellumTurn-v0"
 TURN_FAST_ENV_ID = "FlagellumTurn-fast-v0"
 TURN_COARSE_ENV_ID = "FlagellumTurn-coarse-v0"
 TURN_SURROGATE_ENV_ID = "FlagellumTurn-surrogate-v0"
+BURST_ENV_ID = "FlagellumBurst-v0"
 BURST_SURROGATE_ENV_ID = "FlagellumBurst-surrogate-v0"
 
 #: id -> entry point
@@ -53,6 +55,7 @@ SURROGATE_TURN_ENV_IDS: dict[str, str] = {
 #: id -> entry point of the burst action design (``agents.burst_design``: one action = one burst command, no
 #: planner), for agents that learn from scratch
 BURST_ENV_IDS: dict[str, str] = {
+    BURST_ENV_ID: "agents.burst_decision_env:BurstDecisionEnv",
     BURST_SURROGATE_ENV_ID: "agents.surrogate_burst_env:SurrogateBurstEnv",
 }
 

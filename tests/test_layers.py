@@ -152,7 +152,8 @@ def test_every_known_cycle_still_exists(known):
 def test_the_entry_point_finder_sees_registered_entry_points():
     modules = module_files()
     found = entry_point_modules("agents.registration", modules["agents.registration"], modules)
-    assert found == {"agents.turn_decision_env", "agents.surrogate_turn_env", "agents.surrogate_burst_env"}
+    assert found == {"agents.turn_decision_env", "agents.surrogate_turn_env", "agents.surrogate_burst_env",
+                     "agents.burst_decision_env"}
     assert "flagellum_env.steer_env" in entry_point_modules("flagellum_env.registration",
                                                             modules["flagellum_env.registration"], modules)
 

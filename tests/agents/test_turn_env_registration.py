@@ -79,6 +79,7 @@ def test_import_agents_registers_the_turn_ids_with_their_classes():
     assert r.stdout.strip() == str(sorted((i, e, None) for i, e in {**TURN_ENV_IDS, **SURROGATE_TURN_ENV_IDS,
                                                                     **BURST_ENV_IDS}.items()))
     assert sorted(TURN_ENV_IDS) == ["FlagellumTurn-coarse-v0", "FlagellumTurn-fast-v0", "FlagellumTurn-v0"]
+    assert sorted(BURST_ENV_IDS) == ["FlagellumBurst-surrogate-v0", "FlagellumBurst-v0"]
 
 
 @pytest.mark.parametrize("env_id, preset", [("FlagellumTurn-v0", "faithful"), ("FlagellumTurn-fast-v0", "fast"),
