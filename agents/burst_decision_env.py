@@ -35,9 +35,9 @@ class BurstDecisionEnv(TurnEpisodes, gym.Env):
 
     Follow waypoints by bursts, with no planner (``agents.burst_design``'s docstring is the manual of the action
     and the observation), on the rod: the twin of ``FlagellumBurst-surrogate-v0`` (same spaces, rewards, episode
-    ends and ``info`` keys), a decision costing ~1 CPU s at ``faithful`` instead of ~0.1 ms. One step drives
-    ``FlagellumSteer-v0`` (``FlagellumSteerEnv``, continuous motor speed) through control steps of ``control_dt``
-    (0.1 s):
+    ends and ``info`` keys), a decision costing 0.05-4 CPU s at ``faithful`` (mean 1.2-1.4 s over random actions,
+    scripts/compare_burst_twins.py) instead of ~0.1 ms. One step drives ``FlagellumSteer-v0``
+    (``FlagellumSteerEnv``, continuous motor speed) through control steps of ``control_dt`` (0.1 s):
 
     1. hover at omega_l until the phase node's azimuth about the heading reaches the command's beta, as the rule
        planner hovers (``agents.turn_planner.hover_check``: a hover whose phase swings instead of turning measures
