@@ -15,7 +15,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from agents.burst_design import (BURST_ENV_ARGUMENTS, N_BURST_FEATURES, BurstCommand, BurstLimits, burst_limits,
+from agents.burst_design import (BURST_ENV_ARGUMENTS, N_BURST_ACTIONS, N_BURST_FEATURES, BurstCommand, BurstLimits, burst_limits,
                                  burst_observation, decode_burst_action)
 from agents.controller_spec import CONTROLLER_ENV_DEFAULTS
 from agents.registration import BURST_ENV_ID
@@ -55,10 +55,10 @@ class BurstDecisionEnv(TurnEpisodes, gym.Env):
 
     Observation ``Box(-10, 10, (N_BURST_FEATURES,), float32)`` (``burst_observation``: the next two waypoints and
     the current segment in the heading's frame, in units of 0.1 m; the time left; the last burst's t_c / t_c_max;
-    the angle between the headings at the last decision and now / pi). Action ``Box(-1, 1, (3,), float32)``: burst
-    length, burst phase, cruise time (``decode_burst_action``: t_c <= ``t_c_max_s`` s, beta in [-pi, pi] rad,
-    cruise ``cruise_min_s`` to ``cruise_max_s`` s, whole control steps). An action that is not three finite numbers
-    raises ``ValueError``; entries outside [-1, 1] are clipped.
+    the angle between the headings at the last decision and now / pi). Action ``Box(-1, 1, (4,), float32)``: burst
+    length, the burst phase's direction (2), cruise time (``decode_burst_action``: t_c <= ``t_c_max_s`` s,
+    beta = atan2(a_2, a_1) rad, cruise ``cruise_min_s`` to ``cruise_max_s`` s, whole control steps). An action that
+    is not four finite numbers raises ``ValueError``; entries outside [-1, 1] are clipped.
 
     ## Rewards
 
@@ -123,7 +123,7 @@ class BurstDecisionEnv(TurnEpisodes, gym.Env):
         self.paths = fixed_paths(paths)
         self.set_random_path(DEFAULT_RANDOM_PATH if random_path is None else random_path)
         self.observation_space = spaces.Box(-10.0, 10.0, (N_BURST_FEATURES,), np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (N_BURST_ACTIONS,), np.float32)
         self._episode = 0
         self._done = True
         #: What the last burst's hover did: the phase's miss of beta (rad), whether it timed out, how often the

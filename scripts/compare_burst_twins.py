@@ -28,7 +28,7 @@ import gymnasium as gym
 import numpy as np
 
 import agents  # noqa: F401  (registers the ids)
-from agents.burst_design import decode_burst_action
+from agents.burst_design import N_BURST_ACTIONS, decode_burst_action
 from agents.turn_geometry import angle_between, azimuth, wrap_angle
 from flagellum_env.paths import path_from_waypoints
 
@@ -105,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args(argv)
     load0 = os.getloadavg()
-    actions = np.random.default_rng(args.seed).uniform(-1.0, 1.0, (args.decisions, 3)).astype(np.float32)
+    actions = np.random.default_rng(args.seed).uniform(-1.0, 1.0, (args.decisions, N_BURST_ACTIONS)).astype(np.float32)
     rod = fly("FlagellumBurst-v0", args.preset, args.seed, actions)
     sur = fly("FlagellumBurst-surrogate-v0", args.preset, args.seed, actions)
     pairs = list(zip(rod[1:], sur[1:]))

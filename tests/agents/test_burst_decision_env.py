@@ -56,7 +56,7 @@ def test_no_burst_swims_straight_for_the_cruise_asked():
     assert set(info) == INFO and info["turns"] == 0 and not info["out_of_range"]
     assert info["time_s"] == pytest.approx((env.period_steps + 1) * env.control_dt)  # the reset's heading
     d0, t0 = env.heading.copy(), env.time_s
-    obs, reward, term, trunc, info = env.step(np.array([-1.0, 0.3, -1.0]))  # no burst, 2 s of cruise
+    obs, reward, term, trunc, info = env.step(np.array([-1.0, 1.0, 0.3, -1.0]))  # no burst, 2 s of cruise
     assert not (term or trunc) and info["turns"] == 0 and reward > 0.0  # progress along the first segment
     assert env.time_s - t0 == pytest.approx(2.0, rel=1e-9)
     assert math.degrees(angle_between(d0, env.heading)) < HEADING_TOL_DEG
@@ -70,7 +70,7 @@ def test_a_burst_turns_the_heading_as_the_map_says():
     env = gym.make(ID, paths=[ONE_TURN]).unwrapped
     env.reset(seed=0)
     d0, t_c, beta = env.heading.copy(), 3.5, 0.25 * math.pi
-    obs, _, term, trunc, info = env.step(np.array([t_c / env.limits.t_c_max_s, beta / math.pi, -1.0]))
+    obs, _, term, trunc, info = env.step(np.array([t_c / env.limits.t_c_max_s, math.cos(beta), math.sin(beta), -1.0]))
     assert not (term or trunc) and info["turns"] == 1
     points = [p for p in env.turn_map.points if p.t_c == t_c]
     theta = math.degrees(angle_between(d0, env.heading))
@@ -108,7 +108,7 @@ def test_an_episode_that_ends_in_the_reset_ends_at_the_first_step():
 
     env.base.step = recording
     env.reset(seed=0)
-    _, reward, term, trunc, info = env.step(np.array([1.0, 0.0, 1.0]))
+    _, reward, term, trunc, info = env.step(np.array([1.0, 1.0, 0.0, 1.0]))
     assert trunc and not term and info["turns"] == 0 and info["time_s"] == pytest.approx(3.0)
     assert reward == pytest.approx(sum(recorded), rel=1e-12)
     with pytest.raises(RuntimeError, match="reset"):
@@ -131,8 +131,8 @@ def test_bad_arguments_are_refused_in_one_line(kwargs, match):
 def test_a_bad_action_is_refused():
     env = gym.make(ID, paths=[ONE_TURN], env_kwargs={"max_sim_time_s": 8.0}).unwrapped
     env.reset(seed=0)
-    for bad in ([0.1, 0.2], [0.1, np.nan, 0.0], "abc"):
-        with pytest.raises(ValueError, match="three finite numbers"):
+    for bad in ([0.1, 0.2, 0.3], [0.1, np.nan, 0.0, 0.0], "abc"):
+        with pytest.raises(ValueError, match="four finite numbers"):
             env.step(bad)
 
 
