@@ -10,13 +10,17 @@ from typing import Any
 #: Environment settings each controller kind needs (merged under the caller's settings).
 #: The rule planner times its bursts to the flagellum's phase (~40 deg/s at 10 rpm) and its turns
 #: grow by up to ~100 deg per second of burst (paper preset), so it steps every 0.1 s.
-#: The PPO agent corrects the planner's turns (agents.residual_planner), so it steps like the planner.
+#: The PPO agents (``ppo``: stable-baselines3; ``rllib``: an RLlib checkpoint) correct the planner's turns
+#: (agents.residual_planner), so they step like the planner.
 CONTROLLER_ENV_DEFAULTS: dict[str, dict[str, Any]] = {"rule": {"control_dt": 0.1}, "adaptive": {"control_dt": 0.1},
-                                                      "horizon": {"control_dt": 0.1}, "ppo": {"control_dt": 0.1}}
+                                                      "horizon": {"control_dt": 0.1}, "ppo": {"control_dt": 0.1},
+                                                      "rllib": {"control_dt": 0.1}}
+#: Kinds that have no default: the part after ``:`` is required.
+_NEEDS_ARGUMENT = {"rllib": "rllib:CHECKPOINT_DIR"}
 
 
 _ALLOWED_SPECS = ("'rule', 'rule:TURN_MAP.json', 'adaptive', 'adaptive:TURN_MAP.json', 'horizon', "
-                  "'horizon:TURN_MAP.json', 'ppo', 'ppo:AGENT_DIR'; 'rule@line=W' and 'adaptive@line=W' (W >= 0, "
+                  "'horizon:TURN_MAP.json', 'ppo', 'ppo:AGENT_DIR', 'rllib:CHECKPOINT_DIR'; 'rule@line=W' and 'adaptive@line=W' (W >= 0, "
                   "also before ':TURN_MAP.json') score turns by the path's line too; '@cap=DEG' (DEG > 0; e.g. "
                   "'adaptive@line=2,cap=90') plans at most DEG degrees per burst")
 #: Options a planner spec may carry after ``@`` (``KIND@line=W,cap=DEG``), by kind.
@@ -25,9 +29,10 @@ _OPTION_RANGE = {"line": "line=W (W a number >= 0)", "cap": "cap=DEG (DEG a numb
 
 
 def controller_kind(spec: str) -> str:
-    """``"rule"``, ``"adaptive"``, ``"horizon"`` or ``"ppo"`` from ``KIND``, ``KIND:FILE``, ``KIND@line=W`` or
+    """``"rule"``, ``"adaptive"``, ``"horizon"``, ``"ppo"`` or ``"rllib"`` from ``KIND``, ``KIND:FILE``, ``KIND@line=W`` or
     ``KIND@line=W:FILE``; ValueError otherwise (also for ``KIND:`` with nothing after the colon, which would
-    silently mean the default map or agent, and for an option the kind does not take)."""
+    silently mean the default map or agent, for ``rllib`` without its checkpoint, and for an option the kind does
+    not take)."""
     head, sep, arg = spec.partition(":") if isinstance(spec, str) else ("", "", "")
     kind = head.partition("@")[0]
     if kind not in CONTROLLER_ENV_DEFAULTS:
@@ -35,6 +40,9 @@ def controller_kind(spec: str) -> str:
     if sep and not arg.strip():
         raise ValueError(f"controller {spec!r} is not allowed: nothing follows {head + ':'!r}; allowed: {head!r} "
                          f"for the default, or {head}:FILE ({_ALLOWED_SPECS})")
+    if kind in _NEEDS_ARGUMENT and not sep:
+        raise ValueError(f"controller {spec!r} is not allowed: {kind!r} has no default; allowed: "
+                         f"{_NEEDS_ARGUMENT[kind]!r} (a folder written by 'flagellum train --engine ray')")
     controller_options(spec)
     return kind
 

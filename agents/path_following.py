@@ -7,7 +7,8 @@ turns it observes, ``agents.adaptive_planner``), ``horizon`` / ``horizon:MAP.jso
 search of two moves -- cruise, then burst -- over that corrected map, ``agents.horizon_planner``), ``rule@line=W`` /
 ``adaptive@line=W`` (either planner also scoring a turn by how far its end lies from the path's line, W m per m:
 ``PlannerConfig.line_weight``; ``:MAP.json`` may follow), ``ppo`` (the PPO agent shipped in ``agents/pretrained/``: the adaptive planner corrected by a policy trained at ``faithful``) and ``ppo:DIR`` (an agent folder
-written by ``flagellum train``, or its ``model.zip``). Each has the stable-baselines3
+written by ``flagellum train``, or its ``model.zip``), ``rllib:DIR`` (a run folder of ``flagellum train --engine
+ray`` or one of its checkpoints: ``agents.rllib_policy``). Each has the stable-baselines3
 ``predict(obs, state, episode_start, deterministic)`` call, so the loop does not care which.
 
 Metrics (the same names everywhere; ``METRICS``):
@@ -71,6 +72,10 @@ def make_controller(spec: str, env, preset: str):
         planner = {"rule": RulePlanner, "adaptive": AdaptivePlanner, "horizon": HorizonPlanner}[kind]
         options = controller_options(spec)
         return planner.for_env(env, TurnMap.load(path), PlannerConfig.from_options(options))
+    if kind == "rllib":
+        from agents.rllib_policy import load_rllib_controller
+
+        return load_rllib_controller(arg, env, preset)
     from agents.ppo_policy import load_ppo_controller
 
     return load_ppo_controller(arg, env, preset)

@@ -1,0 +1,138 @@
+"""Load an RLlib checkpoint (``flagellum train --engine ray``) as a controller (``--controller rllib:DIR``).
+
+``DIR`` is a run folder (its newest checkpoint is used) or one checkpoint ``DIR/checkpoints/iter_NNNNNN``. The
+checkpoint must come from a ``FlagellumTurn-*`` env: its policy is a residual agent that corrects the planner's
+turns, and it flies exactly as the ``ppo`` controller does (``agents.ppo_policy``): the planner named by the env's
+``planner`` argument (default ``rule``) with the turn map of the preset flown, corrected by the policy within the
+env's ``limits``. The action is deterministic: the mean of the policy's action distribution
+(``to_deterministic``), clipped to [-1, 1], after RLlib's MeanStdFilter when the run normalised its observations
+(its statistics are read from the checkpoint, never updated here).
+
+Loading needs Ray's Python package (``RLModule.from_checkpoint``) but no running Ray: nothing here calls
+``ray.init``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.assets import default_turn_map, missing_turn_map_message
+from agents.ppo_policy import AdaptivePPOController, PPOController
+from agents.residual_planner import ResidualLimits, base_planner
+from agents.rllib_config import CHECKPOINT_PREFIX, INFO_FILE
+from agents.turn_map import TurnMap
+
+#: Where RLlib's checkpoint keeps the policy and the observation filter.
+MODULE_SUBDIR = Path("learner_group", "learner", "rl_module", "default_policy")
+FILTER_SUBDIR = Path("env_runner", "env_to_module_connector", "MeanStdFilter")
+
+
+def checkpoint_folder(arg: str) -> Path:
+    """The checkpoint ``arg`` names: itself, or a run folder's newest; ValueError naming ``arg`` otherwise."""
+    import json
+
+    folder = Path(arg)
+    if (folder / INFO_FILE).is_file():
+        return folder
+    found = [p for p in (folder / "checkpoints").glob(f"{CHECKPOINT_PREFIX}*") if (p / INFO_FILE).is_file()]
+    if not found:
+        raise ValueError(f"controller 'rllib:{arg}': no RLlib checkpoint there (no {INFO_FILE}, no "
+                         f"checkpoints/iter_*/{INFO_FILE}); allowed: a folder written by 'flagellum train --engine "
+                         "ray --out DIR' or one of its checkpoints")
+    return max(found, key=lambda p: json.loads((p / INFO_FILE).read_text(encoding="utf-8"))["iteration"])
+
+
+@dataclass
+class RLlibAgent:
+    """An RLlib policy with its observation filter; ``act(features, deterministic)`` like ``PPOAgent``."""
+
+    module: Any
+    obs_filter: Any
+    info: dict[str, Any]
+    folder: Path
+
+    def act(self, features: np.ndarray, deterministic: bool = True) -> np.ndarray:
+        """Residual action (2,) in [-1, 1] for one feature vector."""
+        import torch
+
+        f = np.asarray(features, dtype=np.float32).reshape(1, -1)
+        if self.obs_filter is not None:
+            f = self.obs_filter(f, update=False)
+        with torch.no_grad():
+            out = self.module.forward_inference({"obs": torch.as_tensor(f, dtype=torch.float32)})
+            dist = self.module.get_inference_action_dist_cls().from_logits(out["action_dist_inputs"])
+            if deterministic:
+                dist = dist.to_deterministic()
+            action = dist.sample()
+        return np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
+
+
+def _load_filter(folder: Path, shape: tuple[int, ...]):
+    """RLlib's MeanStdFilter of the checkpoint as a callable (``ray.rllib.utils.filter.MeanStdFilter`` with its
+    running statistics), or None when the run did not normalise."""
+    import pickle
+
+    from ray.rllib.utils.filter import MeanStdFilter, RunningStat
+
+    state_file = folder / FILTER_SUBDIR / "state.pkl"
+    if not state_file.is_file():
+        return None
+    with open(state_file, "rb") as f:
+        state = pickle.load(f)[None]  # one agent (no multi-agent key)
+    filt = MeanStdFilter(np.array(shape), demean=state["de_mean_to_zero"], destd=state["de_std_to_one"],
+                         clip=state["clip_by_value"])
+    filt.running_stats = RunningStat.from_state(state["running_stats"][0])
+    return filt
+
+
+def load_rllib_agent(arg: str, n_features: int | None = None, planner: str | None = None) -> RLlibAgent:
+    """The agent in checkpoint ``arg`` (``checkpoint_folder``); ValueError naming both sides when it was not
+    trained on a FlagellumTurn env or its observations are not ``(n_features,)`` (``planner``'s turn features)."""
+    import json
+
+    from agents.registration import SURROGATE_TURN_ENV_IDS, TURN_ENV_IDS
+    from ray.rllib.core.rl_module.rl_module import RLModule
+
+    folder = checkpoint_folder(arg)
+    info = json.loads((folder / INFO_FILE).read_text(encoding="utf-8"))
+    turn_ids = [*TURN_ENV_IDS, *SURROGATE_TURN_ENV_IDS]
+    if info.get("env_id") not in turn_ids:
+        raise ValueError(f"controller 'rllib:{arg}': the checkpoint was trained on {info.get('env_id')!r}; a "
+                         f"controller corrects the planner's turns: allowed: a checkpoint of one of {turn_ids}")
+    shape = tuple(info["observation_shape"])
+    if n_features is not None and shape != (n_features,):
+        raise ValueError(f"controller 'rllib:{arg}': the checkpoint was trained on {info['env_id']} with "
+                         f"observations {shape}; the {planner} planner's turn features are ({n_features},): retrain it")
+    module = RLModule.from_checkpoint(str((folder / MODULE_SUBDIR).resolve()))
+    module.eval()
+    if tuple(module.observation_space.shape) != shape:
+        raise ValueError(f"controller 'rllib:{arg}': the policy takes observations {module.observation_space.shape}, "
+                         f"its {INFO_FILE} says {shape}: the checkpoint is inconsistent")
+    return RLlibAgent(module, _load_filter(folder, shape) if info.get("normalize_obs", True) else None, info, folder)
+
+
+def load_rllib_controller(arg: str, env, preset: str) -> PPOController | AdaptivePPOController:
+    """``--controller rllib:DIR`` for this env: the checkpoint's planner and limits, the turn map of ``preset``."""
+    import json
+
+    from agents.turn_decision_env import residual_limits
+
+    folder = checkpoint_folder(arg)
+    env_kwargs = json.loads((folder / INFO_FILE).read_text(encoding="utf-8")).get("env_kwargs", {})
+    planner = env_kwargs.get("planner", "rule")
+    kind, planner_cls, config = base_planner(planner)
+    agent = load_rllib_agent(arg, planner_cls.n_features, planner)
+    tmap_file = default_turn_map(preset)
+    if not tmap_file.is_file():
+        raise ValueError("the RLlib agent corrects the turn planner, which needs a turn map: "
+                         + missing_turn_map_message(tmap_file, preset))
+    limits = residual_limits(env_kwargs.get("limits")) or ResidualLimits()
+    cls = AdaptivePPOController if kind == "adaptive" else PPOController
+    ctrl = cls.for_env(env, TurnMap.load(tmap_file), config, limits=limits)
+    ctrl.agent = agent
+    ctrl.policy = lambda f: agent.act(f, ctrl._deterministic)
+    return ctrl
