@@ -24,7 +24,8 @@ PROG = "flagellum"
 #: Optional dependencies (top-level module -> (the package's extra that installs it, what it is)).
 OPTIONAL_MODULES = {"stable_baselines3": ("rl", "stable-baselines3"), "torch": ("rl", "PyTorch"),
                     "tensorboard": ("rl", "tensorboard"), "moviepy": ("video", "moviepy"), "rich": ("rl", "rich"),
-                    "distributed": ("cluster", "dask.distributed"), "dask": ("cluster", "dask")}
+                    "distributed": ("cluster", "dask.distributed"), "dask": ("cluster", "dask"),
+                    "ray": ("ray", "Ray RLlib")}
 
 
 class _Parser(argparse.ArgumentParser):
