@@ -181,3 +181,21 @@ def test_python_dash_m_flagellum_is_the_same_command_line():
     bad = subprocess.run([sys.executable, "-m", "flagellum", "follow", "--controller", "adaptive@cap=0"],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and bad.stderr.strip().startswith("flagellum: error:") and "cap='0'" in bad.stderr
+
+
+def test_train_engine_ray_without_ray_names_the_extra_and_sb3_refuses_an_address(usage_error, monkeypatch, tmp_path):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "ray", None)  # as if Ray were not installed
+    line = usage_error(["train", "--engine", "ray", "--out", str(tmp_path / "o")])
+    assert "--engine ray" in line and "pip install '.[ray]'" in line
+    line = usage_error(["train", "--address", "auto", "--out", str(tmp_path / "o")])
+    assert "--address 'auto'" in line and "--engine ray" in line
+    assert not (tmp_path / "o").exists()
+
+
+def test_train_help_names_both_engines_and_the_ray_controller(capsys):
+    with pytest.raises(SystemExit):
+        main(["train", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "--engine {sb3,ray}" in text and "rllib_ppo_surrogate.yml" in text and "--controller rllib:DIR" in text

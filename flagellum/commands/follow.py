@@ -17,7 +17,8 @@ DESCRIPTION = ("Follow --path (square = the paper's 0.25 m square, or a path fil
                "correcting its map online; rule@line=W / adaptive@line=W: either one also weighing how far a turn "
                "ends from the path's line, W m per m, e.g. adaptive@line=2; @cap=DEG: at most DEG degrees per burst, "
                "larger turns in several, e.g. adaptive@line=2,cap=90; horizon / horizon:MAP.json: a two-move "
-               "search over that corrected map; ppo / ppo:AGENT_DIR) and write "
+               "search over that corrected map; ppo / ppo:AGENT_DIR; rllib:CHECKPOINT_DIR: an agent trained "
+               "with 'flagellum train --engine ray') and write "
                "DIR/summary.json, DIR/path.png (target vs achieved, x-y and 3-D), DIR/omega.png (ω(t), L'/L) "
                "and the per-step trace: DIR/trace.npz for one controller, DIR/trace_<controller>.npz (each "
                "controller's spec with other characters than letters, digits, '-' and '_' as '_') for several. "
@@ -32,7 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--controller", action="append", default=None,
                         help="rule | rule:MAP.json | adaptive | adaptive:MAP.json | rule@line=W | adaptive@line=W | "
                              "rule@cap=DEG | adaptive@cap=DEG | adaptive@line=W,cap=DEG | "
-                             "horizon | horizon:MAP.json | ppo | ppo:AGENT_DIR (repeat to "
+                             "horizon | horizon:MAP.json | ppo | ppo:AGENT_DIR | rllib:CHECKPOINT_DIR (repeat to "
                              "compare on one plot; default rule)")
     parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/follow"), help="default out/follow")
     parser.add_argument("--reach-radius", metavar="M", help="waypoint reach radius, m (default: the path's or 0.015)")

@@ -4,7 +4,6 @@ or with Ray RLlib on a Ray cluster (``--engine ray``, the package's [ray] extra)
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import sys
 from pathlib import Path
 
@@ -83,9 +82,11 @@ def _run_ray(args: argparse.Namespace, config_file: Path) -> int:
     """``--engine ray``: agents.rllib_training."""
     from agents.rllib_config import RayTrainConfig
 
-    if importlib.util.find_spec("ray") is None:
+    try:
+        import ray  # noqa: F401
+    except ImportError:
         raise UsageError("--engine ray needs Ray RLlib, which is not installed; allowed: install the package's [ray] "
-                         "extra: pip install '.[ray]' in a clone (or 'flagellum-swimmer[ray]')")
+                         "extra: pip install '.[ray]' in a clone (or 'flagellum-swimmer[ray]')") from None
     if args.preset is not None:
         raise UsageError(f"--preset {args.preset} is not used with --engine ray; allowed: the config's env_id and "
                          "env_kwargs (e.g. env_kwargs: {preset: coarse})")
