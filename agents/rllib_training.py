@@ -206,7 +206,7 @@ def _drop_rows_after(file: Path, iteration: int) -> None:
         shutil.move(str(tmp), str(file))
 
 
-def _ray_init(address: str | None, config: RayTrainConfig) -> None:
+def start_ray(address: str | None, config: RayTrainConfig) -> None:
     """Start a local Ray or connect to the cluster at ``address``, keeping this process's SIGTERM handler (``ray.init``
     sets one that exits at once)."""
     import signal
@@ -282,7 +282,7 @@ def train(config: RayTrainConfig, out_dir: str | Path, resume: bool = False, pro
     saved: Path | None = done[-1] if resume else None
     t0, c0 = time.perf_counter(), time.process_time()
     try:
-        _ray_init(address, config)
+        start_ray(address, config)
         algo = algorithm_config(config).build_algo()
         if resume:
             algo.restore_from_path(str(done[-1].resolve()))
