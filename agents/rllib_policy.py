@@ -14,6 +14,7 @@ Loading needs Ray's Python package (``RLModule.from_checkpoint``) but no running
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -107,7 +108,16 @@ def load_rllib_agent(arg: str, n_features: int | None = None, planner: str | Non
     if n_features is not None and shape != (n_features,):
         raise ValueError(f"controller 'rllib:{arg}': the checkpoint was trained on {info['env_id']} with "
                          f"observations {shape}; the {planner} planner's turn features are ({n_features},): retrain it")
-    module = RLModule.from_checkpoint(str((folder / MODULE_SUBDIR).resolve()))
+    # RLlib 2.60 warns about its own deprecated RLModule(config=...) here
+    logs = [logging.getLogger(name) for name in ("ray.rllib", "ray._common.deprecation")]
+    levels = [log.level for log in logs]
+    for log in logs:
+        log.setLevel(logging.ERROR)
+    try:
+        module = RLModule.from_checkpoint(str((folder / MODULE_SUBDIR).resolve()))
+    finally:
+        for log, level in zip(logs, levels, strict=True):
+            log.setLevel(level)
     module.eval()
     if tuple(module.observation_space.shape) != shape:
         raise ValueError(f"controller 'rllib:{arg}': the policy takes observations {module.observation_space.shape}, "
