@@ -15,8 +15,12 @@ planners fly:
 
 and the env flies it: hover at omega_l until the phase node's azimuth about the heading reaches beta, burst for
 t_c, relax at omega_l (at least two wobble periods), then cruise; a cruise ends early at a waypoint, so that the
-agent decides again when its target changes. ``t_c_max`` (4.5 s) ends past the map's largest turn (3.75 s) with
-room for a swimmer 15 % slower to buckle; the post-buckling branch beyond is out of reach. The azimuth is given
+agent decides again when its target changes. ``t_c_max`` (3.7 s) ends one control step before the map's largest
+turn (3.75 s, 138 deg): past it the turn scatters (post-buckling), where the surrogate, which interpolates the
+map, and the rod disagree by 19-39 deg rms per decision against ~1 deg on the rising branch
+(``scripts/compare_burst_twins.py``, docs/rl.md), and a policy trained on the surrogate with 4.5 s learned to
+lean on the surrogate's smooth 84 deg at 4.5 s. A swimmer that buckles later makes its largest turns in two
+bursts. The azimuth is given
 as a direction (a_1, a_2), not as one number: a turn's direction lies ~130 deg from beta on the rising branch
 (the map's psi), and an angle in one action entry would put a seam where a Gaussian policy cannot cross it.
 
@@ -57,7 +61,7 @@ class BurstLimits:
     """What one action can ask for: bursts up to ``t_c_max_s`` (s), cruises of ``cruise_min_s`` to
     ``cruise_max_s`` (s). ValueError naming a value that is not finite, not positive or out of order."""
 
-    t_c_max_s: float = 4.5
+    t_c_max_s: float = 3.7
     cruise_min_s: float = 2.0
     cruise_max_s: float = 60.0
 

@@ -94,18 +94,14 @@ def check_env(config: RayTrainConfig) -> tuple[tuple[int, ...], tuple[int, ...]]
 
 
 def check_address(address: str | None, timeout_s: float = CONNECT_TIMEOUT_S) -> str | None:
-    """The cluster's ``host:port`` for ``address`` ("auto": the one ``ray start`` started on this machine), None for
-    a local Ray; ValueError naming the address when nothing answers there within ``timeout_s``."""
-    if address is None:
-        return None
+    """``address`` as given (None: a local Ray); ValueError naming the address when nothing answers at ``host:port``
+    within ``timeout_s``. "auto" (the cluster ``ray start`` started on this machine) is resolved by ``ray.init``,
+    whose failure ``start_ray`` reports in one line."""
+    if address is None or address == "auto":
+        return address
     allowed = ("allowed: the address a running 'ray start --head' printed (host:port), 'auto' for the cluster "
                "started on this machine, or no address for a local Ray")
-    try:
-        from ray._private.services import canonicalize_bootstrap_address_or_die
-
-        resolved = canonicalize_bootstrap_address_or_die(address)
-    except Exception as exc:  # ConnectionError (no cluster found), ValueError (format)
-        raise ValueError(f"--address {address!r}: {' '.join(str(exc).split())}; {allowed}") from None
+    resolved = address
     host, _, port = resolved.rpartition(":")
     try:
         with socket.create_connection((host, int(port)), timeout=timeout_s):
@@ -158,9 +154,10 @@ class _Metrics(RLlibCallback):
             metrics_logger.log_value("flagellum_successes", int(bool(info["is_success"])), reduce="sum")
 
     def on_sample_end(self, *, env_runner=None, metrics_logger=None, **kwargs) -> None:
+        # one callbacks object per env runner process: its own clock
         now = time.process_time()
-        last = getattr(env_runner, "_flagellum_cpu_s", 0.0)
-        env_runner._flagellum_cpu_s = now
+        last = getattr(self, "cpu_reported_s", 0.0)
+        self.cpu_reported_s = now
         metrics_logger.log_value("flagellum_cpu_s", now - last, reduce="sum")
 
 
@@ -231,7 +228,11 @@ def _connect(ray, address: str | None, config: RayTrainConfig) -> None:
     if address is None:  # a local Ray: at least one CPU slot per env runner (Ray would wait forever otherwise)
         ray.init(num_cpus=max(os.cpu_count() or 1, config.num_env_runners), **quiet)
         return
-    ray.init(address=address, **quiet)
+    try:
+        ray.init(address=address, **quiet)
+    except ConnectionError as exc:
+        raise ValueError(f"--address {address!r}: {' '.join(str(exc).split())}; allowed: the address a running "
+                         "'ray start --head' printed (host:port), or 'auto' on a machine where it runs") from None
     cpus = float(ray.cluster_resources().get("CPU", 0.0))
     if config.num_env_runners > cpus:
         ray.shutdown()
