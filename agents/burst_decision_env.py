@@ -15,8 +15,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from agents.burst_design import (BURST_ENV_ARGUMENTS, N_BURST_ACTIONS, N_BURST_FEATURES, BurstCommand, BurstLimits, burst_limits,
-                                 burst_observation, decode_burst_action)
+from agents.burst_design import (BURST_ENV_ARGUMENTS, N_BURST_ACTIONS, N_BURST_FEATURES, BurstCommand, BurstHistory,
+                                 BurstLimits, burst_limits, burst_observation, decode_burst_action)
 from agents.controller_spec import CONTROLLER_ENV_DEFAULTS
 from agents.registration import BURST_ENV_ID
 from agents.turn_decision_env import (DEFAULT_RANDOM_PATH, TurnEpisodes, decision_info, fixed_paths,
@@ -54,9 +54,8 @@ class BurstDecisionEnv(TurnEpisodes, gym.Env):
     ## Spaces
 
     Observation ``Box(-10, 10, (N_BURST_FEATURES,), float32)`` (``burst_observation``: the next two waypoints and
-    the current segment in the heading's frame, in units of 0.1 m; the time left; the last burst's t_c / t_c_max;
-    the angle between the headings at the last decision and now / pi). Action ``Box(-1, 1, (4,), float32)``: burst
-    length, the burst phase's direction (2), cruise time (``decode_burst_action``: t_c <= ``t_c_max_s`` s,
+    the current segment in the heading's frame, in units of 0.1 m; the time left; the last four bursts' t_c / t_c_max
+    and the turn seen over each one's decision / pi). Action ``Box(-1, 1, (4,), float32)``: burst length, the burst phase's direction (2), cruise time (``decode_burst_action``: t_c <= ``t_c_max_s`` s,
     beta = atan2(a_2, a_1) rad, cruise ``cruise_min_s`` to ``cruise_max_s`` s, whole control steps). An action that
     is not four finite numbers raises ``ValueError``; entries outside [-1, 1] are clipped.
 
@@ -141,7 +140,7 @@ class BurstDecisionEnv(TurnEpisodes, gym.Env):
         self._heads = [np.asarray(info["head_position_m"], dtype=np.float64)]
         self._cross: list[float] = []
         self._reward, self._end = 0.0, None
-        self.bursts, self._last, self.last_burst = 0, (0.0, 0.0), None
+        self.bursts, self.history, self.last_burst = 0, BurstHistory(), None
         self._cruise(self.period_steps + 1, stop_at_waypoint=False)  # a heading measured over one period
         self._decision_heading = self.heading
         self._done = False
@@ -155,7 +154,8 @@ class BurstDecisionEnv(TurnEpisodes, gym.Env):
             self._fly(command)
         reward, self._reward = self._reward, 0.0
         heading = self.heading
-        self._last = (command.t_c_s / self.limits.t_c_max_s, angle_between(self._decision_heading, heading))
+        if command.t_c_s > 0.0:
+            self.history.record(command.t_c_s / self.limits.t_c_max_s, angle_between(self._decision_heading, heading))
         self._decision_heading = heading
         terminated, truncated = self._end if self._end is not None else (False, False)
         self._done = terminated or truncated
@@ -272,7 +272,7 @@ class BurstDecisionEnv(TurnEpisodes, gym.Env):
         time_limit_s = self.base.max_steps * self.control_dt
         tracker = self.base.tracker
         return burst_observation(self.head, self.heading, tracker.targets(2), tracker.segment(),
-                                 max(0.0, 1.0 - self.time_s / time_limit_s), *self._last)
+                                 max(0.0, 1.0 - self.time_s / time_limit_s), self.history)
 
     def _info(self) -> dict[str, Any]:
         return {**decision_info(self._path_name, self._base_info, self._cross, self.bursts), "out_of_range": False}

@@ -29,8 +29,10 @@ The observation (``burst_observation``, ``N_BURST_FEATURES`` values) is the task
 (each as a vector, its distance, its unit direction, its angle off the heading and its azimuth about the heading
 as (cos, sin): the turn a policy must make, spelled so that the burst's length is a function of one entry and
 its phase direction a fixed rotation of two) and the current segment's line relative to the head, the time left,
-and what the last decision did (its burst length and the turn seen since: the angle between the headings at the
-two decisions), from which an agent can tell a swimmer that turns more or less than the nominal one.
+and what the last ``HISTORY_BURSTS`` bursts did (each one's length and the turn seen over its decision: the angle
+between the headings at that decision and the next), from which an agent can tell a swimmer that turns more or
+less than the nominal one: one burst on the steep rising branch is a noisy reading of a swimmer's timing (a PPO
+policy that saw only the last burst reached every waypoint of 4 of 12 held-out paths at +-10 % in the surrogate).
 """
 
 from __future__ import annotations
@@ -51,9 +53,11 @@ BURST_ENV_ARGUMENTS = ("preset", "turn_map", "env_kwargs", "paths", "random_path
 OBS_SCALE_M = 0.1
 #: Action size: burst length, the burst phase's direction (2), cruise time.
 N_BURST_ACTIONS = 4
+#: How many of the last bursts the observation recalls.
+HISTORY_BURSTS = 4
 #: Observation size: 2 targets x (vector (3), distance, unit direction (3), angle off the heading, azimuth (cos,
-#: sin)), segment direction (3), offset from its line (3), time left, last burst length, last turn.
-N_BURST_FEATURES = 29
+#: sin)), segment direction (3), offset from its line (3), time left, the last bursts (length, turn seen) x 4.
+N_BURST_FEATURES = 27 + 2 * HISTORY_BURSTS
 
 
 @dataclass(frozen=True)
@@ -122,12 +126,30 @@ def decode_burst_action(action, limits: BurstLimits, control_dt: float) -> Burst
                         max(1, round(cruise / control_dt)) * control_dt)
 
 
+class BurstHistory:
+    """The last ``HISTORY_BURSTS`` bursts of an episode as (t_c / t_c_max, turn seen / pi), newest first."""
+
+    def __init__(self) -> None:
+        self.entries: list[tuple[float, float]] = []
+
+    def record(self, t_c_fraction: float, turn_rad: float) -> None:
+        """A burst of ``t_c_fraction`` x t_c_max after which the heading turned ``turn_rad`` (rad) by the next
+        decision."""
+        self.entries = [(float(t_c_fraction), float(turn_rad) / math.pi)] + self.entries[:HISTORY_BURSTS - 1]
+
+    def features(self) -> np.ndarray:
+        """(2 HISTORY_BURSTS,): the entries, zeros where there were fewer bursts."""
+        out = np.zeros(2 * HISTORY_BURSTS)
+        for k, (t, turn) in enumerate(self.entries):
+            out[2 * k], out[2 * k + 1] = t, turn
+        return out
+
+
 def burst_observation(head: np.ndarray, heading: np.ndarray, targets: np.ndarray, segment: tuple[np.ndarray, np.ndarray],
-                      time_left: float, last_t_c_fraction: float, last_turn_rad: float) -> np.ndarray:
+                      time_left: float, history: BurstHistory) -> np.ndarray:
     """The observation (module docstring), (N_BURST_FEATURES,) float32. ``head`` (3,) m, ``heading`` (3,) unit,
     ``targets`` (2, 3) m (the next two waypoints, the last repeated), ``segment`` the current segment's ends
-    ((3,), (3,)) m, ``time_left`` in [0, 1], ``last_t_c_fraction`` the last burst's t_c / t_c_max, ``last_turn_rad``
-    the angle between the headings at the last decision and now (rad)."""
+    ((3,), (3,)) m, ``time_left`` in [0, 1], ``history`` the episode's last bursts."""
     e1, e2 = perpendicular_basis(heading)
     frame = np.stack([heading, e1, e2])
     rel = (targets - head) @ frame.T / OBS_SCALE_M
@@ -144,5 +166,5 @@ def burst_observation(head: np.ndarray, heading: np.ndarray, targets: np.ndarray
     u = u / n if n > 0.0 else heading
     off = (head - a) - float((head - a) @ u) * u
     out = np.concatenate([per_target.reshape(-1), frame @ u, frame @ off / OBS_SCALE_M,
-                          [time_left, last_t_c_fraction, last_turn_rad / math.pi]])
+                          [time_left], history.features()])
     return np.clip(out, -10.0, 10.0).astype(np.float32)

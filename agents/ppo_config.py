@@ -56,9 +56,15 @@ from physics.validation import require_finite
 #: PPO constructor arguments a config may set (stable-baselines3 2.x).
 PPO_KEYS = ("learning_rate", "n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda", "clip_range", "ent_coef",
             "vf_coef", "max_grad_norm", "target_kl", "policy_kwargs", "normalize_advantage", "use_sde")
+#: SAC constructor arguments a config may set (stable-baselines3 2.x); ``ent_coef`` may also be "auto".
+SAC_KEYS = ("learning_rate", "buffer_size", "learning_starts", "batch_size", "tau", "gamma", "train_freq",
+            "gradient_steps", "ent_coef", "policy_kwargs", "use_sde")
+#: ``algorithm``: stable-baselines3's PPO (on-policy) or SAC (off-policy: a replay buffer, checkpointed with the
+#: model), and the constructor arguments each takes.
+ALGORITHM_KEYS = {"ppo": PPO_KEYS, "sac": SAC_KEYS}
 NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma")
-TOP_KEYS = ("policy", "n_envs", "n_timesteps", "max_wall_time_s", "seed", "checkpoint_every", "normalize", "task",
-            "init_from", *PPO_KEYS)
+TOP_KEYS = ("algorithm", "policy", "n_envs", "n_timesteps", "max_wall_time_s", "seed", "checkpoint_every",
+            "normalize", "task", "init_from", *dict.fromkeys(PPO_KEYS + SAC_KEYS))
 TASK_KEYS = ("design", "tier", "preset", "turn_map", "planner", "limits", "action_cost", "env_kwargs", "curriculum",
              "validation")
 #: ``task.design``: what an action is. "residual": a correction of the planner's turn (``FlagellumTurn-*``);
@@ -115,7 +121,8 @@ class TrainConfig:
     seed: int = 0
     checkpoint_every: int = 32
     normalize: Mapping[str, Any] = field(default_factory=lambda: {"norm_obs": True, "norm_reward": True})
-    ppo: Mapping[str, Any] = field(default_factory=dict)
+    #: the algorithm's constructor arguments (``ALGORITHM_KEYS[algorithm]``)
+    hyperparameters: Mapping[str, Any] = field(default_factory=dict)
     preset: str = DEFAULT_PRESET
     turn_map: str | None = None
     limits: Mapping[str, Any] = field(default_factory=dict)
@@ -126,6 +133,7 @@ class TrainConfig:
     planner: str = "rule"
     design: str = "residual"
     tier: str = "physics"
+    algorithm: str = "ppo"
 
     def stage_at(self, decisions: int) -> CurriculumStage:
         """The curriculum stage in force after ``decisions`` decisions."""
@@ -228,7 +236,14 @@ class TrainConfig:
         if policy != "MlpPolicy":
             raise ValueError(f"{where}: {name}.policy={policy!r} is not allowed; the turn features are a flat "
                              "vector: use MlpPolicy")
-        for key in PPO_KEYS:
+        algorithm = body.get("algorithm", "ppo")
+        if algorithm not in ALGORITHM_KEYS:
+            raise ValueError(f"{where}: {name}.algorithm={algorithm!r} is not allowed; allowed: {list(ALGORITHM_KEYS)}")
+        keys = ALGORITHM_KEYS[algorithm]
+        foreign = sorted(k for k in body if k in PPO_KEYS + SAC_KEYS and k not in keys)
+        if foreign:
+            raise ValueError(f"{where}: {name}: {foreign} are not {algorithm} arguments; allowed: {list(keys)}")
+        for key in keys:
             if key in body:
                 _check_ppo_value(key, body[key], f"{where}: {name}.{key}")
         return cls(name=str(name), n_timesteps=n_timesteps, curriculum=tuple(curriculum), validation=validation,
@@ -236,10 +251,10 @@ class TrainConfig:
                    max_wall_time_s=None if wall is None else float(wall),
                    seed=_int(body.get("seed", 0), f"{where}: {name}.seed", 0),
                    checkpoint_every=_int(body.get("checkpoint_every", 32), f"{where}: {name}.checkpoint_every", 1),
-                   normalize=normalize, ppo={k: body[k] for k in PPO_KEYS if k in body}, preset=preset,
+                   normalize=normalize, hyperparameters={k: body[k] for k in keys if k in body}, preset=preset,
                    turn_map=task.get("turn_map"), limits=limits, action_cost=cost,
                    env_kwargs=dict(task.get("env_kwargs") or {}), init_from=init_from,
-                   source=source, planner=planner, design=design, tier=tier)
+                   source=source, planner=planner, design=design, tier=tier, algorithm=algorithm)
 
 
 def _only(d: Mapping[str, Any], allowed: tuple[str, ...], where: str) -> None:
@@ -255,7 +270,9 @@ _PPO_RANGES: dict[str, tuple[str, float, bool, float | None]] = {
     "gamma": ("number", 0.0, True, 1.0), "gae_lambda": ("number", 0.0, True, 1.0),
     "clip_range": ("number", 0.0, False, None), "ent_coef": ("number", 0.0, True, None),
     "vf_coef": ("number", 0.0, True, None), "max_grad_norm": ("number", 0.0, False, None),
-    "target_kl": ("number", 0.0, False, None)}
+    "target_kl": ("number", 0.0, False, None), "buffer_size": ("integer", 1, True, None),
+    "learning_starts": ("integer", 0, True, None), "tau": ("number", 0.0, False, 1.0),
+    "train_freq": ("integer", 1, True, None), "gradient_steps": ("integer", 1, True, None)}
 
 
 def _check_ppo_value(key: str, v: Any, where: str) -> None:
@@ -271,7 +288,7 @@ def _check_ppo_value(key: str, v: Any, where: str) -> None:
         _check_policy_kwargs(v or {}, where)
         return
     kind, lo, lo_ok, hi = _PPO_RANGES[key]
-    if key == "target_kl" and v is None:
+    if (key == "target_kl" and v is None) or (key == "ent_coef" and v == "auto"):
         return
     ok_type = (isinstance(v, int) if kind == "integer" else isinstance(v, (int, float))) and not isinstance(v, bool)
     if not ok_type or not math.isfinite(v) or (v < lo if lo_ok else v <= lo) or (hi is not None and v > hi):

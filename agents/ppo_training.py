@@ -29,6 +29,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
+import math
 import os
 import re
 import shutil
@@ -53,6 +54,8 @@ from physics.errors import is_interrupt
 #: meta.json's "mode" by ``task.design``: a residual agent corrects a planner; a scratch agent has none.
 MODES = {"residual": "residual", "burst": "scratch"}
 CHECKPOINT_PREFIX = "rl_model"
+#: meta.json is rewritten after a rollout at most this often (s of wall time), and at every save.
+META_EVERY_S = 10.0
 EPISODE_FIELDS = ("decisions", "wall_time_s", "stage", "return", "length", "is_success", "waypoints_reached",
                   "mean_cross_track_m", "time_s", "energy_J", "buckling_events")
 
@@ -100,14 +103,11 @@ def agent_env(config: TrainConfig) -> tuple[str, dict[str, Any]]:
     that later changes of the defaults do not change it): the config's task on the last curriculum stage's
     paths, nominal or randomised as trained. ``PPO.load`` and ``VecNormalize.load`` of the agent's files on
     ``make_vec_env(env_id, env_kwargs=make_kwargs)`` reproduce it with plain stable-baselines3."""
-    from agents.registration import (BURST_SURROGATE_ENV_ID, TURN_COARSE_ENV_ID, TURN_ENV_ID, TURN_FAST_ENV_ID,
-                                     TURN_SURROGATE_ENV_ID)
+    from agents.registration import (BURST_ENV_ID, BURST_SURROGATE_ENV_ID, TURN_COARSE_ENV_ID, TURN_ENV_ID,
+                                     TURN_FAST_ENV_ID, TURN_SURROGATE_ENV_ID)
 
     if config.design == "burst":
-        if config.tier != "surrogate":
-            raise ValueError(f"task.design 'burst' with tier {config.tier!r} is not available yet; allowed: tier "
-                             "'surrogate'")
-        return BURST_SURROGATE_ENV_ID, {"preset": config.preset, "turn_map": config.turn_map,
+        return BURST_SURROGATE_ENV_ID if config.tier == "surrogate" else BURST_ENV_ID, {"preset": config.preset, "turn_map": config.turn_map,
                                         "env_kwargs": dict(config.env_kwargs),
                                         "limits": dataclasses.asdict(BurstLimits(**config.limits)),
                                         "random_path": dict(config.curriculum[-1].random_path)}
@@ -173,11 +173,12 @@ def run_identity(config: TrainConfig) -> dict[str, Any]:
     return json.loads(json.dumps({
         "name": config.name, "preset": config.preset, "turn_map": config.turn_map, "limits": dict(config.limits),
         "action_cost": config.action_cost, "env_kwargs": dict(config.env_kwargs), "policy": config.policy,
-        "policy_kwargs": dict(config.ppo.get("policy_kwargs") or {}), "n_envs": config.n_envs,
+        "policy_kwargs": dict(config.hyperparameters.get("policy_kwargs") or {}), "n_envs": config.n_envs,
         "normalize": dict(config.normalize), "seed": config.seed, "init_from": config.init_from,
         # runs from before the designs and tiers existed have neither (residual on the physics)
         **({"design": config.design} if config.design != "residual" else {}),
         **({"tier": config.tier} if config.tier != "physics" else {}),
+        **({"algorithm": config.algorithm} if config.algorithm != "ppo" else {}),
         # the rule planner's runs from before the choice existed have no "planner"
         **({"planner": config.planner} if config.planner != "rule" else {})}, default=str))
 
@@ -223,6 +224,51 @@ def _int_or(x: Any, default: int = 0) -> int:
         return default
 
 
+def algorithm_class(name: str):
+    """stable-baselines3's class of ``TrainConfig.algorithm`` ("ppo" or "sac")."""
+    from stable_baselines3 import PPO, SAC
+
+    return {"ppo": PPO, "sac": SAC}[name]
+
+
+def replay_buffer_file(folder: Path, decisions: int) -> Path:
+    """A SAC checkpoint's replay buffer (``CheckpointCallback``'s name)."""
+    return folder / f"{CHECKPOINT_PREFIX}_replay_buffer_{decisions}_steps.pkl"
+
+
+class _RolloutCheckpoint(BaseCallback):
+    """SAC's checkpoints (model, replay buffer, VecNormalize statistics; ``latest_checkpoint``'s names) every
+    ``save_freq`` env steps, written at the end of a rollout: SAC stores a step's transition after the step's
+    callbacks, so a checkpoint written there (CheckpointCallback) lacks the last one and a resumed run would too."""
+
+    def __init__(self, save_freq: int, out: Path) -> None:
+        super().__init__()
+        self.save_freq, self.out, self.saved = save_freq, out, 0
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        due = self.n_calls // self.save_freq
+        if due > self.saved:
+            self.saved = due
+            steps = self.num_timesteps
+            self.model.save(str(self.out / f"{CHECKPOINT_PREFIX}_{steps}_steps.zip"))
+            self.model.save_replay_buffer(str(replay_buffer_file(self.out, steps)))
+            self.model.get_vec_normalize_env().save(str(self.out / f"{CHECKPOINT_PREFIX}_vecnormalize_{steps}_steps.pkl"))
+
+
+def _check_init_algorithm(init: Path, config: TrainConfig) -> None:
+    """ValueError when ``init_from`` holds an agent of another algorithm or action design than ``config``."""
+    meta_file = init / "meta.json"
+    meta = json.loads(meta_file.read_text(encoding="utf-8")) if meta_file.is_file() else {}
+    for key, default in (("algorithm", "ppo"), ("design", "residual")):
+        had = (meta.get("run") or {}).get(key, default) if meta else getattr(config, key)
+        if had != getattr(config, key):
+            raise ValueError(f"init_from={str(init)!r} holds a {key} {had!r} agent; this config trains {key} "
+                             f"{getattr(config, key)!r}; allowed: an agent of the same {key}")
+
+
 def latest_checkpoint(out_dir: Path) -> tuple[Path, Path, int] | None:
     """(model, vecnormalize, decisions) of the newest checkpoint in ``out_dir/checkpoints``."""
     best = None
@@ -239,7 +285,6 @@ def train(config: TrainConfig, out_dir: str | Path, resume: bool = False, progre
           config_text: str | None = None) -> TrainResult:
     """Train (or resume) the agent of ``config`` into ``out_dir`` (module docstring)."""
     import torch
-    from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
     from stable_baselines3.common.vec_env import VecNormalize
 
@@ -270,17 +315,21 @@ def train(config: TrainConfig, out_dir: str | Path, resume: bool = False, progre
 
     raw = _vec_env(config, config.n_envs)
     eval_raw = _vec_env(config, 1, paths=config.validation.paths(), seed_offset=10_000)
+    algorithm = algorithm_class(config.algorithm)
     if ckpt is not None:
         venv = VecNormalize.load(str(ckpt[1]), raw)
         venv.training = True
-        model = PPO.load(str(ckpt[0]), env=venv, device="cpu", tensorboard_log=str(out / "tb"))
-    elif config.init_from is not None:  # fine-tune: the trained policy and its statistics, this config's PPO settings
+        model = algorithm.load(str(ckpt[0]), env=venv, device="cpu", tensorboard_log=str(out / "tb"))
+        if config.algorithm == "sac":  # an off-policy run goes on with the experience it had
+            model.load_replay_buffer(str(replay_buffer_file(out / "checkpoints", ckpt[2])))
+    elif config.init_from is not None:  # fine-tune: the trained policy and its statistics, this config's settings
         init = Path(config.init_from)
+        _check_init_algorithm(init, config)
         venv = VecNormalize.load(str(init / "vecnormalize.pkl"), raw)
         venv.training = True
-        ppo = {k: v for k, v in config.ppo.items() if k != "policy_kwargs"}  # the network is the trained one
-        model = PPO.load(str(init / "model.zip"), env=venv, device="cpu", tensorboard_log=str(out / "tb"),
-                         seed=config.seed, **ppo)
+        hyper = {k: v for k, v in config.hyperparameters.items() if k != "policy_kwargs"}  # the trained network
+        model = algorithm.load(str(init / "model.zip"), env=venv, device="cpu", tensorboard_log=str(out / "tb"),
+                               seed=config.seed, **hyper)
         model.num_timesteps = 0  # this run's decisions count from 0 (curriculum, budget, checkpoints)
         init_meta = init / "meta.json"
         meta["init_from"] = {"path": str(init), **({k: v for k, v in json.loads(init_meta.read_text()).items()
@@ -289,8 +338,8 @@ def train(config: TrainConfig, out_dir: str | Path, resume: bool = False, progre
     else:
         norm = dict(config.normalize)
         venv = VecNormalize(raw, **norm)
-        model = PPO(config.policy, venv, seed=config.seed, device="cpu", tensorboard_log=str(out / "tb"), verbose=0,
-                    **dict(config.ppo))
+        model = algorithm(config.policy, venv, seed=config.seed, device="cpu", tensorboard_log=str(out / "tb"),
+                          verbose=0, **dict(config.hyperparameters))
     eval_env = VecNormalize(eval_raw, training=False, norm_obs=bool(config.normalize.get("norm_obs", True)),
                             norm_reward=False, clip_obs=float(config.normalize.get("clip_obs", 10.0)))
 
@@ -299,12 +348,17 @@ def train(config: TrainConfig, out_dir: str | Path, resume: bool = False, progre
                            eval_freq=max(1, config.validation.every // n), log_path=str(out / "eval"),
                            best_model_save_path=None, deterministic=True, verbose=0)
     _restore_eval_log(eval_cb, out / "eval" / "evaluations.npz", upto=None if ckpt is None else ckpt[2])
-    ckpt_cb = CheckpointCallback(save_freq=max(1, config.checkpoint_every // n), save_path=str(out / "checkpoints"),
-                                 name_prefix=CHECKPOINT_PREFIX, save_vecnormalize=True)
+    if config.algorithm == "sac":
+        ckpt_cb = _RolloutCheckpoint(save_freq=max(1, config.checkpoint_every // n), out=out / "checkpoints")
+    else:
+        ckpt_cb = CheckpointCallback(save_freq=max(1, config.checkpoint_every // n), save_path=str(out / "checkpoints"),
+                                     name_prefix=CHECKPOINT_PREFIX, save_vecnormalize=True)
     if ckpt is not None:
         # the callbacks count their own calls from 0; a resumed run must evaluate and checkpoint at the
         # same decision counts as an uninterrupted one (every `validation.every` decisions, and at the end)
         eval_cb.n_calls = ckpt_cb.n_calls = int(model.num_timesteps) // n
+        if config.algorithm == "sac":
+            ckpt_cb.saved = ckpt_cb.n_calls // ckpt_cb.save_freq
     book = _Bookkeeping(config, out, spent_before, meta)
     t0 = time.perf_counter()
     remaining = max(0, config.n_timesteps - model.num_timesteps)
@@ -316,7 +370,7 @@ def train(config: TrainConfig, out_dir: str | Path, resume: bool = False, progre
         cls.train = _deferring(update)
         try:
             model.learn(remaining, callback=CallbackList([book, ckpt_cb, eval_cb]), progress_bar=progress,
-                        reset_num_timesteps=ckpt is None, tb_log_name="ppo")
+                        reset_num_timesteps=ckpt is None, tb_log_name=config.algorithm)
         except BaseException as exc:  # Ctrl-C / SIGTERM, also when it surfaced from a Numba kernel
             if not is_interrupt(exc):
                 _close(venv, eval_env, at_once=True)
@@ -333,6 +387,8 @@ def train(config: TrainConfig, out_dir: str | Path, resume: bool = False, progre
         if interrupted:  # a checkpoint here: --resume continues from this decision, nothing is redone
             model.save(str(out / "checkpoints" / f"{CHECKPOINT_PREFIX}_{decisions}_steps.zip"))
             venv.save(str(out / "checkpoints" / f"{CHECKPOINT_PREFIX}_vecnormalize_{decisions}_steps.pkl"))
+            if config.algorithm == "sac":
+                model.save_replay_buffer(str(replay_buffer_file(out / "checkpoints", decisions)))
         book.num_timesteps = decisions
         book.write_meta(final=not interrupted, interrupted=interrupted, defer_signals=False)
         _close(venv, eval_env, at_once=interrupted)
@@ -350,8 +406,8 @@ def write_training_curve(out: Path, config: TrainConfig) -> Path | None:
 
     if not (out / "episodes.csv").is_file() or (out / "episodes.csv").stat().st_size == 0:
         return None
-    what = (f"PPO residual on the {config.planner} planner" if config.design == "residual"
-            else "PPO from scratch, burst actions")
+    what = (f"{config.algorithm.upper()} residual on the {config.planner} planner" if config.design == "residual"
+            else f"{config.algorithm.upper()} from scratch, burst actions")
     fig = training_figure(out, title=f"{config.name}: {what}, {config.preset} ({config.tier})")
     fig.savefig(out / "training_curve.png", dpi=110)
     return out / "training_curve.png"
@@ -411,6 +467,8 @@ class _Bookkeeping(BaseCallback):
     def __init__(self, config: TrainConfig, out: Path, spent_before: float, meta: dict[str, Any]) -> None:
         super().__init__()
         self.config, self.out, self.spent_before, self.meta = config, out, spent_before, meta
+        self.commit = git_commit()  # once per session (meta.json is rewritten as training goes)
+        self.meta_written = -math.inf
         self.t0 = time.perf_counter()
         self.stage: str | None = None
         self.stopped = False
@@ -452,7 +510,9 @@ class _Bookkeeping(BaseCallback):
         return True
 
     def _on_rollout_end(self) -> None:
-        self.write_meta(final=False)
+        # PPO's rollouts are long; SAC's are one step each (train_freq): meta.json at most every 10 s of wall time
+        if time.perf_counter() - self.meta_written >= META_EVERY_S:
+            self.write_meta(final=False)
 
     def write_meta(self, final: bool, interrupted: bool = False, defer_signals: bool = True) -> None:
         import stable_baselines3
@@ -469,10 +529,11 @@ class _Bookkeeping(BaseCallback):
             "env_kwargs": dict(self.config.env_kwargs), "env_id": env_id, "make_kwargs": make_kwargs,
             "decisions": int(self.num_timesteps), "wall_time_s": round(self.elapsed(), 1),
             "stopped_by_wall_time_budget": self.stopped, "finished": final, "interrupted": interrupted,
-            "commit": self.meta.get("commit") or git_commit(), "last_commit": git_commit(),
+            "commit": self.meta.get("commit") or self.commit, "last_commit": self.commit,
             "updated": datetime.now(timezone.utc).isoformat(timespec="seconds"),
             "versions": {"stable_baselines3": stable_baselines3.__version__, "torch": torch.__version__},
         })
+        self.meta_written = time.perf_counter()
         with _signals_deferred() if defer_signals else nullcontext():
             tmp = self.out / "meta.json.tmp"
             tmp.write_text(json.dumps(self.meta, indent=1) + "\n", encoding="utf-8")

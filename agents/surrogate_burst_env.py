@@ -19,7 +19,8 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
 
-from agents.burst_design import (BURST_ENV_ARGUMENTS, N_BURST_ACTIONS, N_BURST_FEATURES, BurstLimits, burst_limits,
+from agents.burst_design import (BURST_ENV_ARGUMENTS, N_BURST_ACTIONS, N_BURST_FEATURES, BurstHistory, BurstLimits,
+                                 burst_limits,
                                  burst_observation, decode_burst_action)
 from agents.controller_spec import CONTROLLER_ENV_DEFAULTS
 from agents.registration import BURST_SURROGATE_ENV_ID
@@ -108,7 +109,7 @@ class SurrogateBurstEnv(TurnEpisodes, gym.Env):
                     else cfg.time_factor * path.length_m / self.calibration.cruise_speed_m_s)
         self.time_limit_s = max(1, math.ceil(max_time / cfg.control_dt - 1e-9)) * cfg.control_dt
         self.episode = SurrogateEpisode(self.swimmer, self.tracker, cfg, self.time_limit_s)
-        self.bursts, self._last = 0, (0.0, 0.0)
+        self.bursts, self.history = 0, BurstHistory()
         # a heading is measured after one period at omega_l, as the physics twin measures it
         end = self.episode.cruise((self.period_steps + 1) * cfg.control_dt)
         self._pending = (self.episode.reward(), end)
@@ -134,7 +135,9 @@ class SurrogateBurstEnv(TurnEpisodes, gym.Env):
         if end is None:
             end = run.cruise(command.cruise_s)
         reward += run.reward()
-        self._last = (command.t_c_s / self.limits.t_c_max_s, angle_between(self._decision_heading, run.heading))
+        if command.t_c_s > 0.0:
+            self.history.record(command.t_c_s / self.limits.t_c_max_s,
+                                angle_between(self._decision_heading, run.heading))
         self._decision_heading = run.heading.copy()
         terminated, truncated = end if end is not None else (False, False)
         self._done = terminated or truncated
@@ -143,7 +146,7 @@ class SurrogateBurstEnv(TurnEpisodes, gym.Env):
     def _observation(self) -> np.ndarray:
         run = self.episode
         return burst_observation(run.head, run.heading, self.tracker.targets(2), self.tracker.segment(),
-                                 max(0.0, 1.0 - run.time_s / self.time_limit_s), *self._last)
+                                 max(0.0, 1.0 - run.time_s / self.time_limit_s), self.history)
 
     def _info(self) -> dict[str, Any]:
         return surrogate_info(self.path.name, self.tracker, self.episode, self.bursts)

@@ -73,8 +73,10 @@ def run(args: argparse.Namespace) -> int:
               f"and a checkpoint; --resume continues from there", file=sys.stderr)
         return 130
     budget = " (stopped by the wall-time budget)" if result.stopped_by_budget else ""
+    use = (f"use it with --controller ppo:{result.out_dir}" if config.design == "residual" else
+           f"fly it in FlagellumBurst-* with scripts/evaluate_burst_agent.py --agent {result.out_dir}")
     print(f"trained {result.decisions} decisions in {result.wall_time_s / 60:.1f} min{budget}; wrote "
-          f"{result.out_dir}/model.zip and vecnormalize.pkl; use it with --controller ppo:{result.out_dir}")
+          f"{result.out_dir}/model.zip and vecnormalize.pkl; {use}")
     return 0
 
 

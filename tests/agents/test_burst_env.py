@@ -10,7 +10,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import agents  # noqa: F401  (registers the ids)
-from agents.burst_design import N_BURST_FEATURES, BurstLimits, burst_observation, decode_burst_action
+from agents.burst_design import N_BURST_FEATURES, BurstHistory, BurstLimits, burst_observation, decode_burst_action
 from agents.turn_geometry import angle_between
 from flagellum_env.paths import path_from_waypoints
 
@@ -65,7 +65,7 @@ def test_no_burst_swims_straight_for_the_cruise_asked():
     assert not (term or trunc) and info["turns"] == 0
     assert np.array_equal(env.episode.heading, d0)
     assert env.episode.time_s - t0 == pytest.approx(2.0)
-    assert obs[-2] == 0.0 and obs[-1] == 0.0
+    assert not obs[27:].any()   # no burst yet: an empty history
 
 
 def test_a_burst_turns_the_heading_by_the_maps_theta_and_the_observation_says_so():
@@ -78,14 +78,14 @@ def test_a_burst_turns_the_heading_by_the_maps_theta_and_the_observation_says_so
     thetas = [p.theta_deg for p in env.turn_map.points if p.t_c == t_c]
     assert info["turns"] == 1
     assert min(thetas) - 1e-6 <= math.degrees(turned) <= max(thetas) + 1e-6
-    assert obs[-1] == pytest.approx(turned / math.pi, rel=1e-5)
-    assert obs[-2] == pytest.approx(t_c / env.limits.t_c_max_s, rel=1e-6)
+    assert obs[28] == pytest.approx(turned / math.pi, rel=1e-5)
+    assert obs[27] == pytest.approx(t_c / env.limits.t_c_max_s, rel=1e-6) and not obs[29:].any()
 
 
 def test_the_observation_is_the_task_in_the_headings_frame():
     head, d = np.zeros(3), np.array([1.0, 0.0, 0.0])
     targets = np.array([[0.1, 0.0, 0.0], [0.1, -0.1, 0.0]])
-    obs = burst_observation(head, d, targets, (np.zeros(3), targets[0]), 0.5, 0.0, 0.0)
+    obs = burst_observation(head, d, targets, (np.zeros(3), targets[0]), 0.5, BurstHistory())
     first, second = obs[:10], obs[10:20]
     assert first[:4] == pytest.approx([1.0, 0.0, 0.0, 1.0]) and first[4:7] == pytest.approx([1.0, 0.0, 0.0])
     assert first[7] == pytest.approx(0.0) and first[8:10] == pytest.approx([1.0, 0.0])   # dead ahead
@@ -95,7 +95,7 @@ def test_the_observation_is_the_task_in_the_headings_frame():
     assert obs[20:23] == pytest.approx([1.0, 0.0, 0.0]) and obs[23:26] == pytest.approx([0.0, 0.0, 0.0])
     assert obs[26] == pytest.approx(0.5)
     # a head 1 cm off the segment's line (along +z: e1 of the heading's frame)
-    off = burst_observation(np.array([0.02, 0.0, 0.01]), d, targets, (np.zeros(3), targets[0]), 0.5, 0.0, 0.0)
+    off = burst_observation(np.array([0.02, 0.0, 0.01]), d, targets, (np.zeros(3), targets[0]), 0.5, BurstHistory())
     assert off[23:26] == pytest.approx([0.0, 0.1, 0.0], abs=1e-6)
 
 
@@ -115,3 +115,10 @@ def test_episodes_end_and_a_seed_repeats_them():
     a, info = run(5)
     b, _ = run(5)
     assert np.array_equal(a, b) and set(info) >= {"is_success", "mean_cross_track_m", "out_of_range"}
+
+
+def test_the_history_keeps_the_last_four_bursts_newest_first():
+    h = BurstHistory()
+    for k in range(6):
+        h.record(0.1 * k, math.pi * 0.05 * k)
+    assert h.features() == pytest.approx([0.5, 0.25, 0.4, 0.2, 0.3, 0.15, 0.2, 0.1])

@@ -71,3 +71,43 @@ def test_a_short_scratch_run_writes_an_agent_resumes_and_refuses_another_design(
     other["scratch"]["n_timesteps"] = 96
     with pytest.raises(ValueError, match="design"):
         train(TrainConfig.from_dict(other), out, resume=True, progress=False)
+
+
+SAC_TINY = {"scratch_sac": {"algorithm": "sac", "n_envs": 1, "n_timesteps": 40, "seed": 0, "checkpoint_every": 20,
+                            "learning_starts": 10, "batch_size": 8, "buffer_size": 1000,
+                            "policy_kwargs": {"net_arch": [8]},
+                            "task": {"design": "burst", "tier": "surrogate",
+                                     "curriculum": [{"name": "one", "until": 40, "random_path": PATHS}],
+                                     "validation": {"seeds": [5], "every": 20, "random_path": PATHS}}}}
+
+
+def test_sac_settings_are_checked_against_the_algorithm():
+    doc = json.loads(json.dumps(SAC_TINY))
+    doc["scratch_sac"]["n_epochs"] = 3
+    with pytest.raises(ValueError, match=r"\['n_epochs'\] are not sac arguments"):
+        TrainConfig.from_dict(doc)
+    doc = json.loads(json.dumps(SAC_TINY))
+    doc["scratch_sac"]["algorithm"] = "td3"
+    with pytest.raises(ValueError, match="algorithm='td3' is not allowed; allowed: \\['ppo', 'sac'\\]"):
+        TrainConfig.from_dict(doc)
+    doc = json.loads(json.dumps(SAC_TINY))
+    doc["scratch_sac"]["ent_coef"] = "auto"
+    assert TrainConfig.from_dict(doc).hyperparameters["ent_coef"] == "auto"
+
+
+def test_a_sac_run_checkpoints_its_replay_buffer_and_resumes_with_it(tmp_path):
+    from stable_baselines3 import SAC
+
+    from agents.ppo_training import replay_buffer_file, train
+
+    out = tmp_path / "sac"
+    half = json.loads(json.dumps(SAC_TINY))
+    half["scratch_sac"]["n_timesteps"] = 20
+    assert train(TrainConfig.from_dict(half), out, progress=False).decisions == 20
+    assert replay_buffer_file(out / "checkpoints", 20).is_file()
+    assert train(TrainConfig.from_dict(SAC_TINY), out, resume=True, progress=False).decisions == 40
+    model = SAC.load(str(out / "model.zip"), device="cpu")
+    model.load_replay_buffer(str(replay_buffer_file(out / "checkpoints", 40)))
+    assert model.replay_buffer.size() == 40   # the first session's 20 transitions came back with the resume
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["run"]["algorithm"] == "sac"
