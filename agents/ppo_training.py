@@ -49,6 +49,7 @@ from agents.burst_design import BurstLimits
 from agents.ppo_config import TrainConfig
 from agents.residual_planner import ResidualLimits
 from batch.provenance import git_commit
+from batch.store import drop_rows_after
 from physics.errors import is_interrupt
 
 #: meta.json's "mode" by ``task.design``: a residual agent corrects a planner; a scratch agent has none.
@@ -200,30 +201,6 @@ def _check_same_run(out: Path, meta: dict[str, Any], config: TrainConfig) -> Non
                          f"{_short(b)} in this config; allowed: the same agent, task and network, or another --out")
 
 
-def _drop_rows_after(file: Path, decisions: int) -> None:
-    """Remove the episodes.csv rows logged after ``decisions`` (a killed run's, redone from its checkpoint)."""
-    if not file.is_file():
-        return
-    with open(file, newline="", encoding="utf-8") as f:
-        rows = list(csv.DictReader(f))
-    keep = [r for r in rows if _int_or(r.get("decisions")) <= decisions]
-    if len(keep) == len(rows):
-        return
-    tmp = file.with_name(file.name + ".tmp")
-    with open(tmp, "w", newline="", encoding="utf-8") as f:
-        w = csv.DictWriter(f, fieldnames=EPISODE_FIELDS)
-        w.writeheader()
-        w.writerows(keep)
-    shutil.move(str(tmp), str(file))
-
-
-def _int_or(x: Any, default: int = 0) -> int:
-    try:
-        return int(float(x))
-    except (TypeError, ValueError):
-        return default
-
-
 def algorithm_class(name: str):
     """stable-baselines3's class of ``TrainConfig.algorithm`` ("ppo" or "sac")."""
     from stable_baselines3 import PPO, SAC
@@ -309,7 +286,7 @@ def train(config: TrainConfig, out_dir: str | Path, resume: bool = False, progre
     if config_text is not None:
         (out / "config.yml").write_text(config_text, encoding="utf-8")
     if ckpt is not None:  # what an earlier, killed run logged after its last checkpoint is redone: keep it once
-        _drop_rows_after(out / "episodes.csv", ckpt[2])
+        drop_rows_after(out / "episodes.csv", "decisions", ckpt[2], EPISODE_FIELDS)
     spent_before = float(meta.get("wall_time_s", 0.0))
     meta["run"] = run_identity(config)
 

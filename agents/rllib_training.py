@@ -38,6 +38,7 @@ from typing import Any
 from ray.rllib.callbacks.callbacks import RLlibCallback
 
 from agents.rllib_config import CHECKPOINT_PREFIX, INFO_FILE, RESUMABLE_KEYS, RayTrainConfig
+from batch.store import drop_rows_after
 from physics.errors import is_interrupt
 
 #: RLlib's name of an env of this package: this prefix and the Gymnasium id.
@@ -187,22 +188,6 @@ def _check_same_run(out: Path, config: RayTrainConfig) -> None:
                      f"here); allowed: the same config (only {', '.join(RESUMABLE_KEYS)} may change) or another --out")
 
 
-def _drop_rows_after(file: Path, iteration: int) -> None:
-    """Remove the progress.csv rows after ``iteration`` (a killed run's, redone from its checkpoint)."""
-    if not file.is_file():
-        return
-    with open(file, newline="", encoding="utf-8") as f:
-        rows = list(csv.DictReader(f))
-    keep = [r for r in rows if int(r["iteration"]) <= iteration]
-    if len(keep) != len(rows):
-        tmp = file.with_name(file.name + ".tmp")
-        with open(tmp, "w", newline="", encoding="utf-8") as f:
-            w = csv.DictWriter(f, fieldnames=PROGRESS_FIELDS)
-            w.writeheader()
-            w.writerows(keep)
-        shutil.move(str(tmp), str(file))
-
-
 def start_ray(address: str | None, config: RayTrainConfig) -> None:
     """Start a local Ray or connect to the cluster at ``address``, keeping this process's SIGTERM handler (``ray.init``
     sets one that exits at once)."""
@@ -272,7 +257,7 @@ def train(config: RayTrainConfig, out_dir: str | Path, resume: bool = False, pro
     if config_text is not None:
         (out / "config.yml").write_text(config_text, encoding="utf-8")
     if resume:
-        _drop_rows_after(out / "progress.csv", start["iteration"])
+        drop_rows_after(out / "progress.csv", "iteration", start["iteration"], PROGRESS_FIELDS)
     counters = {k: start[k] for k in ("iteration", "env_steps", "wall_s", "cpu_s")}
     info = {"env_id": config.env_id, "env_kwargs": dict(config.env_kwargs), "observation_shape": list(obs_shape),
             "action_shape": list(act_shape), "normalize_obs": config.normalize_obs,

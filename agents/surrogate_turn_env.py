@@ -49,8 +49,8 @@ from agents.residual_planner import ResidualLimits, base_planner, corrected_plan
 from agents.surrogate_calibration import SurrogateCalibration, calibration_file
 from agents.surrogate_episode import SurrogateEpisode, surrogate_info
 from agents.surrogate_swimmer import FACTOR_RANGE, SurrogateSwimmer, TurnMapTable
-from agents.turn_decision_env import (DEFAULT_ACTION_COST, DEFAULT_ENV_KWARGS, DEFAULT_RANDOM_PATH, TurnEpisodes,
-                                      fixed_paths, parse_turn_action, refuse_unknown_arguments, residual_limits)
+from agents.turn_decision_env import (DEFAULT_ACTION_COST, DEFAULT_RANDOM_PATH, TurnEpisodes, fixed_paths,
+                                      parse_turn_action, refuse_unknown_arguments, residual_limits, turn_env_kwargs)
 from agents.candidate_miss import first_improving_distance, first_improving_sample, local_target
 from agents.turn_geometry import perpendicular_basis
 from agents.turn_map import TurnMap
@@ -278,22 +278,16 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
 def surrogate_setup(env_id: str, preset: str, turn_map: str | os.PathLike | None,
                     env_kwargs: Mapping[str, Any] | None, render_mode: str | None, defaults: Mapping[str, Any]
                     ) -> tuple[str, SteerConfig, TurnMap, SurrogateCalibration]:
-    """(preset, config, turn map, calibration) of a surrogate env, ``env_kwargs`` merged over ``defaults`` and
-    ``DEFAULT_ENV_KWARGS``'s place; ValueError (one line, naming the value and what is allowed) for a request
-    outside the calibration (``_check_calibrated``), a rendering or a bad argument."""
+    """(preset, config, turn map, calibration) of a surrogate env, ``env_kwargs`` (``turn_env_kwargs``: None is
+    ``DEFAULT_ENV_KWARGS``) merged over ``defaults``; ValueError (one line, naming the value and what is allowed) for
+    a request outside the calibration (``_check_calibrated``), a rendering or a bad argument."""
     if render_mode is not None:
         raise ValueError(f"render_mode={render_mode!r} is not allowed in {env_id} (no rod to draw); allowed: None")
     if preset != DEFAULT_PRESET:
         raise ValueError(f"preset={preset!r} is outside the surrogate's calibration; allowed: "
                          f"{DEFAULT_PRESET!r} (the map it replays)")
-    env_kwargs = DEFAULT_ENV_KWARGS if env_kwargs is None else env_kwargs
-    if not isinstance(env_kwargs, Mapping):
-        raise ValueError(f"env_kwargs={env_kwargs!r} must be a dict of FlagellumSteer-v0 arguments or None")
-    for name, why in (("path", "give paths= or random_path="), ("render_mode", "give render_mode=")):
-        if name in env_kwargs:
-            raise ValueError(f"env_kwargs must not hold {name!r}; {why}")
     try:
-        cfg = make_config(**{**defaults, "preset": preset, **dict(env_kwargs)})
+        cfg = make_config(**{**defaults, "preset": preset, **turn_env_kwargs(env_kwargs)})
     except ValueError as exc:
         raise ValueError(f"env_kwargs: {exc}") from None
     tmap_file = Path(turn_map) if turn_map is not None else default_turn_map(preset)

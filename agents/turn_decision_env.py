@@ -59,6 +59,18 @@ TURN_ENV_ARGUMENTS = ("preset", "turn_map", "env_kwargs", "paths", "random_path"
                       "render_mode", "planner")
 
 
+def turn_env_kwargs(env_kwargs: Mapping[str, Any] | None) -> dict[str, Any]:
+    """A turn-level env's ``env_kwargs`` (None: ``DEFAULT_ENV_KWARGS``) as a dict; ValueError (one line) unless it is
+    a dict of ``FlagellumSteer-v0`` arguments without ``path`` or ``render_mode`` (the env's own arguments)."""
+    env_kwargs = DEFAULT_ENV_KWARGS if env_kwargs is None else env_kwargs
+    if not isinstance(env_kwargs, Mapping):
+        raise ValueError(f"env_kwargs={env_kwargs!r} must be a dict of FlagellumSteer-v0 arguments or None")
+    for name, why in (("path", "give paths= or random_path="), ("render_mode", "give render_mode=")):
+        if name in env_kwargs:
+            raise ValueError(f"env_kwargs must not hold {name!r}; {why}")
+    return dict(env_kwargs)
+
+
 def refuse_unknown_arguments(env_id: str, unknown: Mapping[str, Any],
                              known: Sequence[str] = TURN_ENV_ARGUMENTS) -> None:
     """ValueError (one line) naming keyword arguments an env does not take, and those it does (``known``; default
@@ -299,13 +311,7 @@ def steer_base_env(preset: str, turn_map: str | os.PathLike | None, env_kwargs: 
     ``preset``; ``turn_map`` None: the preset's. ValueError (one line) naming a bad preset, argument or map."""
     if preset not in preset_names():
         raise ValueError(f"preset={preset!r} is not allowed; choose one of {preset_names()}")
-    env_kwargs = DEFAULT_ENV_KWARGS if env_kwargs is None else env_kwargs
-    if not isinstance(env_kwargs, Mapping):
-        raise ValueError(f"env_kwargs={env_kwargs!r} must be a dict of FlagellumSteer-v0 arguments or None")
-    for name, why in (("path", "give paths= or random_path="), ("render_mode", "give render_mode=")):
-        if name in env_kwargs:
-            raise ValueError(f"env_kwargs must not hold {name!r}; {why}")
-    kwargs = {**defaults, "preset": preset, **dict(env_kwargs)}
+    kwargs = {**defaults, "preset": preset, **turn_env_kwargs(env_kwargs)}
     try:
         base = FlagellumSteerEnv(path="random", render_mode=render_mode, **kwargs)
     except ValueError as exc:

@@ -8,9 +8,12 @@ has several lines (a retried failure), the last one counts.
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 import os
+import shutil
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -171,6 +174,31 @@ class ResultsStore:
 
 
 # --- the run a folder holds ------------------------------------------------------------
+def drop_rows_after(file: Path, column: str, last: int, fields: Sequence[str]) -> None:
+    """Rewrite the CSV ``file`` (header ``fields``) without the rows whose ``column`` is above ``last``: what a killed
+    run logged after the checkpoint it resumes from (redone, so kept once). A missing file or value is left alone."""
+    if not file.is_file():
+        return
+    with open(file, newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+
+    def number(row: dict[str, str]) -> float:
+        try:
+            return float(row.get(column) or 0)
+        except ValueError:
+            return 0.0
+
+    keep = [r for r in rows if number(r) <= last]
+    if len(keep) == len(rows):
+        return
+    tmp = file.with_name(file.name + ".tmp")
+    with open(tmp, "w", newline="", encoding="utf-8") as f:
+        w = csv.DictWriter(f, fieldnames=list(fields))
+        w.writeheader()
+        w.writerows(keep)
+    shutil.move(str(tmp), str(file))
+
+
 def first_difference(old: Any, new: Any, prefix: str = "") -> tuple[str, Any, Any] | None:
     """``(key path, old value, new value)`` of the first setting that differs between two JSON-like documents
     (dicts compared key by key, in sorted order), or None when they are equal."""
