@@ -1,7 +1,7 @@
 """A from-scratch agent (``flagellum train`` with ``task.design: burst``) on fixed paths, in a ``FlagellumBurst-*`` env.
 
-The agent's deterministic action (stable-baselines3 ``PPO.predict``, observations normalised by its
-``vecnormalize.pkl``) flies each path once in ``--env`` (``FlagellumBurst-v0``: the rod at ``--preset``; or
+The agent's deterministic action (stable-baselines3 PPO or SAC, as its ``meta.json`` says; observations normalised by
+its ``vecnormalize.pkl``) flies each path once in ``--env`` (``FlagellumBurst-v0``: the rod at ``--preset``; or
 ``FlagellumBurst-surrogate-v0``), with the seeds of ``flagellum evaluate``: every path at ``--seed0`` for the
 nominal swimmer, the k-th path (in file-name order) at ``--seed0 + k`` with ``--randomize F`` (E, mu and b by F,
 the helix by 0.4 F, as ``flagellum evaluate --randomize F``), so the swimmers are those the planners met there.
@@ -33,11 +33,11 @@ def fly(task: dict) -> dict:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     import gymnasium as gym
     import torch
-    from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
     import agents  # noqa: F401  (registers the ids)
     from agents.evaluation import resolve_paths
+    from agents.ppo_training import algorithm_class
 
     torch.set_num_threads(1)
     path = resolve_paths([task["path"]])[0]
@@ -53,7 +53,9 @@ def fly(task: dict) -> dict:
     venv = VecNormalize.load(str(agent / "vecnormalize.pkl"),
                              DummyVecEnv([lambda: gym.make(task["env"], **make_kwargs)]))
     venv.training, venv.norm_reward = False, False
-    model = PPO.load(str(agent / "model.zip"), env=venv, device="cpu")
+    meta_file = agent / "meta.json"
+    run = json.loads(meta_file.read_text(encoding="utf-8")).get("run", {}) if meta_file.is_file() else {}
+    model = algorithm_class(run.get("algorithm", "ppo")).load(str(agent / "model.zip"), env=venv, device="cpu")
     t0, c0 = time.perf_counter(), time.process_time()
     venv.seed(task["seed"])
     obs = venv.reset()
