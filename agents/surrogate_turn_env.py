@@ -34,7 +34,6 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -42,7 +41,6 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
 
-from agents.assets import default_turn_map, missing_turn_map_message
 from agents.controller_spec import CONTROLLER_ENV_DEFAULTS
 from agents.registration import TURN_SURROGATE_ENV_ID
 from agents.residual_planner import ResidualLimits, base_planner, corrected_plan, turn_features
@@ -50,7 +48,8 @@ from agents.surrogate_calibration import SurrogateCalibration, calibration_file
 from agents.surrogate_episode import SurrogateEpisode, surrogate_info
 from agents.surrogate_swimmer import FACTOR_RANGE, SurrogateSwimmer, TurnMapTable
 from agents.turn_decision_env import (DEFAULT_ACTION_COST, DEFAULT_RANDOM_PATH, TurnEpisodes, fixed_paths,
-                                      parse_turn_action, refuse_unknown_arguments, residual_limits, turn_env_kwargs)
+                                      load_turn_map, parse_turn_action, refuse_unknown_arguments, residual_limits,
+                                      turn_env_kwargs)
 from agents.candidate_miss import first_improving_distance, first_improving_sample, local_target
 from agents.turn_geometry import perpendicular_basis
 from agents.turn_map import TurnMap
@@ -290,11 +289,7 @@ def surrogate_setup(env_id: str, preset: str, turn_map: str | os.PathLike | None
         cfg = make_config(**{**defaults, "preset": preset, **turn_env_kwargs(env_kwargs)})
     except ValueError as exc:
         raise ValueError(f"env_kwargs: {exc}") from None
-    tmap_file = Path(turn_map) if turn_map is not None else default_turn_map(preset)
-    if not tmap_file.is_file():
-        raise ValueError(f"turn_map={str(tmap_file)!r}: " + missing_turn_map_message(tmap_file, preset,
-                                                                                       given=turn_map is not None))
-    tmap = TurnMap.load(tmap_file)
+    tmap = load_turn_map(turn_map, preset)
     calibration = SurrogateCalibration.load(calibration_file(DEFAULT_PRESET))
     _check_calibrated(cfg, tmap, calibration)
     return preset, cfg, tmap, calibration

@@ -59,6 +59,15 @@ TURN_ENV_ARGUMENTS = ("preset", "turn_map", "env_kwargs", "paths", "random_path"
                       "render_mode", "planner")
 
 
+def load_turn_map(turn_map: str | os.PathLike | None, preset: str) -> TurnMap:
+    """The turn map file ``turn_map`` (None: the preset's shipped map); ValueError (one line) naming a missing file."""
+    tmap_file = Path(turn_map) if turn_map is not None else default_turn_map(preset)
+    if not tmap_file.is_file():
+        raise ValueError(f"turn_map={str(tmap_file)!r}: " + missing_turn_map_message(tmap_file, preset,
+                                                                                       given=turn_map is not None))
+    return TurnMap.load(tmap_file)
+
+
 def turn_env_kwargs(env_kwargs: Mapping[str, Any] | None) -> dict[str, Any]:
     """A turn-level env's ``env_kwargs`` (None: ``DEFAULT_ENV_KWARGS``) as a dict; ValueError (one line) unless it is
     a dict of ``FlagellumSteer-v0`` arguments without ``path`` or ``render_mode`` (the env's own arguments)."""
@@ -316,11 +325,7 @@ def steer_base_env(preset: str, turn_map: str | os.PathLike | None, env_kwargs: 
         base = FlagellumSteerEnv(path="random", render_mode=render_mode, **kwargs)
     except ValueError as exc:
         raise ValueError(f"env_kwargs: {exc}") from None
-    tmap_file = Path(turn_map) if turn_map is not None else default_turn_map(preset)
-    if not tmap_file.is_file():
-        raise ValueError(f"turn_map={str(tmap_file)!r}: " + missing_turn_map_message(tmap_file, preset,
-                                                                                       given=turn_map is not None))
-    return base, TurnMap.load(tmap_file)
+    return base, load_turn_map(turn_map, preset)
 
 
 def decision_info(path_name: str, base_info: Mapping[str, Any], cross_track_m: Sequence[float],
