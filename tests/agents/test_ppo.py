@@ -242,10 +242,11 @@ def test_resume_refuses_another_network_task_or_a_finished_run(tiny_run):
 
 
 def test_resume_drops_what_a_killed_run_logged_after_its_checkpoint(tmp_path):
-    from agents.ppo_training import EPISODE_FIELDS, _drop_rows_after
+    from agents.ppo_training import EPISODE_FIELDS
+    from batch.store import drop_rows_after
 
     f = tmp_path / "episodes.csv"
     f.write_text(",".join(EPISODE_FIELDS) + "\n" + "".join(f"{d},1.0,one,0.5,1,False,0,0.01,5,0.1,1\n"
                                                           for d in (2, 4, 6, 8)))
-    _drop_rows_after(f, 4)
+    drop_rows_after(f, "decisions", 4, EPISODE_FIELDS)
     assert [line.split(",")[0] for line in f.read_text().splitlines()[1:]] == ["2", "4"]
