@@ -20,8 +20,7 @@ turn (3.75 s, 138 deg): past it the turn scatters (post-buckling), where the sur
 map, and the rod disagree by 19-39 deg rms per decision against ~1 deg on the rising branch
 (``scripts/compare_burst_twins.py``, docs/rl.md), and a policy trained on the surrogate with 4.5 s learned to
 lean on the surrogate's smooth 84 deg at 4.5 s. A swimmer that buckles later makes its largest turns in two
-bursts. The azimuth is given
-as a direction (a_1, a_2), not as one number: a turn's direction lies ~130 deg from beta on the rising branch
+bursts. The azimuth is given as a direction (a_1, a_2), not as one number: a turn's direction lies ~130 deg from beta on the rising branch
 (the map's psi), and an angle in one action entry would put a seam where a Gaussian policy cannot cross it.
 
 The observation (``burst_observation``, ``N_BURST_FEATURES`` values) is the task in the heading's frame
@@ -31,8 +30,9 @@ as (cos, sin): the turn a policy must make, spelled so that the burst's length i
 its phase direction a fixed rotation of two) and the current segment's line relative to the head, the time left,
 and what the last ``HISTORY_BURSTS`` bursts did (each one's length and the turn seen over its decision: the angle
 between the headings at that decision and the next), from which an agent can tell a swimmer that turns more or
-less than the nominal one: one burst on the steep rising branch is a noisy reading of a swimmer's timing (a PPO
-policy that saw only the last burst reached every waypoint of 4 of 12 held-out paths at +-10 % in the surrogate).
+less than the nominal one: one burst on the steep rising branch is a noisy reading of a swimmer's timing. (A PPO
+policy that saw only the last burst reached every waypoint of 4 of 12 held-out paths at +-10 % in the surrogate,
+a SAC policy that saw four 9 of 12: two algorithms, so this does not isolate what the history adds.)
 """
 
 from __future__ import annotations
