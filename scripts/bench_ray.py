@@ -19,7 +19,7 @@ machine (a busy one takes cores from the env runners).
 Usage::
 
     python scripts/bench_ray.py [--config agents/configs/rllib_ppo_surrogate.yml] [--env-id FlagellumTurn-v0]
-                                [--runners 1 2] [--batch-per-runner 4] [--warmup 1] [--iterations 3]
+                                [--runners 1 2] [--batch-per-runner 8] [--warmup 1] [--iterations 5]
                                 [--json docs/bench_ray.json]
 """
 
@@ -104,10 +104,10 @@ def main() -> None:
                     help="the env (replaces the config's; default FlagellumTurn-v0: faithful, ~2-5 CPU s per step)")
     ap.add_argument("--env-kwargs", default="{}", help="its gymnasium.make arguments, JSON (replace the config's)")
     ap.add_argument("--runners", type=int, nargs="+", default=[1, 2])
-    ap.add_argument("--batch-per-runner", type=int, default=4, help="env steps per runner and iteration")
+    ap.add_argument("--batch-per-runner", type=int, default=8, help="env steps per runner and iteration")
     ap.add_argument("--warmup", type=int, default=1)
-    ap.add_argument("--iterations", type=int, default=3)
-    ap.add_argument("--alone-steps", type=int, default=4, help="0: skip the measurement without Ray")
+    ap.add_argument("--iterations", type=int, default=5)
+    ap.add_argument("--alone-steps", type=int, default=8, help="0: skip the measurement without Ray")
     ap.add_argument("--address", default=None, help="a Ray cluster (default: a local Ray per part)")
     ap.add_argument("--json", type=Path, default=Path("out/bench_ray.json"))
     args = ap.parse_args()
