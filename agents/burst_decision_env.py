@@ -2,31 +2,30 @@
 
 The physics twin of ``FlagellumBurst-surrogate-v0`` (``agents.surrogate_burst_env``): the same action decoding,
 observation, reward terms, episode ends and ``info`` keys, but each burst command is flown by the rod at 0.1 s
-control steps, measured and timed as the rule planner (``agents.turn_planner``) measures and times its turns.
+control steps, measured and timed as the rule planner (``agents.turn_planner``) measures and times its turns
+(``agents.burst_flight``, which the ``ppo-scratch`` controller flies too).
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from agents.burst_design import (BURST_ENV_ARGUMENTS, N_BURST_ACTIONS, N_BURST_FEATURES, BurstCommand, BurstHistory,
-                                 BurstLimits, burst_limits, burst_observation, decode_burst_action)
+from agents.burst_design import (BURST_ENV_ARGUMENTS, N_BURST_ACTIONS, N_BURST_FEATURES, BurstHistory, BurstLimits,
+                                 burst_limits, burst_observation, decode_burst_action)
+from agents.burst_flight import BurstFlight
 from agents.controller_spec import CONTROLLER_ENV_DEFAULTS
 from agents.registration import BURST_ENV_ID
 from agents.turn_decision_env import (DEFAULT_RANDOM_PATH, TurnEpisodes, decision_info, fixed_paths,
                                       refuse_unknown_arguments, steer_base_env)
-from agents.turn_geometry import angle_between, azimuth, unit, wrap_angle
-from agents.turn_planner import RulePlanner, hover_check, period_heading, relax_over
+from agents.turn_geometry import angle_between
+from agents.turn_planner import RulePlanner
 from physics.presets import DEFAULT_PRESET
-
-#: The start frame's x axis: the swimming direction when an episode starts (the heading before one is measured).
-_START_HEADING = np.array([1.0, 0.0, 0.0])
 
 
 class BurstDecisionEnv(TurnEpisodes, gym.Env):
@@ -113,10 +112,9 @@ class BurstDecisionEnv(TurnEpisodes, gym.Env):
         self.base, self.turn_map = steer_base_env(self.preset, turn_map, env_kwargs, render_mode,
                                                   CONTROLLER_ENV_DEFAULTS["rule"])
         # the rule planner as an instrument (never asked to plan): it checks the map against the env and holds
-        # the speed -> action map, the observation layout, the wobble period in control steps and its settings
+        # the speed -> action map; the flight measures and times as it does
         instrument = RulePlanner.for_env(self.base, self.turn_map)
-        self.action_of, self.layout = instrument.action_of, instrument.layout
-        self.period_steps, self.planner_config = instrument.period_steps, instrument.config
+        self.action_of, self.flight = instrument.action_of, BurstFlight.for_planner(instrument)
         self.control_dt = float(self.base.config.control_dt)
         self.limits = burst_limits(limits)
         self.paths = fixed_paths(paths)
@@ -125,9 +123,6 @@ class BurstDecisionEnv(TurnEpisodes, gym.Env):
         self.action_space = spaces.Box(-1.0, 1.0, (N_BURST_ACTIONS,), np.float32)
         self._episode = 0
         self._done = True
-        #: What the last burst's hover did: the phase's miss of beta (rad), whether it timed out, how often the
-        #: heading was measured again, its time and the relaxation's (s); None before any burst.
-        self.last_burst: dict[str, Any] | None = None
 
     # --- Gymnasium API -----------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -136,12 +131,13 @@ class BurstDecisionEnv(TurnEpisodes, gym.Env):
         self._path_name = path.name
         obs, info = self.base.reset(seed=seed, options={"path": path})  # the seed draws the swimmer there
         self.episode_params = self.base.episode_params
-        self._obs, self._base_info = np.asarray(obs, dtype=np.float64), info
-        self._heads = [np.asarray(info["head_position_m"], dtype=np.float64)]
+        self._base_info = info
+        self.flight.start(info["head_position_m"], obs, self.base.tracker.index, info["sim_time_s"])
         self._cross: list[float] = []
         self._reward, self._end = 0.0, None
-        self.bursts, self.history, self.last_burst = 0, BurstHistory(), None
-        self._cruise(self.period_steps + 1, stop_at_waypoint=False)  # a heading measured over one period
+        self.history = BurstHistory()
+        # a heading measured over one period
+        self._drive(self.flight.cruise(self.flight.period_steps + 1, stop_at_waypoint=False))
         self._decision_heading = self.heading
         self._done = False
         return self._observation(), self._info()
@@ -151,7 +147,7 @@ class BurstDecisionEnv(TurnEpisodes, gym.Env):
             raise RuntimeError("call reset() before step()")
         command = decode_burst_action(action, self.limits, self.control_dt)
         if self._end is None:
-            self._fly(command)
+            self._drive(self.flight.fly(command))
         reward, self._reward = self._reward, 0.0
         heading = self.heading
         if command.t_c_s > 0.0:
@@ -175,97 +171,41 @@ class BurstDecisionEnv(TurnEpisodes, gym.Env):
     @property
     def head(self) -> np.ndarray:
         """The head's position now, (3,) m, start frame."""
-        return self._heads[-1]
+        return self.flight.head
 
     @property
     def heading(self) -> np.ndarray:
-        """The heading now, (3,) unit: the head's displacement over the last wobble period (``period_heading``);
-        before a period was flown (an episode that ended during ``reset``), since the start, or the start's."""
-        if len(self._heads) > self.period_steps:
-            return period_heading(self._heads, self.period_steps)
-        move = self._heads[-1] - self._heads[0]
-        return unit(move) if float(move @ move) > 0.0 else _START_HEADING.copy()
+        """The heading now, (3,) unit (``BurstFlight.heading``)."""
+        return self.flight.heading
 
     @property
     def time_s(self) -> float:
         """Simulated time since the episode started, s."""
         return float(self._base_info["sim_time_s"])
 
+    @property
+    def bursts(self) -> int:
+        """Bursts flown in this episode."""
+        return self.flight.bursts
+
+    @property
+    def last_burst(self) -> dict[str, Any] | None:
+        """What the last burst's hover did (``BurstFlight.last_burst``); None before any burst."""
+        return self.flight.last_burst
+
     # --- flying a command -------------------------------------------------------------------------
-    def _fly(self, command: BurstCommand) -> None:
-        """Hover, burst and relax (if t_c > 0), then cruise; each stops when the base episode ends."""
-        if command.t_c_s > 0.0 and not self._hover_to_phase(command.beta_rad):
-            self.bursts += 1
-            self._burst(command.t_c_s)
-        if self._end is None:
-            self._cruise(round(command.cruise_s / self.control_dt), stop_at_waypoint=True)
-
-    def _control_step(self, rpm: float) -> bool:
-        """One control step at ``rpm``; its reward is added up. True when the base episode ended."""
-        obs, reward, terminated, truncated, info = self.base.step(self.action_of(rpm))
-        self._obs, self._base_info = np.asarray(obs, dtype=np.float64), info
-        self._reward += reward
-        self._heads.append(np.asarray(info["head_position_m"], dtype=np.float64))
-        self._cross.append(info["cross_track_error_m"])
-        if terminated or truncated:
-            self._end = (bool(terminated), bool(truncated))
-        return self._end is not None
-
-    def _cruise(self, steps: int, stop_at_waypoint: bool) -> None:
-        """``steps`` control steps at omega_l, fewer if the episode ends or (if asked) a waypoint is reached."""
-        index = self.base.tracker.index
-        for _ in range(steps):
-            if self._control_step(self.turn_map.omega_l_rpm):
+    def _drive(self, speeds: Iterator[float]) -> None:
+        """Step the base env at each motor speed (rpm) the flight yields, until it is done or the episode ends;
+        the rewards are added up."""
+        for rpm in speeds:
+            obs, reward, terminated, truncated, info = self.base.step(self.action_of(rpm))
+            self._base_info = info
+            self._reward += reward
+            self._cross.append(info["cross_track_error_m"])
+            self.flight.observe(info["head_position_m"], obs, self.base.tracker.index, info["sim_time_s"])
+            if terminated or truncated:
+                self._end = (bool(terminated), bool(truncated))
                 return
-            if stop_at_waypoint and self.base.tracker.index != index:
-                return
-
-    def _phase(self, axis: np.ndarray) -> float:
-        """The phase node's azimuth about ``axis`` now (rad), read from the observation as the planner reads it."""
-        return azimuth(self.layout.read(self._obs)[1], axis)
-
-    def _hover_to_phase(self, beta: float) -> bool:
-        """Hover at omega_l (at least one control step) until the phase node's azimuth about the heading reaches
-        ``beta`` (rad), with the rule planner's guards (``hover_check``); True when the episode ended."""
-        k, t0 = self.period_steps, self.time_s
-        restarts = 0
-        while True:
-            axis = self.heading
-            prev, steps, travel = self._phase(axis), 0, 0.0
-            while True:
-                if self._control_step(self.turn_map.omega_l_rpm):
-                    return True
-                phase = self._phase(axis)
-                steps += 1
-                travel += wrap_angle(phase - prev)
-                reached, timed_out, stuck = hover_check(prev, phase, beta, steps, travel, k, restarts,
-                                                        RulePlanner.HOVER_LIMIT_PERIODS, RulePlanner.HOVER_RESTARTS)
-                if reached or timed_out:
-                    self.last_burst = {"phase_error_rad": wrap_angle(phase - beta), "hover_timed_out": timed_out,
-                                       "hover_restarts": restarts, "hover_s": self.time_s - t0}
-                    return False
-                if stuck:
-                    break
-                prev = phase
-            # the phase swings about a heading off the flagellum's axis: measure the heading again, as the planner
-            restarts += 1
-            self._cruise(k + 1, stop_at_waypoint=False)
-            if self._end is not None:
-                return True
-
-    def _burst(self, t_c: float) -> None:
-        """``t_c`` s at omega_h (whole control steps), then omega_l until ``relax_over``; stops at the episode's
-        end."""
-        tm, dt = self.turn_map, self.control_dt
-        for _ in range(max(1, round(t_c / dt))):
-            if self._control_step(tm.omega_h_rpm):
-                return
-        t0, waited = self.time_s, 0
-        while not self._control_step(tm.omega_l_rpm):
-            waited += 1
-            if relax_over(self._heads, waited, self.period_steps, self.planner_config, tm.relax_s, dt):
-                break
-        self.last_burst["relax_s"] = self.time_s - t0
 
     # --- observation and info ---------------------------------------------------------------------
     def _observation(self) -> np.ndarray:

@@ -11,16 +11,19 @@ from typing import Any
 #: The rule planner times its bursts to the flagellum's phase (~40 deg/s at 10 rpm) and its turns
 #: grow by up to ~100 deg per second of burst (paper preset), so it steps every 0.1 s.
 #: The PPO agents (``ppo``: stable-baselines3; ``rllib``: an RLlib checkpoint) correct the planner's turns
-#: (agents.residual_planner), so they step like the planner.
+#: (agents.residual_planner), so they step like the planner; ``ppo-scratch`` (a from-scratch burst agent,
+#: agents.burst_pilot) hovers and bursts as the planner does.
 CONTROLLER_ENV_DEFAULTS: dict[str, dict[str, Any]] = {"rule": {"control_dt": 0.1}, "adaptive": {"control_dt": 0.1},
                                                       "horizon": {"control_dt": 0.1}, "ppo": {"control_dt": 0.1},
+                                                      "ppo-scratch": {"control_dt": 0.1},
                                                       "rllib": {"control_dt": 0.1}}
 #: Kinds that have no default: the part after ``:`` is required.
 _NEEDS_ARGUMENT = {"rllib": "rllib:CHECKPOINT_DIR"}
 
 
 _ALLOWED_SPECS = ("'rule', 'rule:TURN_MAP.json', 'adaptive', 'adaptive:TURN_MAP.json', 'horizon', "
-                  "'horizon:TURN_MAP.json', 'ppo', 'ppo:AGENT_DIR', 'rllib:CHECKPOINT_DIR'; 'rule@line=W' and 'adaptive@line=W' (W >= 0, "
+                  "'horizon:TURN_MAP.json', 'ppo', 'ppo:AGENT_DIR', 'ppo-scratch', 'ppo-scratch:AGENT_DIR', "
+                  "'rllib:CHECKPOINT_DIR'; 'rule@line=W' and 'adaptive@line=W' (W >= 0, "
                   "also before ':TURN_MAP.json') score turns by the path's line too; '@cap=DEG' (DEG > 0; e.g. "
                   "'adaptive@line=2,cap=90') plans at most DEG degrees per burst")
 #: Options a planner spec may carry after ``@`` (``KIND@line=W,cap=DEG``), by kind.
@@ -29,7 +32,7 @@ _OPTION_RANGE = {"line": "line=W (W a number >= 0)", "cap": "cap=DEG (DEG a numb
 
 
 def controller_kind(spec: str) -> str:
-    """``"rule"``, ``"adaptive"``, ``"horizon"``, ``"ppo"`` or ``"rllib"`` from ``KIND``, ``KIND:FILE``, ``KIND@line=W`` or
+    """``"rule"``, ``"adaptive"``, ``"horizon"``, ``"ppo"``, ``"ppo-scratch"`` or ``"rllib"`` from ``KIND``, ``KIND:FILE``, ``KIND@line=W`` or
     ``KIND@line=W:FILE``; ValueError otherwise (also for ``KIND:`` with nothing after the colon, which would
     silently mean the default map or agent, for ``rllib`` without its checkpoint, and for an option the kind does
     not take)."""

@@ -7,7 +7,9 @@ turns it observes, ``agents.adaptive_planner``), ``horizon`` / ``horizon:MAP.jso
 search of two moves -- cruise, then burst -- over that corrected map, ``agents.horizon_planner``), ``rule@line=W`` /
 ``adaptive@line=W`` (either planner also scoring a turn by how far its end lies from the path's line, W m per m:
 ``PlannerConfig.line_weight``; ``:MAP.json`` may follow), ``ppo`` (the PPO agent shipped in ``agents/pretrained/``: the adaptive planner corrected by a policy trained at ``faithful``) and ``ppo:DIR`` (an agent folder
-written by ``flagellum train``, or its ``model.zip``), ``rllib:DIR`` (a run folder of ``flagellum train --engine
+written by ``flagellum train``, or its ``model.zip``), ``ppo-scratch`` / ``ppo-scratch:DIR`` (an agent trained from
+scratch with the burst design, no planner inside: ``agents.burst_pilot``; without ``DIR`` the one shipped in
+``agents/pretrained/``), ``rllib:DIR`` (a run folder of ``flagellum train --engine
 ray`` or one of its checkpoints: ``agents.rllib_policy``). Each has the stable-baselines3
 ``predict(obs, state, episode_start, deterministic)`` call, so the loop does not care which.
 
@@ -72,6 +74,10 @@ def make_controller(spec: str, env, preset: str):
         planner = {"rule": RulePlanner, "adaptive": AdaptivePlanner, "horizon": HorizonPlanner}[kind]
         options = controller_options(spec)
         return planner.for_env(env, TurnMap.load(path), PlannerConfig.from_options(options))
+    if kind == "ppo-scratch":
+        from agents.burst_pilot import load_burst_pilot
+
+        return load_burst_pilot(arg, env, preset)
     if kind == "rllib":
         from agents.rllib_policy import load_rllib_controller
 

@@ -43,8 +43,9 @@ PRETRAINED_DIR = pretrained_dir()
 
 
 @dataclass
-class PPOAgent:
-    """A trained policy with its observation normalisation; ``act(features, deterministic)``."""
+class TrainedAgent:
+    """A trained stable-baselines3 policy (PPO or SAC) with its observation normalisation;
+    ``act(features, deterministic)``."""
 
     model: Any
     obs_rms: Any
@@ -54,7 +55,8 @@ class PPOAgent:
     folder: Path
 
     def act(self, features: np.ndarray, deterministic: bool = True) -> np.ndarray:
-        """Residual action (2,) in [-1, 1] for one feature vector (``BASE_PLANNERS[planner].n_features``,)."""
+        """The action in [-1, 1] for one feature vector: a residual agent's (2,) for the planner's features
+        (``BASE_PLANNERS[planner].n_features``,), a burst agent's (4,) for ``burst_observation``'s."""
         f = np.asarray(features, dtype=np.float64)
         if self.obs_rms is not None:
             f = np.clip((f - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon), -self.clip_obs,
@@ -75,12 +77,30 @@ def agent_folder(arg: str | None) -> Path:
     return folder
 
 
-def load_agent(arg: str | None = None) -> PPOAgent:
-    """Load the agent named by ``arg`` (see ``agent_folder``)."""
-    from stable_baselines3 import PPO
+def load_policy(folder: Path) -> TrainedAgent:
+    """The trained policy in an agent folder (``agent_folder``): stable-baselines3 PPO or SAC as ``meta.json``'s
+    ``run.algorithm`` says (PPO before it was recorded), with the observation statistics of ``vecnormalize.pkl``."""
+    from agents.ppo_training import algorithm_class
 
+    meta = json.loads((folder / "meta.json").read_text(encoding="utf-8"))
+    model = algorithm_class(meta.get("run", {}).get("algorithm", "ppo")).load(str(folder / "model.zip"), device="cpu")
+    obs_rms, clip, eps = None, 10.0, 1e-8
+    stats = folder / "vecnormalize.pkl"
+    if stats.is_file():
+        with open(stats, "rb") as f:
+            vn = pickle.load(f)  # VecNormalize without its venv: the statistics are what is needed
+        if vn.norm_obs:
+            obs_rms, clip, eps = vn.obs_rms, float(vn.clip_obs), float(vn.epsilon)
+    return TrainedAgent(model, obs_rms, clip, eps, meta, folder)
+
+
+def load_agent(arg: str | None = None) -> TrainedAgent:
+    """Load the residual agent named by ``arg`` (see ``agent_folder``)."""
     folder = agent_folder(arg)
     meta = json.loads((folder / "meta.json").read_text(encoding="utf-8"))
+    if meta.get("mode") == "scratch":
+        raise ValueError(f"the agent in {str(folder)!r} was trained from scratch (no planner inside); fly it with "
+                         f"--controller ppo-scratch:{folder}")
     if meta.get("mode") != "residual":
         raise ValueError(f"the agent in {str(folder)!r} has mode {meta.get('mode')!r}; this version drives "
                          "'residual' agents")
@@ -90,25 +110,18 @@ def load_agent(arg: str | None = None) -> PPOAgent:
     except ValueError as exc:
         raise ValueError(f"the agent in {str(folder)!r} corrects a planner this version does not have: {exc}") \
             from None
-    model = PPO.load(str(folder / "model.zip"), device="cpu")
+    agent = load_policy(folder)
     n = planner_cls.n_features
-    if model.observation_space.shape != (n,):
-        raise ValueError(f"the agent in {str(folder)!r} expects {model.observation_space.shape} observations, "
+    if agent.model.observation_space.shape != (n,):
+        raise ValueError(f"the agent in {str(folder)!r} expects {agent.model.observation_space.shape} observations, "
                          f"this version's turn features of the {planner} planner are ({n},): retrain it")
-    obs_rms, clip, eps = None, 10.0, 1e-8
-    stats = folder / "vecnormalize.pkl"
-    if stats.is_file():
-        with open(stats, "rb") as f:
-            vn = pickle.load(f)  # VecNormalize without its venv: the statistics are what is needed
-        if vn.norm_obs:
-            obs_rms, clip, eps = vn.obs_rms, float(vn.clip_obs), float(vn.epsilon)
-    return PPOAgent(model, obs_rms, clip, eps, meta, folder)
+    return agent
 
 
 class _AgentDriven:
     """A residual planner driven by a trained agent (mixin); ``predict`` like a stable-baselines3 policy."""
 
-    agent: PPOAgent
+    agent: TrainedAgent
     _deterministic: bool = True
 
     def predict(self, observation: np.ndarray, state=None, episode_start=None, deterministic: bool = True):

@@ -49,7 +49,7 @@ def checkpoint_folder(arg: str) -> Path:
 
 @dataclass
 class RLlibAgent:
-    """An RLlib policy with its observation filter; ``act(features, deterministic)`` like ``PPOAgent``."""
+    """An RLlib policy with its observation filter; ``act(features, deterministic)`` like ``TrainedAgent``."""
 
     module: Any
     obs_filter: Any

@@ -86,6 +86,7 @@ class ObservationLayout:
     shape: slice
     length_scale_m: float
     phase_slot: int  # which observed shape node is the turn map's phase node
+    time_left: slice | None = None  # the fraction of the episode's time budget left (None: not read)
 
     @classmethod
     def from_env(cls, env, turn_map: TurnMap) -> ObservationLayout:
@@ -100,7 +101,7 @@ class ObservationLayout:
                              f"nodes {model.shape_nodes.tolist()}; use n_shape_nodes=8 (the default) or "
                              "calibrate for this observation")
         s = model.slices()
-        return cls(s["waypoints"], s["orientation"], s["shape"], model.length_scale_m, int(slots[0]))
+        return cls(s["waypoints"], s["orientation"], s["shape"], model.length_scale_m, int(slots[0]), s["time_left"])
 
     def read(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(the observed targets minus the head, (k, 3); the phase node minus the head, (3,)), both m in the start
@@ -167,6 +168,16 @@ def hover_check(prev_phase: float, phase: float, target: float, hover_steps: int
     stuck = not reached and not timed_out and hover_phase_stuck(hover_steps, travel_rad, period_steps, restarts,
                                                                 max_restarts)
     return reached, timed_out, stuck
+
+
+def dead_reckon(head: np.ndarray, prev_rel: np.ndarray, rel: np.ndarray) -> np.ndarray:
+    """The head now (3,) m from the head at the last control step and the targets relative to it then and now
+    ((k, 3) m, ``ObservationLayout.read``): the head moved by prev - now for the same target; if the target switched,
+    the old second target is the new first one. The smaller implied move is the right one."""
+    moves = [prev_rel[0] - rel[0]]
+    if prev_rel.shape[0] > 1:
+        moves.append(prev_rel[1] - rel[0])
+    return head + min(moves, key=lambda m: math.sqrt(float(m @ m)))  # np.linalg.norm, cheaper
 
 
 def wobble_period_steps(period_s: float, control_dt: float) -> int:
@@ -300,12 +311,7 @@ class RulePlanner:
         tm = self.turn_map
         rel, node = self.layout.read(obs)
         if ep.prev_rel is not None:
-            # the head moved by prev - now for the same target; if the target switched, the old
-            # second target is the new first one. The smaller implied move is the right one.
-            moves = [ep.prev_rel[0] - rel[0]]
-            if ep.prev_rel.shape[0] > 1:
-                moves.append(ep.prev_rel[1] - rel[0])
-            ep.head = ep.head + min(moves, key=lambda m: math.sqrt(float(m @ m)))  # np.linalg.norm, cheaper
+            ep.head = dead_reckon(ep.head, ep.prev_rel, rel)
         ep.prev_rel = rel
         ep.heads.append(ep.head.copy())
         ep.step += 1

@@ -54,7 +54,7 @@ def test_no_burst_swims_straight_for_the_cruise_asked():
     env = gym.make(ID, paths=[ONE_TURN]).unwrapped
     obs, info = env.reset(seed=0)
     assert set(info) == INFO and info["turns"] == 0 and not info["out_of_range"]
-    assert info["time_s"] == pytest.approx((env.period_steps + 1) * env.control_dt)  # the reset's heading
+    assert info["time_s"] == pytest.approx((env.flight.period_steps + 1) * env.control_dt)  # the reset's heading
     d0, t0 = env.heading.copy(), env.time_s
     obs, reward, term, trunc, info = env.step(np.array([-1.0, 1.0, 0.3, -1.0]))  # no burst, 2 s of cruise
     assert not (term or trunc) and info["turns"] == 0 and reward > 0.0  # progress along the first segment
@@ -82,7 +82,7 @@ def test_a_burst_turns_the_heading_as_the_map_says():
     assert obs[27] == pytest.approx(t_c / env.limits.t_c_max_s) and obs[28] == pytest.approx(theta / 180, rel=1e-5)
     # the relaxation waited at least two periods and at most max_relax_factor x the map's relaxation
     relax = env.last_burst["relax_s"]
-    assert 2 * env.period_steps * env.control_dt - 1e-9 <= relax <= 3.0 * env.turn_map.relax_s + env.control_dt
+    assert 2 * env.flight.period_steps * env.control_dt - 1e-9 <= relax <= 3.0 * env.turn_map.relax_s + env.control_dt
 
 
 def test_the_same_seed_draws_the_surrogates_swimmer_and_path():
