@@ -27,7 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="rule | rule:MAP.json | adaptive | adaptive:MAP.json | rule@line=W | adaptive@line=W (also weighing "
                              "how far a turn ends from the path's line, W m per m) | rule@cap=DEG | adaptive@cap=DEG (at most DEG "
                              "degrees per burst; combine as adaptive@line=2,cap=90) | horizon | horizon:MAP.json | ppo "
-                             "| ppo:AGENT_DIR | rllib:CHECKPOINT_DIR (repeatable)")
+                             "| ppo:AGENT_DIR | ppo-scratch | ppo-scratch:AGENT_DIR | rllib:CHECKPOINT_DIR (repeatable)")
     parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/evaluate"), help="default out/evaluate")
     parser.add_argument("--workers", metavar="N", help="local worker processes (default: one per core)")
     parser.add_argument("--scheduler", metavar="ADDR", help=SCHEDULER_HELP)

@@ -33,7 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--controller", action="append", default=None,
                         help="rule | rule:MAP.json | adaptive | adaptive:MAP.json | rule@line=W | adaptive@line=W | "
                              "rule@cap=DEG | adaptive@cap=DEG | adaptive@line=W,cap=DEG | "
-                             "horizon | horizon:MAP.json | ppo | ppo:AGENT_DIR | rllib:CHECKPOINT_DIR (repeat to "
+                             "horizon | horizon:MAP.json | ppo | ppo:AGENT_DIR | ppo-scratch | ppo-scratch:AGENT_DIR | rllib:CHECKPOINT_DIR (repeat to "
                              "compare on one plot; default rule)")
     parser.add_argument("--out", metavar="DIR", type=Path, default=Path("out/follow"), help="default out/follow")
     parser.add_argument("--reach-radius", metavar="M", help="waypoint reach radius, m (default: the path's or 0.015)")

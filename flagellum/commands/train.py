@@ -10,12 +10,13 @@ from pathlib import Path
 from flagellum.commands.common import UsageError, ensure_dir
 
 NAME = "train"
-HELP = ("train the PPO agent that corrects the turn planner (stable-baselines3 on the CPU, or Ray RLlib with "
-        "--engine ray); resumable")
-DESCRIPTION = ("Train PPO from --config into --out. --engine sb3 (the default; rl-zoo3-style YAML, default "
-               "agents/configs/ppo_residual_adaptive.yml, the shipped agent's): model.zip, vecnormalize.pkl, "
+HELP = ("train an agent: PPO correcting the turn planner, or PPO/SAC from scratch (stable-baselines3 on the "
+        "CPU, or Ray RLlib with --engine ray); resumable")
+DESCRIPTION = ("Train from --config into --out. --engine sb3 (the default; rl-zoo3-style YAML, default "
+               "agents/configs/ppo_residual_adaptive.yml, the shipped residual agent's; algorithm: ppo or sac; "
+               "task.design: residual or burst, docs/rl.md): model.zip, vecnormalize.pkl, "
                "meta.json, config.yml, episodes.csv, eval/, checkpoints/, tb/ (tensorboard); use the result with "
-               "--controller ppo:DIR. --engine ray (RLlib PPO, env runners on a local Ray or on the cluster at "
+               "--controller ppo:DIR (residual) or ppo-scratch:DIR (burst). --engine ray (RLlib PPO, env runners on a local Ray or on the cluster at "
                "--address; default config agents/configs/rllib_ppo_surrogate.yml; keys: docs/ray.md): run.json, "
                "config.yml, progress.csv, checkpoints/; use a FlagellumTurn run with --controller rllib:DIR. "
                "--resume continues from the newest checkpoint; Ctrl-C or SIGTERM saves one and exits.")
