@@ -51,10 +51,12 @@ class BurstDecisionEnv(TurnEpisodes, gym.Env):
 
     ## Spaces
 
-    Observation ``Box(-10, 10, (N_BURST_FEATURES,), float32)`` (``burst_observation``: the next two waypoints and
+    Observation ``Box(-10, 10, (N_BURST_FEATURES,), float32)``, 43 values (``burst_observation``: the next two waypoints and
     the current segment in the heading's frame, in units of 0.1 m; the time left; the last four bursts' t_c / t_c_max,
     the turn seen over each one's decision / pi and that turn's direction relative to the command's beta as
-    (cos, sin), weighted by min(1, turn / 10 deg); ``agents.burst_design``'s layout). Action ``Box(-1, 1, (4,), float32)``: burst length, the burst phase's direction (2), cruise time (``decode_burst_action``: t_c <= ``t_c_max_s`` s,
+    (cos, sin), weighted by min(1, turn / 10 deg); ``agents.burst_design``'s layout). Action
+    ``Box(-1, 1, (4,), float32)``: burst length, the burst phase's direction (2), cruise time
+    (``decode_burst_action``: t_c <= ``t_c_max_s`` s,
     beta = atan2(a_2, a_1) rad, cruise ``cruise_min_s`` to ``cruise_max_s`` s, whole control steps). An action that
     is not four finite numbers raises ``ValueError``; entries outside [-1, 1] are clipped.
 

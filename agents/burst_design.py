@@ -130,7 +130,8 @@ def parse_map_noise(map_noise: Mapping[str, Any] | None) -> tuple[float, float] 
     if keys != set(MAP_NOISE_KEYS):
         wrong = sorted(map(str, keys - set(MAP_NOISE_KEYS)))
         missing = sorted(set(MAP_NOISE_KEYS) - keys)
-        raise ValueError(f"map_noise={dict(map_noise)!r} has unknown key(s) {wrong} and lacks {missing}; give {allowed}")
+        raise ValueError(f"map_noise={dict(map_noise)!r} has unknown key(s) {wrong} and lacks {missing}; give "
+                         f"{allowed}")
     out = []
     for key, hi, closed in (("direction_deg", 180.0, True), ("turn_scale", 1.0, False)):
         value = map_noise[key]

@@ -42,7 +42,9 @@ class SurrogateBurstEnv(TurnEpisodes, gym.Env):
 
     ## Spaces
 
-    Observation ``Box(-10, 10, (N_BURST_FEATURES,), float32)`` (``burst_observation``); action
+    Observation ``Box(-10, 10, (N_BURST_FEATURES,), float32)``, 43 values (``burst_observation``; the layout in
+    ``agents.burst_design``'s docstring: the targets and segment in the heading's frame, the time left and the last
+    four bursts' length, turn seen and the turn's direction relative to the commanded beta); action
     ``Box(-1, 1, (4,), float32)``: burst length, the burst phase's direction (2), cruise time
     (``decode_burst_action``). An action that is not four finite numbers raises ``ValueError``; entries outside
     [-1, 1] are clipped.
