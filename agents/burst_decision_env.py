@@ -17,13 +17,12 @@ import numpy as np
 from gymnasium import spaces
 
 from agents.burst_design import (BURST_ENV_ARGUMENTS, N_BURST_ACTIONS, N_BURST_FEATURES, BurstHistory, BurstLimits,
-                                 burst_limits, burst_observation, decode_burst_action)
+                                 burst_limits, burst_observation, decode_burst_action, turn_seen)
 from agents.burst_flight import BurstFlight
 from agents.controller_spec import CONTROLLER_ENV_DEFAULTS
 from agents.registration import BURST_ENV_ID
 from agents.turn_decision_env import (DEFAULT_RANDOM_PATH, TurnEpisodes, decision_info, fixed_paths,
                                       refuse_unknown_arguments, steer_base_env)
-from agents.turn_geometry import angle_between
 from agents.turn_planner import RulePlanner
 from physics.presets import DEFAULT_PRESET
 
@@ -52,9 +51,12 @@ class BurstDecisionEnv(TurnEpisodes, gym.Env):
 
     ## Spaces
 
-    Observation ``Box(-10, 10, (N_BURST_FEATURES,), float32)`` (``burst_observation``: the next two waypoints and
-    the current segment in the heading's frame, in units of 0.1 m; the time left; the last four bursts' t_c / t_c_max
-    and the turn seen over each one's decision / pi). Action ``Box(-1, 1, (4,), float32)``: burst length, the burst phase's direction (2), cruise time (``decode_burst_action``: t_c <= ``t_c_max_s`` s,
+    Observation ``Box(-10, 10, (N_BURST_FEATURES,), float32)``, 43 values (``burst_observation``: the next two waypoints and
+    the current segment in the heading's frame, in units of 0.1 m; the time left; the last four bursts' t_c / t_c_max,
+    the turn seen over each one's decision / pi and that turn's direction relative to the command's beta as
+    (cos, sin), weighted by min(1, turn / 10 deg); ``agents.burst_design``'s layout). Action
+    ``Box(-1, 1, (4,), float32)``: burst length, the burst phase's direction (2), cruise time
+    (``decode_burst_action``: t_c <= ``t_c_max_s`` s,
     beta = atan2(a_2, a_1) rad, cruise ``cruise_min_s`` to ``cruise_max_s`` s, whole control steps). An action that
     is not four finite numbers raises ``ValueError``; entries outside [-1, 1] are clipped.
 
@@ -151,7 +153,8 @@ class BurstDecisionEnv(TurnEpisodes, gym.Env):
         reward, self._reward = self._reward, 0.0
         heading = self.heading
         if command.t_c_s > 0.0:
-            self.history.record(command.t_c_s / self.limits.t_c_max_s, angle_between(self._decision_heading, heading))
+            self.history.record(command.t_c_s / self.limits.t_c_max_s, *turn_seen(self._decision_heading, heading),
+                                command.beta_rad)
         self._decision_heading = heading
         terminated, truncated = self._end if self._end is not None else (False, False)
         self._done = terminated or truncated

@@ -28,11 +28,25 @@ The observation (``burst_observation``, ``N_BURST_FEATURES`` values) is the task
 (each as a vector, its distance, its unit direction, its angle off the heading and its azimuth about the heading
 as (cos, sin): the turn a policy must make, spelled so that the burst's length is a function of one entry and
 its phase direction a fixed rotation of two) and the current segment's line relative to the head, the time left,
-and what the last ``HISTORY_BURSTS`` bursts did (each one's length and the turn seen over its decision: the angle
-between the headings at that decision and the next), from which an agent can tell a swimmer that turns more or
-less than the nominal one: one burst on the steep rising branch is a noisy reading of a swimmer's timing. (A PPO
-policy that saw only the last burst reached every waypoint of 4 of 12 held-out paths at +-10 % in the surrogate,
-a SAC policy that saw four 9 of 12: two algorithms, so this does not isolate what the history adds.)
+and what the last ``HISTORY_BURSTS`` bursts did (``BurstHistory``), from which an agent can tell a swimmer that
+turns more or less, or elsewhere, than the nominal one: one burst on the steep rising branch is a noisy reading of
+a swimmer's timing. (A PPO policy that saw only the last burst reached every waypoint of 4 of 12 held-out paths at
++-10 % in the surrogate, a SAC policy that saw four 9 of 12: two algorithms, so this does not isolate what the
+history adds.) The layout, index: what (units):
+
+    0-9     target 1: vector (3, / 0.1 m), distance (/ 0.1 m), unit direction (3), angle off the heading / pi,
+            azimuth about the heading (cos, sin)
+    10-19   target 2, as target 1
+    20-22   the current segment's unit direction;   23-25 the head's offset from its line (/ 0.1 m)
+    26      time left (fraction of the budget)
+    27-42   the last 4 bursts, newest first, 4 values each (all zeros: no such burst):
+              t_c / t_c_max;  the turn seen / pi (the angle between the headings at that decision and the next);
+              w cos(delta), w sin(delta): the turn's direction relative to the command, delta = the azimuth of the
+              next decision's heading about the decision's heading (``turn_geometry.azimuth``, the
+              ``perpendicular_basis`` beta is measured in) minus the command's beta, weighted by
+              w = min(1, turn / 10 deg) (``DIRECTION_FULL_TURN_RAD``) because the direction of a turn of ~0 deg is
+              noise. On the map's rising branch delta is near the map's psi (~130 deg); a swimmer that turns
+              elsewhere shows it here, which the turn's size alone cannot tell.
 """
 
 from __future__ import annotations
@@ -44,20 +58,29 @@ from typing import Any
 
 import numpy as np
 
-from agents.turn_geometry import perpendicular_basis
+from agents.turn_geometry import angle_between, azimuth, perpendicular_basis
 from physics.validation import require_finite
 
 #: The keyword arguments of every ``FlagellumBurst`` env.
 BURST_ENV_ARGUMENTS = ("preset", "turn_map", "env_kwargs", "paths", "random_path", "limits", "render_mode")
+#: ``FlagellumBurst-surrogate-v0`` takes these too (the rod twin refuses them): ``map_noise``, the randomised map.
+SURROGATE_BURST_ENV_ARGUMENTS = BURST_ENV_ARGUMENTS + ("map_noise",)
+#: The keys of ``map_noise``: the largest direction bias (deg, in [0, 180]) and the turn-size spread (in [0, 1)).
+MAP_NOISE_KEYS = ("direction_deg", "turn_scale")
 #: Length scale of the observation, m (the paths' segments are 5-40 cm).
 OBS_SCALE_M = 0.1
 #: Action size: burst length, the burst phase's direction (2), cruise time.
 N_BURST_ACTIONS = 4
 #: How many of the last bursts the observation recalls.
 HISTORY_BURSTS = 4
+#: Values per burst in the history: length, turn seen, the turn's direction relative to beta (cos, sin).
+HISTORY_FEATURES = 4
+#: A turn's direction counts in full from this turn on (rad); below it its (cos, sin) shrink linearly to 0.
+DIRECTION_FULL_TURN_RAD = math.radians(10.0)
 #: Observation size: 2 targets x (vector (3), distance, unit direction (3), angle off the heading, azimuth (cos,
-#: sin)), segment direction (3), offset from its line (3), time left, the last bursts (length, turn seen) x 4.
-N_BURST_FEATURES = 27 + 2 * HISTORY_BURSTS
+#: sin)), segment direction (3), offset from its line (3), time left, the last bursts (length, turn seen, turn
+#: direction (cos, sin)) x 4: 27 + 16 = 43 (the module docstring's layout).
+N_BURST_FEATURES = 27 + HISTORY_FEATURES * HISTORY_BURSTS
 
 
 @dataclass(frozen=True)
@@ -94,6 +117,34 @@ def burst_limits(limits: BurstLimits | Mapping[str, Any] | None) -> BurstLimits:
     return BurstLimits(**{k: float(v) for k, v in limits.items()})
 
 
+def parse_map_noise(map_noise: Mapping[str, Any] | None) -> tuple[float, float] | None:
+    """``FlagellumBurst-surrogate-v0``'s ``map_noise`` as (D deg, S), None when off (None); ValueError (one line)
+    naming the bad value unless it is a dict of ``MAP_NOISE_KEYS`` (both required) with finite 0 <= D <= 180 and
+    0 <= S < 1."""
+    if map_noise is None:
+        return None
+    allowed = "a dict {'direction_deg': D, 'turn_scale': S} with finite 0 <= D <= 180 (deg) and 0 <= S < 1, or None"
+    if not isinstance(map_noise, Mapping):
+        raise ValueError(f"map_noise={map_noise!r} is not allowed; give {allowed}")
+    keys = set(map_noise)
+    if keys != set(MAP_NOISE_KEYS):
+        wrong = sorted(map(str, keys - set(MAP_NOISE_KEYS)))
+        missing = sorted(set(MAP_NOISE_KEYS) - keys)
+        raise ValueError(f"map_noise={dict(map_noise)!r} has unknown key(s) {wrong} and lacks {missing}; give "
+                         f"{allowed}")
+    out = []
+    for key, hi, closed in (("direction_deg", 180.0, True), ("turn_scale", 1.0, False)):
+        value = map_noise[key]
+        try:
+            x = float(value) if not isinstance(value, bool) else math.nan
+        except (TypeError, ValueError):
+            x = math.nan
+        if not (math.isfinite(x) and 0.0 <= x and (x <= hi if closed else x < hi)):
+            raise ValueError(f"map_noise['{key}']={value!r} is not allowed; give {allowed}")
+        out.append(x)
+    return out[0], out[1]
+
+
 @dataclass(frozen=True)
 class BurstCommand:
     """A decoded action: ``t_c_s`` burst length (s, whole control steps, 0: none), ``beta_rad`` the phase node's
@@ -126,22 +177,36 @@ def decode_burst_action(action, limits: BurstLimits, control_dt: float) -> Burst
                         max(1, round(cruise / control_dt)) * control_dt)
 
 
+def turn_seen(before: np.ndarray, after: np.ndarray) -> tuple[float, float]:
+    """(turn, azimuth) of a heading change, rad: the angle between the unit headings ``before`` and ``after`` (3,)
+    ([0, pi]) and the azimuth of ``after`` about ``before`` (``turn_geometry.azimuth``, in
+    ``perpendicular_basis(before)``, the basis beta is measured in; (-pi, pi], 0 for no turn)."""
+    return angle_between(before, after), azimuth(after, before)
+
+
 class BurstHistory:
-    """The last ``HISTORY_BURSTS`` bursts of an episode as (t_c / t_c_max, turn seen / pi), newest first."""
+    """The last ``HISTORY_BURSTS`` bursts of an episode, newest first, each as (t_c / t_c_max, turn seen / pi,
+    w cos(azimuth - beta), w sin(azimuth - beta)), w = min(1, turn / ``DIRECTION_FULL_TURN_RAD``) (module
+    docstring)."""
 
     def __init__(self) -> None:
-        self.entries: list[tuple[float, float]] = []
+        self.entries: list[tuple[float, float, float, float]] = []
 
-    def record(self, t_c_fraction: float, turn_rad: float) -> None:
-        """A burst of ``t_c_fraction`` x t_c_max after which the heading turned ``turn_rad`` (rad) by the next
-        decision."""
-        self.entries = [(float(t_c_fraction), float(turn_rad) / math.pi)] + self.entries[:HISTORY_BURSTS - 1]
+    def record(self, t_c_fraction: float, turn_rad: float, azimuth_rad: float, beta_rad: float) -> None:
+        """A burst of ``t_c_fraction`` x t_c_max commanded at phase ``beta_rad`` after which the heading turned
+        ``turn_rad`` (rad) by the next decision, towards ``azimuth_rad`` about the decision's heading (rad;
+        ``turn_seen`` gives both)."""
+        turn = float(turn_rad)
+        w = min(1.0, max(turn, 0.0) / DIRECTION_FULL_TURN_RAD)
+        delta = float(azimuth_rad) - float(beta_rad)
+        entry = (float(t_c_fraction), turn / math.pi, w * math.cos(delta), w * math.sin(delta))
+        self.entries = [entry] + self.entries[:HISTORY_BURSTS - 1]
 
     def features(self) -> np.ndarray:
-        """(2 HISTORY_BURSTS,): the entries, zeros where there were fewer bursts."""
-        out = np.zeros(2 * HISTORY_BURSTS)
-        for k, (t, turn) in enumerate(self.entries):
-            out[2 * k], out[2 * k + 1] = t, turn
+        """(HISTORY_FEATURES x HISTORY_BURSTS,): the entries, zeros where there were fewer bursts."""
+        out = np.zeros(HISTORY_FEATURES * HISTORY_BURSTS)
+        for k, entry in enumerate(self.entries):
+            out[HISTORY_FEATURES * k:HISTORY_FEATURES * (k + 1)] = entry
         return out
 
 

@@ -17,10 +17,10 @@ from pathlib import Path
 import numpy as np
 
 from agents.assets import default_turn_map, missing_turn_map_message, package_file
-from agents.burst_design import N_BURST_FEATURES, BurstHistory, BurstLimits, burst_observation, decode_burst_action
+from agents.burst_design import (N_BURST_FEATURES, BurstHistory, BurstLimits, burst_observation, decode_burst_action,
+                                 turn_seen)
 from agents.burst_flight import BurstFlight
 from agents.ppo_policy import TrainedAgent, load_policy
-from agents.turn_geometry import angle_between
 from agents.turn_map import TurnMap
 from agents.turn_planner import RulePlanner, dead_reckon
 
@@ -122,7 +122,7 @@ class BurstPilot:
         heading = self.flight.heading
         if self._command is not None and self._command.t_c_s > 0.0:
             self.history.record(self._command.t_c_s / self.limits.t_c_max_s,
-                                angle_between(self._decision_heading, heading))
+                                *turn_seen(self._decision_heading, heading), self._command.beta_rad)
         self._decision_heading = heading
         head = self.flight.head
         time_left = float(self.flight.obs[self.layout.time_left][0])

@@ -25,6 +25,8 @@ hyperparameters (flat, as in rl-zoo3's ``hyperparams/ppo.yml``) and a ``task`` s
         limits: {max_dtc_fraction: 0.05, max_dphase_deg: 15}
         action_cost: 5.0        # reward - action_cost |a|^2 per decision
         env_kwargs: {randomize: true, reward: {cross_track_per_cm_s: 0.05}}
+        map_noise: null         # design burst, tier surrogate only: {direction_deg: D, turn_scale: S}, the map
+                                # randomised per episode (FlagellumBurst-surrogate-v0's map_noise)
         curriculum:             # stages by decisions done; random_path = RandomPathConfig fields
           - {name: single_turns, until: 160, random_path: {n_waypoints: 2, ...}}
           - {name: eval_like, until: 480, random_path: {...}}
@@ -47,7 +49,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from agents.burst_design import BurstLimits
+from agents.burst_design import BurstLimits, parse_map_noise
 from agents.residual_planner import ResidualLimits, base_planner
 from flagellum_env.paths import RandomPathConfig, WaypointPath, random_path
 from physics.presets import DEFAULT_PRESET, preset_names
@@ -65,8 +67,8 @@ ALGORITHM_KEYS = {"ppo": PPO_KEYS, "sac": SAC_KEYS}
 NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma")
 TOP_KEYS = ("algorithm", "policy", "n_envs", "n_timesteps", "max_wall_time_s", "seed", "checkpoint_every",
             "normalize", "task", "init_from", *dict.fromkeys(PPO_KEYS + SAC_KEYS))
-TASK_KEYS = ("design", "tier", "preset", "turn_map", "planner", "limits", "action_cost", "env_kwargs", "curriculum",
-             "validation")
+TASK_KEYS = ("design", "tier", "preset", "turn_map", "planner", "limits", "action_cost", "env_kwargs", "map_noise",
+             "curriculum", "validation")
 #: ``task.design``: what an action is. "residual": a correction of the planner's turn (``FlagellumTurn-*``);
 #: "burst": a burst command with no planner (``FlagellumBurst-*``, ``agents.burst_design``).
 DESIGNS = ("residual", "burst")
@@ -134,6 +136,8 @@ class TrainConfig:
     design: str = "residual"
     tier: str = "physics"
     algorithm: str = "ppo"
+    #: ``FlagellumBurst-surrogate-v0``'s ``map_noise`` (design burst, tier surrogate only); None: off
+    map_noise: Mapping[str, Any] | None = None
 
     def stage_at(self, decisions: int) -> CurriculumStage:
         """The curriculum stage in force after ``decisions`` decisions."""
@@ -218,6 +222,17 @@ class TrainConfig:
             raise ValueError(f"{where}: {name}.task.limits: {exc}") from None
         except ValueError as exc:
             raise ValueError(f"{where}: {name}.task.limits: {exc}") from None
+        map_noise = task.get("map_noise")
+        if map_noise is not None:
+            if design != "burst" or tier != "surrogate":
+                raise ValueError(f"{where}: {name}.task.map_noise is only allowed with design 'burst' and tier "
+                                 f"'surrogate' (FlagellumBurst-surrogate-v0); this task has design {design!r}, tier "
+                                 f"{tier!r}")
+            try:
+                parse_map_noise(map_noise)
+            except ValueError as exc:
+                raise ValueError(f"{where}: {name}.task.{exc}") from None
+            map_noise = dict(map_noise)
         cost = require_finite(f"{where}: {name}.task.action_cost", task.get("action_cost", 0.0), 0.0)
         normalize = dict(body.get("normalize") or {"norm_obs": True, "norm_reward": True})
         _only(normalize, NORMALIZE_KEYS, f"{where}: {name}.normalize")
@@ -254,7 +269,8 @@ class TrainConfig:
                    normalize=normalize, hyperparameters={k: body[k] for k in keys if k in body}, preset=preset,
                    turn_map=task.get("turn_map"), limits=limits, action_cost=cost,
                    env_kwargs=dict(task.get("env_kwargs") or {}), init_from=init_from,
-                   source=source, planner=planner, design=design, tier=tier, algorithm=algorithm)
+                   source=source, planner=planner, design=design, tier=tier, algorithm=algorithm,
+                   map_noise=map_noise)
 
 
 def _only(d: Mapping[str, Any], allowed: tuple[str, ...], where: str) -> None:

@@ -111,7 +111,10 @@ def agent_env(config: TrainConfig) -> tuple[str, dict[str, Any]]:
         return BURST_SURROGATE_ENV_ID if config.tier == "surrogate" else BURST_ENV_ID, {"preset": config.preset, "turn_map": config.turn_map,
                                         "env_kwargs": dict(config.env_kwargs),
                                         "limits": dataclasses.asdict(BurstLimits(**config.limits)),
-                                        "random_path": dict(config.curriculum[-1].random_path)}
+                                        "random_path": dict(config.curriculum[-1].random_path),
+                                        # the surrogate's randomised map; agents trained without it store none
+                                        **({"map_noise": dict(config.map_noise)} if config.map_noise is not None
+                                           else {})}
     if config.tier == "surrogate":
         env_id = TURN_SURROGATE_ENV_ID
     else:
@@ -134,7 +137,8 @@ def trained_head_rotation(preset: str, env_kwargs: dict[str, Any]) -> str:
 
 def _make_env(config: TrainConfig, rank: int, paths=None):
     """A picklable factory of the agent's env (``agent_env``, unwrapped): training (the curriculum's first stage,
-    the config's randomisation) or, with ``paths``, validation (those paths, nominal parameters)."""
+    the config's randomisation and ``map_noise``) or, with ``paths``, validation (those paths, nominal parameters,
+    the map as measured)."""
     parent = os.getpid()
     env_id, make_kwargs = agent_env(config)
 
@@ -152,8 +156,9 @@ def _make_env(config: TrainConfig, rank: int, paths=None):
         if paths:
             kwargs.pop("randomize", None)
         env_class = gym.envs.registration.load_env_creator(gym.spec(env_id).entry_point)
+        extra = {"map_noise": None} if paths and "map_noise" in make_kwargs else {}
         env = env_class(**{**make_kwargs, "env_kwargs": kwargs, "paths": paths,
-                           "random_path": None if paths else config.curriculum[0].random_path})
+                           "random_path": None if paths else config.curriculum[0].random_path, **extra})
         env.reset(seed=config.seed + rank)
         return env
     return factory
@@ -180,6 +185,7 @@ def run_identity(config: TrainConfig) -> dict[str, Any]:
         **({"design": config.design} if config.design != "residual" else {}),
         **({"tier": config.tier} if config.tier != "physics" else {}),
         **({"algorithm": config.algorithm} if config.algorithm != "ppo" else {}),
+        **({"map_noise": dict(config.map_noise)} if config.map_noise is not None else {}),
         # the rule planner's runs from before the choice existed have no "planner"
         **({"planner": config.planner} if config.planner != "rule" else {})}, default=str))
 

@@ -19,16 +19,15 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
 
-from agents.burst_design import (BURST_ENV_ARGUMENTS, N_BURST_ACTIONS, N_BURST_FEATURES, BurstHistory, BurstLimits,
-                                 burst_limits,
-                                 burst_observation, decode_burst_action)
+from agents.burst_design import (N_BURST_ACTIONS, N_BURST_FEATURES, SURROGATE_BURST_ENV_ARGUMENTS, BurstHistory,
+                                 BurstLimits, burst_limits, burst_observation, decode_burst_action, parse_map_noise,
+                                 turn_seen)
 from agents.controller_spec import CONTROLLER_ENV_DEFAULTS
 from agents.registration import BURST_SURROGATE_ENV_ID
 from agents.surrogate_episode import SurrogateEpisode, surrogate_info
 from agents.surrogate_swimmer import SurrogateSwimmer, TurnMapTable
 from agents.surrogate_turn_env import surrogate_setup
 from agents.turn_decision_env import DEFAULT_RANDOM_PATH, TurnEpisodes, fixed_paths, refuse_unknown_arguments
-from agents.turn_geometry import angle_between
 from agents.turn_planner import PlannerConfig, wobble_period_steps
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M, draw_randomization
 from flagellum_env.tracking import PathTracker
@@ -43,7 +42,9 @@ class SurrogateBurstEnv(TurnEpisodes, gym.Env):
 
     ## Spaces
 
-    Observation ``Box(-10, 10, (N_BURST_FEATURES,), float32)`` (``burst_observation``); action
+    Observation ``Box(-10, 10, (N_BURST_FEATURES,), float32)``, 43 values (``burst_observation``; the layout in
+    ``agents.burst_design``'s docstring: the targets and segment in the heading's frame, the time left and the last
+    four bursts' length, turn seen and the turn's direction relative to the commanded beta); action
     ``Box(-1, 1, (4,), float32)``: burst length, the burst phase's direction (2), cruise time
     (``decode_burst_action``). An action that is not four finite numbers raises ``ValueError``; entries outside
     [-1, 1] are clipped.
@@ -60,8 +61,15 @@ class SurrogateBurstEnv(TurnEpisodes, gym.Env):
     ``preset`` (only "faithful", the map replayed), ``turn_map``, ``env_kwargs`` (``FlagellumSteer-v0`` arguments
     as ``FlagellumTurn-surrogate-v0`` takes them; ``randomize`` up to 15 %), ``paths`` (fixed paths in turn) or
     ``random_path`` (``RandomPathConfig`` fields; default 3 waypoints, 12-20 cm segments, planar and 3-D),
-    ``limits`` (``BurstLimits`` or a dict of its fields), ``render_mode`` (None only). Outside the calibrated
-    range: ``ValueError`` naming the value and what is allowed.
+    ``limits`` (``BurstLimits`` or a dict of its fields), ``render_mode`` (None only), ``map_noise`` (this env
+    only; ``FlagellumBurst-v0`` refuses it): None (the default) flies the map as measured; a dict
+    ``{"direction_deg": D, "turn_scale": S}`` (0 <= D <= 180, 0 <= S < 1) randomises the map itself per episode:
+    at each reset, after everything else it draws (so a seed's path and swimmer are those drawn without it), a
+    direction bias b ~ U(-D, D) deg and a turn-size factor s ~ U(1 - S, 1 + S) from the env's ``np_random``, and
+    every burst of the episode turns towards psi + b (the displacement's lateral part rotated by b about the
+    heading) by s x theta (clipped to [0, pi]; the displacement otherwise the map's); the draws are the attributes
+    ``map_bias_rad`` and ``map_turn_scale`` (0 and 1 when off), not ``info`` keys. Outside the calibrated range:
+    ``ValueError`` naming the value and what is allowed.
 
     ## Version History
 
@@ -74,8 +82,10 @@ class SurrogateBurstEnv(TurnEpisodes, gym.Env):
     def __init__(self, preset: str | None = None, turn_map: str | os.PathLike | None = None,
                  env_kwargs: Mapping[str, Any] | None = None, paths: Sequence[Any] | None = None,
                  random_path: Mapping[str, Any] | None = None, limits: BurstLimits | Mapping[str, Any] | None = None,
-                 render_mode: str | None = None, **unknown: Any) -> None:
-        refuse_unknown_arguments(self.env_id, unknown, BURST_ENV_ARGUMENTS)
+                 render_mode: str | None = None, map_noise: Mapping[str, Any] | None = None, **unknown: Any) -> None:
+        refuse_unknown_arguments(self.env_id, unknown, SURROGATE_BURST_ENV_ARGUMENTS)
+        self.map_noise = parse_map_noise(map_noise)
+        self.map_bias_rad, self.map_turn_scale = 0.0, 1.0
         self.render_mode = None
         self.preset, self.config, self.turn_map, self.calibration = surrogate_setup(
             self.env_id, DEFAULT_PRESET if preset is None else preset, turn_map, env_kwargs, render_mode,
@@ -103,6 +113,13 @@ class SurrogateBurstEnv(TurnEpisodes, gym.Env):
         cfg = self.config
         params, _ = draw_randomization(self.turn_map.params, cfg.randomize, self._swimmer_rng)
         self.swimmer = SurrogateSwimmer(self.turn_map, self.calibration, self.table, params)
+        if self.map_noise is not None:
+            # drawn after the path (np_random) and the swimmer (its own generator): a seed's episode is the same
+            # but for the map
+            d_deg, spread = self.map_noise
+            self.map_bias_rad = math.radians(float(self.np_random.uniform(-d_deg, d_deg)))
+            self.map_turn_scale = float(self.np_random.uniform(1.0 - spread, 1.0 + spread))
+            self.swimmer.direction_bias_rad, self.swimmer.turn_scale = self.map_bias_rad, self.map_turn_scale
         self.episode_params, self.path = params, path
         self.tracker = PathTracker(path, cfg.reach_radius_m or path.reach_radius_m or DEFAULT_REACH_RADIUS_M)
         max_time = (cfg.max_sim_time_s if cfg.max_sim_time_s is not None
@@ -137,7 +154,7 @@ class SurrogateBurstEnv(TurnEpisodes, gym.Env):
         reward += run.reward()
         if command.t_c_s > 0.0:
             self.history.record(command.t_c_s / self.limits.t_c_max_s,
-                                angle_between(self._decision_heading, run.heading))
+                                *turn_seen(self._decision_heading, run.heading), command.beta_rad)
         self._decision_heading = run.heading.copy()
         terminated, truncated = end if end is not None else (False, False)
         self._done = terminated or truncated

@@ -43,7 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from agents.surrogate_calibration import SurrogateCalibration
-from agents.turn_geometry import perpendicular_basis
+from agents.turn_geometry import perpendicular_basis, wrap_angle
 from agents.turn_map import TurnMap
 from physics.params import SwimmerParams
 
@@ -167,6 +167,10 @@ class SurrogateSwimmer:
         self.speed_m_s = calibration.cruise_speed_m_s
         self.period_s = turn_map.period_s
         self.cruise_power_w = calibration.cruise_power_w * self.mu_ratio
+        #: a randomised map (``FlagellumBurst-surrogate-v0``'s ``map_noise``; set by the env): every turn's
+        #: direction psi is moved by ``direction_bias_rad`` (the displacement's lateral part rotated alike about the
+        #: heading) and its size theta scaled by ``turn_scale`` (clipped to [0, pi]); 0 and 1: the map as measured
+        self.direction_bias_rad, self.turn_scale = 0.0, 1.0
 
     def map_time(self, t_c: float) -> float:
         """The map's burst length (s) that turns the nominal swimmer as ``t_c`` s turn this one."""
@@ -184,6 +188,11 @@ class SurrogateSwimmer:
         k0, k1, w_t, j0, j1, w_b, scale, in_range = tab.weights(t_map, beta)
         th, pc, ps, o0, o1, o2, relax, ratio = tab.read(tab.channels, k0, k1, w_t, j0, j1, w_b).tolist()
         theta, psi = scale * th, math.atan2(ps, pc)
+        ref = beta   # the azimuth of e_ref, the displacement's lateral frame
+        if self.direction_bias_rad != 0.0 or self.turn_scale != 1.0:
+            theta = min(max(self.turn_scale * theta, 0.0), math.pi)
+            psi = wrap_angle(psi + self.direction_bias_rad)
+            ref = beta + self.direction_bias_rad
         relax *= self.tau_ratio
         e1, e2 = perpendicular_basis(d)
         d0, d1, d2 = d.tolist()
@@ -193,7 +202,7 @@ class SurrogateSwimmer:
         ct, st = math.cos(theta), math.sin(theta)
         h = [ct * d0 + st * (ca * a0 + sa * b0), ct * d1 + st * (ca * a1 + sa * b1), ct * d2 + st * (ca * a2 + sa * b2)]
         hn = math.sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2])
-        cb, sb = math.cos(beta), math.sin(beta)
+        cb, sb = math.cos(ref), math.sin(ref)
         r0, r1, r2 = cb * a0 + sb * b0, cb * a1 + sb * b1, cb * a2 + sb * b2   # e_ref
         p0, p1, p2 = d1 * r2 - d2 * r1, d2 * r0 - d0 * r2, d0 * r1 - d1 * r0   # d x e_ref
         disp = np.array([o0 * d0 + o1 * r0 + o2 * p0, o0 * d1 + o1 * r1 + o2 * p1, o0 * d2 + o1 * r2 + o2 * p2])

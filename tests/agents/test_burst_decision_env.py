@@ -80,6 +80,9 @@ def test_a_burst_turns_the_heading_as_the_map_says():
     slack = math.degrees(abs(env.last_burst["phase_error_rad"])) + 2 * HEADING_TOL_DEG
     assert min(p.psi_deg for p in points) - slack <= psi <= max(p.psi_deg for p in points) + slack
     assert obs[27] == pytest.approx(t_c / env.limits.t_c_max_s) and obs[28] == pytest.approx(theta / 180, rel=1e-5)
+    # the turn's direction relative to the commanded beta (a turn > 10 deg: full weight), then an empty history
+    assert obs[29:31] == pytest.approx([math.cos(math.radians(psi)), math.sin(math.radians(psi))], abs=1e-5)
+    assert not obs[31:].any()
     # the relaxation waited at least two periods and at most max_relax_factor x the map's relaxation
     relax = env.last_burst["relax_s"]
     assert 2 * env.flight.period_steps * env.control_dt - 1e-9 <= relax <= 3.0 * env.turn_map.relax_s + env.control_dt
@@ -117,6 +120,10 @@ def test_an_episode_that_ends_in_the_reset_ends_at_the_first_step():
 
 @pytest.mark.parametrize("kwargs, match", [
     ({"planner": "rule"}, r"unknown argument\(s\) \['planner'\] for FlagellumBurst-v0; known arguments: preset"),
+    # the surrogate's randomised map has no meaning on the rod
+    ({"map_noise": {"direction_deg": 30, "turn_scale": 0.15}},
+     r"unknown argument\(s\) \['map_noise'\] for FlagellumBurst-v0; known arguments: preset"),
+    ({"map_noise": None}, r"unknown argument\(s\) \['map_noise'\] for FlagellumBurst-v0"),
     ({"preset": "quick"}, "preset='quick'"), ({"render_mode": "human"}, "render_mode='human'"),
     ({"limits": {"t_c_max": 4.0}}, "unknown limits key"), ({"limits": {"t_c_max_s": -1.0}}, "t_c_max_s"),
     ({"env_kwargs": {"path": "square"}}, "'path'"), ({"env_kwargs": {"control_dt": -1.0}}, "control_dt=-1.0"),

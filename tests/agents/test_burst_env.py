@@ -10,8 +10,9 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import agents  # noqa: F401  (registers the ids)
-from agents.burst_design import N_BURST_FEATURES, BurstHistory, BurstLimits, burst_observation, decode_burst_action
-from agents.turn_geometry import angle_between
+from agents.burst_design import (N_BURST_FEATURES, BurstHistory, BurstLimits, burst_observation, decode_burst_action,
+                                 turn_seen)
+from agents.turn_geometry import angle_between, direction_from, perpendicular_basis
 from flagellum_env.paths import path_from_waypoints
 
 ID = "FlagellumBurst-surrogate-v0"
@@ -79,7 +80,10 @@ def test_a_burst_turns_the_heading_by_the_maps_theta_and_the_observation_says_so
     assert info["turns"] == 1
     assert min(thetas) - 1e-6 <= math.degrees(turned) <= max(thetas) + 1e-6
     assert obs[28] == pytest.approx(turned / math.pi, rel=1e-5)
-    assert obs[27] == pytest.approx(t_c / env.limits.t_c_max_s, rel=1e-6) and not obs[29:].any()
+    assert obs[27] == pytest.approx(t_c / env.limits.t_c_max_s, rel=1e-6) and not obs[31:].any()
+    # the turn's direction relative to beta is the map's psi (a turn > 10 deg: full weight)
+    psi = env.swimmer.turn(d0, t_c, math.pi / 4).psi_rad
+    assert obs[29:31] == pytest.approx([math.cos(psi), math.sin(psi)], abs=1e-5)
 
 
 def test_the_observation_is_the_task_in_the_headings_frame():
@@ -120,5 +124,93 @@ def test_episodes_end_and_a_seed_repeats_them():
 def test_the_history_keeps_the_last_four_bursts_newest_first():
     h = BurstHistory()
     for k in range(6):
-        h.record(0.1 * k, math.pi * 0.05 * k)
-    assert h.features() == pytest.approx([0.5, 0.25, 0.4, 0.2, 0.3, 0.15, 0.2, 0.1])
+        h.record(0.1 * k, math.pi * 0.05 * k, 0.3 * k, 0.1 * k)   # turns of 9 k deg, 0.2 k rad from beta
+    expected = []
+    for k in (5, 4, 3, 2):
+        w = min(1.0, 9.0 * k / 10.0)
+        expected += [0.1 * k, 0.05 * k, w * math.cos(0.2 * k), w * math.sin(0.2 * k)]
+    assert h.features() == pytest.approx(expected)
+    assert N_BURST_FEATURES == 43 and BurstHistory().features() == pytest.approx(np.zeros(16))
+
+
+def test_the_history_gives_a_turns_direction_relative_to_the_commanded_phase():
+    d0 = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    e1, e2 = perpendicular_basis(d0)
+    beta, delta, theta = 2.5, math.radians(130.0), math.radians(40.0)
+    d1 = math.cos(theta) * d0 + math.sin(theta) * (math.cos(beta + delta) * e1 + math.sin(beta + delta) * e2)
+    turn, az = turn_seen(d0, d1)
+    assert turn == pytest.approx(theta) and az == pytest.approx(beta + delta - 2.0 * math.pi)
+    h = BurstHistory()
+    h.record(0.8, turn, az, beta)
+    assert h.features()[:4] == pytest.approx([0.8, theta / math.pi, math.cos(delta), math.sin(delta)])
+    # a tiny turn's direction is weighted down: 2 deg -> 0.2 of the unit vector; no turn -> zeros
+    h.record(0.1, *turn_seen(d0, direction_from(d0, math.radians(2.0), beta + delta)), beta)
+    assert h.features()[2:4] == pytest.approx([0.2 * math.cos(delta), 0.2 * math.sin(delta)], abs=1e-9)
+    h.record(0.1, *turn_seen(d0, d0), beta)
+    assert h.features()[1:4] == pytest.approx([0.0, 0.0, 0.0], abs=1e-7)
+
+
+def _random_episodes(seeds=(3, 7), **kwargs):
+    """Observations, rewards and the path and swimmer of seeded random-action episodes (randomised swimmers)."""
+    out = []
+    for seed in seeds:
+        env = gym.make(ID, env_kwargs={"randomize": {"youngs_modulus": 0.1, "viscosity": 0.1, "head_radius": 0.1,
+                                                      "geometry": 0.04, "obs_noise_std": 0.0}}, **kwargs).unwrapped
+        rng = np.random.default_rng(seed)
+        obs, _ = env.reset(seed=seed)
+        rows, rewards, turns = [obs], [], []
+        setup = (env.path.waypoints.copy(), env.episode_params)
+        for _ in range(40):
+            d0 = env.episode.heading.copy()
+            obs, r, term, trunc, _ = env.step(rng.uniform(-1, 1, 4))
+            rows.append(obs)
+            rewards.append(r)
+            turns.append(angle_between(d0, env.episode.heading))
+            if term or trunc:
+                break
+        out.append((np.array(rows), rewards, setup, turns, env))
+    return out
+
+
+def test_map_noise_off_is_the_env_without_it_and_on_keeps_a_seeds_path_and_swimmer():
+    plain, off, on = _random_episodes(), _random_episodes(map_noise=None), _random_episodes(
+        map_noise={"direction_deg": 30, "turn_scale": 0.15})
+    for a, b, c in zip(plain, off, on):
+        assert np.array_equal(a[0], b[0]) and a[1] == b[1]
+        assert b[4].map_bias_rad == 0.0 and b[4].map_turn_scale == 1.0
+        assert np.array_equal(a[2][0], c[2][0]) and a[2][1] == c[2][1]     # same path, same swimmer
+        assert 0.0 < abs(c[4].map_bias_rad) <= math.radians(30) and 0.85 <= c[4].map_turn_scale <= 1.15
+    # the same actions: the turns differ (the first burst's size by the drawn factor, the rest follow)
+    turned = [(a[3], c[3]) for a, c in zip(plain, on) if max(a[3]) > 0.1]
+    assert turned and all(not np.allclose(x[:len(y)], y[:len(x)]) for x, y in turned)
+
+
+def test_map_noise_biases_each_turns_direction_and_scales_its_size():
+    nominal = gym.make(ID, paths=[ONE_TURN]).unwrapped
+    noisy = gym.make(ID, paths=[ONE_TURN], map_noise={"direction_deg": 60, "turn_scale": 0.3}).unwrapped
+    nominal.reset(seed=4)
+    noisy.reset(seed=4)
+    b, s = noisy.map_bias_rad, noisy.map_turn_scale
+    d, beta = nominal.episode.heading.copy(), 1.1
+    a, n = nominal.swimmer.turn(d, 3.4, beta), noisy.swimmer.turn(d, 3.4, beta)
+    assert n.theta_rad == pytest.approx(min(math.pi, s * a.theta_rad))
+    assert math.cos(n.psi_rad - a.psi_rad - b) == pytest.approx(1.0)
+    assert turn_seen(d, n.heading)[0] == pytest.approx(n.theta_rad)
+    assert math.cos(turn_seen(d, n.heading)[1] - turn_seen(d, a.heading)[1] - b) == pytest.approx(1.0)
+    # the displacement: its part along the heading kept, its lateral part rotated by b about the heading
+    along_a, along_n = a.displacement @ d, n.displacement @ d
+    assert along_n == pytest.approx(along_a)
+    lat_a, lat_n = a.displacement - along_a * d, n.displacement - along_n * d
+    e1, e2 = perpendicular_basis(d)
+    rot = math.atan2(lat_n @ e2, lat_n @ e1) - math.atan2(lat_a @ e2, lat_a @ e1)
+    assert np.linalg.norm(lat_n) == pytest.approx(np.linalg.norm(lat_a)) and math.cos(rot - b) == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("bad", [{"direction_deg": 30}, {"direction_deg": 30, "turn_scale": 0.1, "x": 1},
+                                 {"direction_deg": -1, "turn_scale": 0.1}, {"direction_deg": 181, "turn_scale": 0.1},
+                                 {"direction_deg": 30, "turn_scale": 1.0}, {"direction_deg": np.nan, "turn_scale": 0.1},
+                                 {"direction_deg": 30, "turn_scale": "big"}, [30, 0.1], 0.2])
+def test_a_bad_map_noise_is_refused_in_one_line(bad):
+    with pytest.raises(ValueError, match="map_noise") as err:
+        gym.make(ID, map_noise=bad)
+    assert "\n" not in str(err.value) and "0 <= S < 1" in str(err.value)

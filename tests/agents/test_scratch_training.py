@@ -34,6 +34,10 @@ def _with(task_changes=None, drop=()):
     ({"preset": "coarse"}, "task.preset='coarse' is not allowed with tier 'surrogate'"),
     ({"limits": {"t_c_max": 3.0}}, "t_c_max"),
     ({"limits": {"cruise_min_s": 0.0}}, "cruise_min_s"),
+    ({"tier": "physics", "preset": "coarse", "map_noise": {"direction_deg": 30, "turn_scale": 0.15}},
+     "task.map_noise is only allowed with design 'burst' and tier 'surrogate'"),
+    ({"map_noise": {"direction_deg": 30, "turn_scale": 1.5}}, "task.map_noise['turn_scale']=1.5 is not allowed"),
+    ({"map_noise": {"direction": 30, "turn_scale": 0.1}}, "task.map_noise={'direction': 30"),
 ])
 def test_bad_scratch_settings_are_refused_naming_the_key(changes, fragment):
     with pytest.raises(ValueError) as err:
@@ -45,6 +49,42 @@ def test_shipped_scratch_config_loads():
     cfg = TrainConfig.from_yaml("agents/configs/ppo_scratch_surrogate.yml")
     assert (cfg.design, cfg.tier, cfg.preset) == ("burst", "surrogate", "faithful")
     assert all(s < 1000 for s in cfg.validation.seeds)
+
+
+def test_map_noise_is_refused_for_a_residual_task():
+    doc = _with({"design": "residual", "tier": "surrogate", "limits": {},
+                 "map_noise": {"direction_deg": 30, "turn_scale": 0.15}})
+    with pytest.raises(ValueError, match="task.map_noise is only allowed with design 'burst'") as err:
+        TrainConfig.from_dict(doc)
+    assert "\n" not in str(err.value)
+
+
+def test_map_noise_reaches_the_surrogate_env_and_meta_but_not_validation():
+    import gymnasium as gym
+    import yaml
+
+    from agents.ppo_training import _make_env, agent_env, run_identity
+
+    noise = {"direction_deg": 30, "turn_scale": 0.15}
+    cfg = TrainConfig.from_dict(_with({"map_noise": noise}))
+    assert cfg.map_noise == noise
+    env_id, make_kwargs = agent_env(cfg)
+    assert env_id == "FlagellumBurst-surrogate-v0" and make_kwargs["map_noise"] == noise
+    assert run_identity(cfg)["map_noise"] == noise
+    env = gym.make(env_id, **json.loads(json.dumps(make_kwargs))).unwrapped   # rebuilt from meta.json's record
+    assert env.map_noise == (30.0, 0.15)
+    assert _make_env(cfg, 0)().map_noise == (30.0, 0.15)
+    assert _make_env(cfg, 0, cfg.validation.paths())().map_noise is None   # validation: the map as measured
+    # without it: nothing recorded (agents trained before the key existed rebuild as they were)
+    plain = TrainConfig.from_dict(_with())
+    assert plain.map_noise is None and "map_noise" not in agent_env(plain)[1] and "map_noise" not in run_identity(plain)
+    # stage 2 of the recipe randomises the map; stage 1 does not
+    doc = yaml.safe_load(open("agents/configs/sac_scratch_randomized.yml", encoding="utf-8"))
+    (name, body), = doc.items()
+    body.pop("init_from")   # stage 1's agent, not in the repository
+    assert TrainConfig.from_dict(doc).map_noise == noise
+    doc = yaml.safe_load(open("agents/configs/sac_scratch_surrogate.yml", encoding="utf-8"))
+    assert TrainConfig.from_dict(doc).map_noise is None
 
 
 def test_a_short_scratch_run_writes_an_agent_resumes_and_refuses_another_design(tmp_path):
