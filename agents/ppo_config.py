@@ -27,6 +27,8 @@ hyperparameters (flat, as in rl-zoo3's ``hyperparams/ppo.yml``) and a ``task`` s
         env_kwargs: {randomize: true, reward: {cross_track_per_cm_s: 0.05}}
         map_noise: null         # design burst, tier surrogate only: {direction_deg: D, turn_scale: S}, the map
                                 # randomised per episode (FlagellumBurst-surrogate-v0's map_noise)
+        cheap_fraction: 0.0     # design burst, tier physics only: this fraction of the episodes is played in the
+                                # surrogate (agents.tier_mixture; map_noise, if given, applies to those)
         curriculum:             # stages by decisions done; random_path = RandomPathConfig fields
           - {name: single_turns, until: 160, random_path: {n_waypoints: 2, ...}}
           - {name: eval_like, until: 480, random_path: {...}}
@@ -68,6 +70,7 @@ NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma")
 TOP_KEYS = ("algorithm", "policy", "n_envs", "n_timesteps", "max_wall_time_s", "seed", "checkpoint_every",
             "normalize", "task", "init_from", *dict.fromkeys(PPO_KEYS + SAC_KEYS))
 TASK_KEYS = ("design", "tier", "preset", "turn_map", "planner", "limits", "action_cost", "env_kwargs", "map_noise",
+             "cheap_fraction",
              "curriculum", "validation")
 #: ``task.design``: what an action is. "residual": a correction of the planner's turn (``FlagellumTurn-*``);
 #: "burst": a burst command with no planner (``FlagellumBurst-*``, ``agents.burst_design``).
@@ -136,8 +139,11 @@ class TrainConfig:
     design: str = "residual"
     tier: str = "physics"
     algorithm: str = "ppo"
-    #: ``FlagellumBurst-surrogate-v0``'s ``map_noise`` (design burst, tier surrogate only); None: off
+    #: ``FlagellumBurst-surrogate-v0``'s ``map_noise`` (design burst; tier surrogate, or tier physics with
+    #: ``cheap_fraction`` > 0: the cheap episodes' map); None: off
     map_noise: Mapping[str, Any] | None = None
+    #: the fraction of episodes played in the surrogate (design burst, tier physics: ``agents.tier_mixture``)
+    cheap_fraction: float = 0.0
 
     def stage_at(self, decisions: int) -> CurriculumStage:
         """The curriculum stage in force after ``decisions`` decisions."""
@@ -222,12 +228,21 @@ class TrainConfig:
             raise ValueError(f"{where}: {name}.task.limits: {exc}") from None
         except ValueError as exc:
             raise ValueError(f"{where}: {name}.task.limits: {exc}") from None
+        cheap = task.get("cheap_fraction", 0.0)
+        if "cheap_fraction" in task:
+            if design != "burst" or tier != "physics":
+                raise ValueError(f"{where}: {name}.task.cheap_fraction is only allowed with design 'burst' and tier "
+                                 f"'physics' (surrogate episodes mixed into the rod's); this task has design "
+                                 f"{design!r}, tier {tier!r}")
+            if isinstance(cheap, bool) or not isinstance(cheap, (int, float)) or not 0.0 <= cheap < 1.0:
+                raise ValueError(f"{where}: {name}.task.cheap_fraction={cheap!r} is not allowed; give a fraction in "
+                                 "[0, 1)")
         map_noise = task.get("map_noise")
         if map_noise is not None:
-            if design != "burst" or tier != "surrogate":
+            if design != "burst" or not (tier == "surrogate" or cheap > 0.0):
                 raise ValueError(f"{where}: {name}.task.map_noise is only allowed with design 'burst' and tier "
-                                 f"'surrogate' (FlagellumBurst-surrogate-v0); this task has design {design!r}, tier "
-                                 f"{tier!r}")
+                                 f"'surrogate' (FlagellumBurst-surrogate-v0), or tier 'physics' with cheap_fraction "
+                                 f"> 0 (its surrogate episodes); this task has design {design!r}, tier {tier!r}")
             try:
                 parse_map_noise(map_noise)
             except ValueError as exc:
@@ -270,7 +285,7 @@ class TrainConfig:
                    turn_map=task.get("turn_map"), limits=limits, action_cost=cost,
                    env_kwargs=dict(task.get("env_kwargs") or {}), init_from=init_from,
                    source=source, planner=planner, design=design, tier=tier, algorithm=algorithm,
-                   map_noise=map_noise)
+                   map_noise=map_noise, cheap_fraction=float(cheap))
 
 
 def _only(d: Mapping[str, Any], allowed: tuple[str, ...], where: str) -> None:

@@ -58,7 +58,7 @@ CHECKPOINT_PREFIX = "rl_model"
 #: meta.json is rewritten after a rollout at most this often (s of wall time), and at every save.
 META_EVERY_S = 10.0
 EPISODE_FIELDS = ("decisions", "wall_time_s", "stage", "return", "length", "is_success", "waypoints_reached",
-                  "mean_cross_track_m", "time_s", "energy_J", "buckling_events")
+                  "mean_cross_track_m", "time_s", "energy_J", "buckling_events", "tier")
 
 
 @dataclass(frozen=True)
@@ -113,8 +113,8 @@ def agent_env(config: TrainConfig) -> tuple[str, dict[str, Any]]:
                                         "limits": dataclasses.asdict(BurstLimits(**config.limits)),
                                         "random_path": dict(config.curriculum[-1].random_path),
                                         # the surrogate's randomised map; agents trained without it store none
-                                        **({"map_noise": dict(config.map_noise)} if config.map_noise is not None
-                                           else {})}
+                                        **({"map_noise": dict(config.map_noise)}
+                                           if config.map_noise is not None and config.tier == "surrogate" else {})}
     if config.tier == "surrogate":
         env_id = TURN_SURROGATE_ENV_ID
     else:
@@ -156,9 +156,17 @@ def _make_env(config: TrainConfig, rank: int, paths=None):
         if paths:
             kwargs.pop("randomize", None)
         env_class = gym.envs.registration.load_env_creator(gym.spec(env_id).entry_point)
-        extra = {"map_noise": None} if paths and "map_noise" in make_kwargs else {}
-        env = env_class(**{**make_kwargs, "env_kwargs": kwargs, "paths": paths,
-                           "random_path": None if paths else config.curriculum[0].random_path, **extra})
+        arguments = {**make_kwargs, "env_kwargs": kwargs, "paths": paths,
+                     "random_path": None if paths else config.curriculum[0].random_path}
+        if paths and "map_noise" in arguments:
+            arguments["map_noise"] = None
+        env = env_class(**arguments)
+        if config.cheap_fraction > 0.0 and not paths:  # surrogate episodes in the mix (validation: the rod only)
+            from agents.surrogate_burst_env import SurrogateBurstEnv
+            from agents.tier_mixture import TierMixture
+
+            noise = {"map_noise": dict(config.map_noise)} if config.map_noise is not None else {}
+            env = TierMixture(env, SurrogateBurstEnv(**arguments, **noise), config.cheap_fraction)
         env.reset(seed=config.seed + rank)
         return env
     return factory
@@ -186,6 +194,7 @@ def run_identity(config: TrainConfig) -> dict[str, Any]:
         **({"tier": config.tier} if config.tier != "physics" else {}),
         **({"algorithm": config.algorithm} if config.algorithm != "ppo" else {}),
         **({"map_noise": dict(config.map_noise)} if config.map_noise is not None else {}),
+        **({"cheap_fraction": config.cheap_fraction} if config.cheap_fraction > 0.0 else {}),
         # the rule planner's runs from before the choice existed have no "planner"
         **({"planner": config.planner} if config.planner != "rule" else {})}, default=str))
 
@@ -478,11 +487,13 @@ class _Bookkeeping(BaseCallback):
             if ep is None:
                 continue
             rows.append({"decisions": self.num_timesteps, "wall_time_s": round(self.elapsed(), 1), "stage": self.stage,
-                         "return": ep["r"], "length": ep["l"],
-                         **{k: info.get(k) for k in EPISODE_FIELDS[5:]}})
+                         "return": ep["r"], "length": ep["l"], **{k: info.get(k) for k in EPISODE_FIELDS[5:-1]},
+                         "tier": "surrogate" if info.get("cheap") else self.config.tier})
         if rows:
+            # a run begun before a column was added keeps its header (the new column is left out)
+            fields = EPISODE_FIELDS if new else file.open(encoding="utf-8").readline().strip().split(",")
             with _signals_deferred(), open(file, "a", newline="", encoding="utf-8") as f:
-                w = csv.DictWriter(f, fieldnames=EPISODE_FIELDS)
+                w = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
                 if new:
                     w.writeheader()
                 w.writerows(rows)

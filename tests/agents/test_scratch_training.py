@@ -37,6 +37,9 @@ def _with(task_changes=None, drop=()):
     ({"tier": "physics", "preset": "coarse", "map_noise": {"direction_deg": 30, "turn_scale": 0.15}},
      "task.map_noise is only allowed with design 'burst' and tier 'surrogate'"),
     ({"map_noise": {"direction_deg": 30, "turn_scale": 1.5}}, "task.map_noise['turn_scale']=1.5 is not allowed"),
+    ({"cheap_fraction": 0.5}, "task.cheap_fraction is only allowed with design 'burst' and tier 'physics'"),
+    ({"tier": "physics", "cheap_fraction": 1.0}, "task.cheap_fraction=1.0 is not allowed; give a fraction in [0, 1)"),
+    ({"tier": "physics", "cheap_fraction": "half"}, "task.cheap_fraction='half' is not allowed"),
     ({"map_noise": {"direction": 30, "turn_scale": 0.1}}, "task.map_noise={'direction': 30"),
 ])
 def test_bad_scratch_settings_are_refused_naming_the_key(changes, fragment):
