@@ -171,8 +171,21 @@ def _make_env(config: TrainConfig, rank: int, paths=None):
 def _vec_env(config: TrainConfig, n: int, paths=None, seed_offset: int = 0):
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
 
+    class InProcessVecEnv(DummyVecEnv):
+        """The envs in this process, each step and reset under ``_signals_deferred``: Ctrl-C or SIGTERM take effect
+        once the step is done, never as an exception inside the rod's compiled kernels (which crashed the process
+        with SIGSEGV at ``faithful``); SubprocVecEnv's workers ignore the signals and the parent waits on pipes."""
+
+        def step_wait(self):
+            with _signals_deferred():
+                return super().step_wait()
+
+        def reset(self):
+            with _signals_deferred():
+                return super().reset()
+
     fns = [_make_env(config, seed_offset + i, paths) for i in range(n)]
-    venv = SubprocVecEnv(fns, start_method="spawn") if n > 1 else DummyVecEnv(fns)
+    venv = SubprocVecEnv(fns, start_method="spawn") if n > 1 else InProcessVecEnv(fns)
     return VecMonitor(venv, info_keywords=("is_success",))
 
 
