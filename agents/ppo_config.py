@@ -19,7 +19,7 @@ hyperparameters (flat, as in rl-zoo3's ``hyperparams/ppo.yml``) and a ``task`` s
       task:
         design: residual        # or burst: a burst command per decision, no planner (agents.burst_design)
         tier: physics           # or surrogate: the turn-level surrogate of the default preset's map
-        preset: faithful        # reference or paper; the retired fast and coarse are refused
+        preset: faithful        # fast, reference or paper; the retired coarse is refused
         turn_map: null          # null: the preset's turn map (agents.assets.default_turn_map)
         planner: rule            # the planner corrected: rule or adaptive (agents.residual_planner)
         limits: {max_dtc_fraction: 0.05, max_dphase_deg: 15}

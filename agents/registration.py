@@ -6,6 +6,7 @@ with its own defaults and docstring:
 | id                          | class (entry point)                                | preset   |
 |-----------------------------|----------------------------------------------------|----------|
 | ``FlagellumTurn-v0``        | ``agents.turn_decision_env.TurnDecisionEnv``       | faithful |
+| ``FlagellumTurn-fast-v0``   | ``agents.turn_decision_env.TurnDecisionFastEnv``   | fast     |
 
 and in ``SURROGATE_TURN_ENV_IDS`` (no rod: ``agents.surrogate_turn_env``, the turn map of ``faithful`` replayed at
 ~10^3-10^4 decisions per CPU second):
@@ -22,8 +23,8 @@ learn from scratch; the two are twins, with the same spaces, rewards and ``info`
 | ``FlagellumBurst-v0``           | ``agents.burst_decision_env.BurstDecisionEnv``   | the rod, faithful (default) |
 | ``FlagellumBurst-surrogate-v0`` | ``agents.surrogate_burst_env.SurrogateBurstEnv`` | faithful's turn map, no rod |
 
-``FlagellumTurn-fast-v0`` and ``FlagellumTurn-coarse-v0`` went with their presets (``RETIRED_TURN_ENV_IDS``):
-registered only so that ``gymnasium.make`` of one raises a one-line ValueError naming the replacement
+``FlagellumTurn-coarse-v0`` went with its preset (``RETIRED_TURN_ENV_IDS``):
+registered only so that ``gymnasium.make`` of it raises a one-line ValueError naming the replacement
 (``refuse_retired_env``).
 
 Every episode ends within the base env's time budget, a few to some tens of decisions, so no ``TimeLimit`` is
@@ -39,6 +40,7 @@ import functools
 import gymnasium as gym
 
 TURN_ENV_ID = "FlagellumTurn-v0"
+TURN_FAST_ENV_ID = "FlagellumTurn-fast-v0"
 TURN_SURROGATE_ENV_ID = "FlagellumTurn-surrogate-v0"
 BURST_ENV_ID = "FlagellumBurst-v0"
 BURST_SURROGATE_ENV_ID = "FlagellumBurst-surrogate-v0"
@@ -46,10 +48,10 @@ BURST_SURROGATE_ENV_ID = "FlagellumBurst-surrogate-v0"
 #: id -> entry point
 TURN_ENV_IDS: dict[str, str] = {
     TURN_ENV_ID: "agents.turn_decision_env:TurnDecisionEnv",
+    TURN_FAST_ENV_ID: "agents.turn_decision_env:TurnDecisionFastEnv",
 }
 #: Retired id -> (its retired preset, the id to use instead); registered only to be refused
 RETIRED_TURN_ENV_IDS: dict[str, tuple[str, str]] = {
-    "FlagellumTurn-fast-v0": ("fast", TURN_ENV_ID),
     "FlagellumTurn-coarse-v0": ("coarse", TURN_ENV_ID),
 }
 #: id -> entry point of the turn-level surrogates (no rod; the same spaces, rewards and ``info`` as

@@ -1,6 +1,7 @@
 """Training environment of the residual PPO agent: one step = one turn the planner plans.
 
-``TurnDecisionEnv`` (``FlagellumTurn-v0``, registered by ``import agents``) runs ``FlagellumSteer-v0`` under a ``ResidualPlanner`` (0.1 s control steps,
+``TurnDecisionEnv`` (``FlagellumTurn-v0``; a ``-fast`` variant, both registered by
+``import agents``) runs ``FlagellumSteer-v0`` under a ``ResidualPlanner`` (0.1 s control steps,
 the rule planner's; ``planner="adaptive"``: an ``AdaptiveResidualPlanner``, the adaptive planner's). Whenever
 the planner plans a turn it stops and hands the turn's features to the
 agent (the observation); the agent's action corrects the turn (``ResidualLimits``); the env then
@@ -39,7 +40,7 @@ from agents.turn_map import TurnMap
 from flagellum_env.config import resolve_path
 from flagellum_env.paths import RandomPathConfig, WaypointPath
 from flagellum_env.paths import random_path as draw_random_path
-from agents.registration import TURN_ENV_ID
+from agents.registration import TURN_ENV_ID, TURN_FAST_ENV_ID
 from flagellum_env.steer_env import FlagellumSteerEnv
 from physics.presets import DEFAULT_PRESET, check_preset
 from physics.validation import require_finite
@@ -162,7 +163,7 @@ class TurnDecisionEnv(TurnEpisodes, gym.Env):
 
     | Argument    | Default                          | Meaning                                               |
     |-------------|----------------------------------|-------------------------------------------------------|
-    | preset      | "faithful"                       | physics preset: "faithful", "reference" or "paper"    |
+    | preset      | "faithful" (the id's)            | physics preset: "faithful", "fast", "reference" or "paper" |
     | turn_map    | None                             | a turn-map file (None: the preset's, ``agents.assets.default_turn_map``) |
     | env_kwargs  | {"reward": {"cross_track_per_cm_s": 0.05}} | further ``FlagellumSteer-v0`` arguments (not ``path``); a dict given replaces the default |
     | paths       | None                             | fixed paths used in turn (any form of ``FlagellumSteer-v0``'s ``path`` but "random") |
@@ -181,15 +182,16 @@ class TurnDecisionEnv(TurnEpisodes, gym.Env):
 
     ## Variants
 
-    None: ``FlagellumTurn-fast-v0`` and ``FlagellumTurn-coarse-v0`` were retired with their presets
-    (``gym.make`` of one raises a one-line ValueError naming the replacement). A decision costs a few CPU
-    seconds (docs/env.md, Speed); ``FlagellumTurn-surrogate-v0`` replays the turn map with no rod.
+    ``FlagellumTurn-fast-v0`` (``TurnDecisionFastEnv``): preset "fast", with its own turn map. A decision
+    costs a few CPU seconds at each preset (docs/env.md, Speed); ``FlagellumTurn-surrogate-v0`` replays the
+    turn map with no rod. ``FlagellumTurn-coarse-v0`` was retired with its preset (``gym.make`` of it raises a
+    one-line ValueError naming the replacement).
 
     ## Version History
 
     - v0: initial version; ``render_mode``, ``info`` on every step, validation at construction, the
-      first agent's settings as defaults and the ``-fast`` / ``-coarse`` variants added; those variants retired
-      with their presets (``FlagellumTurn-v0`` itself unchanged).
+      first agent's settings as defaults and the ``-fast`` / ``-coarse`` variants added; the ``-coarse``
+      variant retired with its preset (``FlagellumTurn-v0`` itself unchanged).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 2}
@@ -288,6 +290,15 @@ class TurnDecisionEnv(TurnEpisodes, gym.Env):
 
     def close(self) -> None:
         self.base.close()
+
+
+class TurnDecisionFastEnv(TurnDecisionEnv):
+    """``FlagellumTurn-fast-v0``: ``FlagellumTurn-v0`` (``TurnDecisionEnv``, whose docstring is the manual) at
+    the ``fast`` preset (``FlagellumSteerFastEnv``: the paper's grid, a looser error tolerance) with its turn
+    map. Every other argument and default is ``FlagellumTurn-v0``'s."""
+
+    env_id: ClassVar[str] = TURN_FAST_ENV_ID
+    default_preset: ClassVar[str] = "fast"
 
 
 # --- shared with agents.burst_decision_env -------------------------------------------------------

@@ -6,12 +6,14 @@
     import flagellum_env  # noqa: F401  (registers the ids)
 
     env = gym.make("FlagellumSteer-v0", path="random")         # the default preset, faithful
+    env = gym.make("FlagellumSteer-fast-v0", path="random")  # a looser step tolerance than the default
 
 | id                         | what                                               | preset   |
 |----------------------------|----------------------------------------------------|----------|
 | ``FlagellumSteer-v0``      | motor speed every ``control_dt`` (2 s)            | faithful |
+| ``FlagellumSteer-fast-v0`` | the same, looser error tolerance                  | fast     |
 
-``FlagellumSteer-fast-v0`` and ``FlagellumSteer-coarse-v0`` were retired with their presets: ``gym.make`` of one
+``FlagellumSteer-coarse-v0`` was retired with its preset: ``gym.make`` of it
 raises a one-line ValueError naming the replacement (``flagellum_env.registration.RETIRED_ENV_IDS``).
 
 The turn-level ids of the PPO agents (``FlagellumTurn-*``: one step = one turn the planner plans) are registered
@@ -27,12 +29,12 @@ paths) load on first use (PEP 562).
 
 from __future__ import annotations
 
-from flagellum_env.registration import ENV_IDS, STEER_ENV_ID
+from flagellum_env.registration import ENV_IDS, STEER_ENV_ID, STEER_FAST_ENV_ID
 
 ENV_ID = STEER_ENV_ID
 
 #: Public name -> module that defines it (imported on first access).
-_API = {"FlagellumSteerEnv": "flagellum_env.steer_env",
+_API = {"FlagellumSteerEnv": "flagellum_env.steer_env", "FlagellumSteerFastEnv": "flagellum_env.steer_env",
         "RandomizationConfig": "flagellum_env.config", "SteerConfig": "flagellum_env.config",
         "RewardConfig": "flagellum_env.rewards",
         "RandomPathConfig": "flagellum_env.paths", "WaypointPath": "flagellum_env.paths",
@@ -40,7 +42,7 @@ _API = {"FlagellumSteerEnv": "flagellum_env.steer_env",
         "random_path": "flagellum_env.paths", "save_path": "flagellum_env.paths",
         "square_path": "flagellum_env.paths"}
 
-__all__ = sorted(["ENV_ID", "ENV_IDS", "STEER_ENV_ID", *_API])
+__all__ = sorted(["ENV_ID", "ENV_IDS", "STEER_ENV_ID", "STEER_FAST_ENV_ID", *_API])
 
 
 def __getattr__(name: str):

@@ -12,7 +12,7 @@ from gymnasium import spaces
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M, SteerConfig, _resolve_path, draw_randomization, make_config
 from flagellum_env.observations import ObservationModel
 from flagellum_env.paths import WaypointPath, random_path
-from flagellum_env.registration import STEER_ENV_ID, registered_max_episode_steps
+from flagellum_env.registration import STEER_ENV_ID, STEER_FAST_ENV_ID, registered_max_episode_steps
 from flagellum_env.render import HumanWindow, Renderer, Scene
 from flagellum_env.rewards import TERMS, reward_terms
 from flagellum_env.start_frame import StartFrame
@@ -145,7 +145,7 @@ class FlagellumSteerEnv(gym.Env):
     |---------------------|----------------------|-----------------------------------------------------------|
     | path                | "random"             | "square" (paper, side 0.25 m), "random" (new each reset), a path-file name (JSON), a list of [x, y, z] waypoints (m) or a ``WaypointPath`` |
     | random_path         | None                 | ``RandomPathConfig`` or dict: n_waypoints 3, segment_length_m (0.03, 0.08), max_turn_deg 90, planar True |
-    | preset              | "faithful"           | physics preset: "faithful", "reference" or "paper"       |
+    | preset              | "faithful"           | physics preset: "faithful", "fast", "reference" or "paper" |
     | params / numerics   | None                 | dicts of ``SwimmerParams`` / ``NumericsConfig`` fields applied after the preset |
     | control_dt          | 2.0                  | simulated seconds per env step (a whole number of physics steps; <= 600) |
     | omega_range_rpm     | (10, 150)            | motor speeds of the continuous action, rpm (0 < lo < hi)  |
@@ -173,9 +173,10 @@ class FlagellumSteerEnv(gym.Env):
 
     ## Variants
 
-    None: the ``-fast`` and ``-coarse`` variants were retired with their presets (``gym.make`` of one raises a
-    one-line ValueError naming the replacement; ``flagellum_env.registration.RETIRED_ENV_IDS``). Other presets:
-    ``preset=``.
+    Registered ids with other defaults (``flagellum_env.registration``): ``FlagellumSteer-fast-v0``
+    (``FlagellumSteerFastEnv``, preset ``fast``); its docstring says what it costs and how it differs. The
+    ``-coarse`` variant was retired with its preset (``gym.make`` of it raises a one-line ValueError naming the
+    replacement; ``flagellum_env.registration.RETIRED_ENV_IDS``). Other presets: ``preset=``.
 
     Invalid values raise ``ValueError`` naming the argument and the allowed values.
     ``reset(options={"path": ...})`` replaces the path for one episode (same forms as ``path``).
@@ -183,8 +184,8 @@ class FlagellumSteerEnv(gym.Env):
     ## Version History
 
     - v0: initial version; ``max_episode_steps`` at registration, ``render_fps`` from ``control_dt``
-      and the ``-fast`` / ``-coarse`` variants added without changing the dynamics; those variants retired
-      with their presets (``FlagellumSteer-v0`` itself unchanged).
+      and the ``-fast`` / ``-coarse`` variants added without changing the dynamics; the ``-coarse``
+      variant retired with its preset (``FlagellumSteer-v0`` itself unchanged).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"],
@@ -463,3 +464,19 @@ class FlagellumSteerEnv(gym.Env):
         for t in TERMS:
             info[f"reward_{t}"] = float(terms[t])
         return info
+
+
+class FlagellumSteerFastEnv(FlagellumSteerEnv):
+    """``FlagellumSteer-fast-v0``: ``FlagellumSteer-v0`` (``FlagellumSteerEnv``, whose docstring is the
+    manual) at the ``fast`` preset.
+
+    The paper's grid (N = 122) and variable-step BDF3 with Newton-Krylov steps as ``faithful``, with a ten
+    times looser local error tolerance (``step_tol`` 1e-3): the same swimmer and grid at a lower cost per step,
+    with larger integration errors (docs/bench_quick.md measures the presets against ``reference``: 1.4x
+    ``faithful``'s speed cruising, 1.5x in a burst, 1.3x its random-policy env steps/s; θ 0.6 % and φ 7 % off). Every
+    argument and default is ``FlagellumSteer-v0``'s except ``preset="fast"``; ``max_episode_steps`` = 400
+    at registration as there.
+    """
+
+    env_id: ClassVar[str] = STEER_FAST_ENV_ID
+    defaults: ClassVar[dict[str, Any]] = {"preset": "fast"}

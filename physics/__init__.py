@@ -5,7 +5,7 @@ Plain NumPy/SciPy with Numba kernels; imports nothing from the layers above it. 
     from physics import Simulator, advance, configure
     from physics.params import RPM_TO_RAD_S
 
-    params, numerics = configure("faithful", {"head_radius": 0.01})  # preset, then overrides
+    params, numerics = configure("fast", {"head_radius": 0.01})  # preset, then overrides
     sim = Simulator(params, numerics)
     sim.set_motor_speed(10 * RPM_TO_RAD_S)
     advance(sim, 5.0, on_step=lambda sim, k: print(k, sim.time) if k % 100 == 0 else None)
@@ -13,8 +13,8 @@ Plain NumPy/SciPy with Numba kernels; imports nothing from the layers above it. 
 - ``Simulator`` (``physics.simulator``): the swimmer; ``step()``, ``advance(T)``, state and observables.
 - ``SwimmerParams``, ``NumericsConfig`` (``physics.params``): the physical and numerical parameters.
 - ``configure(preset, overrides)`` (``physics.presets``): the defaults, a preset, then overrides;
-  ``preset_names()`` (the live presets: ``reference``, ``faithful``, ``paper``; the retired ``fast`` and
-  ``coarse`` are refused with a one-line ValueError, ``physics.presets.check_preset``). The commands and the environment use ``physics.presets.DEFAULT_PRESET``
+  ``preset_names()`` (the live presets: ``reference``, ``paper``, ``faithful``, ``fast``; the retired
+  ``coarse`` is refused with a one-line ValueError, ``physics.presets.check_preset``). The commands and the environment use ``physics.presets.DEFAULT_PRESET``
   (``"faithful"``); ``configure()`` without a preset is the bare parameter defaults (the paper's
   model with implicit Euler at h = 1 ms, as ``"paper"``).
 - ``MotorSchedule`` (``physics.schedule``): piecewise-constant motor speed.

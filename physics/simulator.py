@@ -8,7 +8,7 @@ with the hydrodynamic force *implicit in the velocity* (the paper lags it, eqn 7
 unstable at h = 1 ms for this rod: h * drag / mass ~ 8 > 2). The base values q^, v^ and the
 effective step h_e come from the scheme (``physics.integrate.time_integrator``): implicit Euler (the paper's,
 ``integrator="euler"``) or variable-step BDF of order up to 2, 3 or 4 (``bdf2``, ``bdf3``, ``bdf4``;
-the preset ``faithful`` uses BDF3), with error-controlled steps inside each ``dt`` when
+the presets ``faithful`` and ``fast`` use BDF3), with error-controlled steps inside each ``dt`` when
 ``step_tol`` > 0. R is the generalised resistance (``hydrodynamics`` for LSBT + head, ``rft`` for
 local drag) evaluated at the predicted geometry. The nonlinear system is solved by Newton-type
 iterations on the full residual, so a converged step solves eqn (6) up to the resistance's geometry

@@ -1,9 +1,9 @@
 """Benchmark FlagellumSteer-v0: env steps per second (median over many steps) under fixed policies.
 
-Prints a table and writes JSON. Default: the ``faithful`` preset at the env's default control_dt,
+Prints a table and writes JSON. Default: the ``fast`` preset at the env's default control_dt,
 300 steps holding the low speed, 300 random steps, 40 steps holding the high speed (buckled).
 
-    python scripts/bench_env.py [--preset faithful] [--steps low=300,random=300,high=40] [--json docs/bench_env.json]
+    python scripts/bench_env.py [--preset fast] [--steps low=300,random=300,high=40] [--json docs/bench_env.json]
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ def _steps(text: str) -> dict[str, int]:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--preset", default="faithful", help="physics preset (default: faithful)")
+    ap.add_argument("--preset", default="fast", help="physics preset (default: fast)")
     ap.add_argument("--control-dt", type=float, default=SteerConfig.control_dt,
                     help=f"simulated seconds per env step (default: {SteerConfig.control_dt})")
     ap.add_argument("--steps", type=_steps, default=_steps("low=300,random=300,high=40"),
