@@ -201,7 +201,7 @@ def test_train_help_names_both_engines_and_the_ray_controller(capsys):
     assert "--engine {sb3,ray}" in text and "rllib_ppo_surrogate.yml" in text and "--controller rllib:DIR" in text
 
 
-RETIRED = {"fast": "no faster than 'faithful'", "coarse": "slower than 'faithful' and wrong: it does not buckle"}
+RETIRED = {"coarse": "slower than 'faithful' and wrong: it does not buckle"}
 
 
 @pytest.mark.parametrize("preset", sorted(RETIRED))
@@ -223,7 +223,7 @@ def test_the_preset_choices_in_help_are_the_live_presets_only(capsys):
     with pytest.raises(SystemExit):
         main(["simulate", "--help"])
     text = " ".join(capsys.readouterr().out.split())
-    assert "{reference,paper,faithful}" in text and "coarse" not in text and "fast" not in text
+    assert "{reference,paper,faithful,fast}" in text and "coarse" not in text
 
 
 @pytest.mark.parametrize("preset", sorted(RETIRED))

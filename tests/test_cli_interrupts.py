@@ -144,10 +144,6 @@ def test_an_interrupted_parallel_follow_writes_every_episode_so_far(tmp_path):
     assert b"interrupted" in stdout
 
 
-@pytest.mark.xfail(reason="a known bug this test found when it moved from the retired coarse preset to faithful: "
-                          "SIGTERM 2 s into a faithful training run kills 'flagellum train' with SIGSEGV (exit -11, "
-                          "nothing on stderr) instead of exit 130; reproduced on unchanged e5953da with the test's "
-                          "preset set to faithful (3 of 3 runs), passes there at coarse", strict=False)
 def test_sigterm_stops_train_and_saves_the_model_and_a_checkpoint(tmp_path):
     cfg = tmp_path / "tiny.yml"
     cfg.write_text(yaml.safe_dump(tiny_config(1)))

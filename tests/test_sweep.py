@@ -100,7 +100,7 @@ BAD_CONFIGS = [
     ({"sweep": {"omega_rpm": [10]}, "duration_s": -1}, ["duration_s", "-1", "> 0"]),
     ({"sweep": {"omega_rpm": [10]}, "duration_s": "long"}, ["duration_s", "'long'", "not a number"]),
     ({"sweep": {"omega_rpm": [10]}, "duration_s": 0.01}, ["duration_s", "dt = 0.02"]),
-    ({"sweep": {"omega_rpm": [10]}, "preset": "turbo"}, ["preset", "'turbo'", "paper", "faithful"]),
+    ({"sweep": {"omega_rpm": [10]}, "preset": "turbo"}, ["preset", "'turbo'", "paper", "fast"]),
     ({"sweep": {"omega_rpm": [10]}, "preset": "coarse"}, ["preset 'coarse' was retired", "use 'faithful'"]),
     ({"sweep": {"omega_rpm": [10]}, "mode": "cartesian"}, ["mode", "'cartesian'", "grid", "zip"]),
     ({"sweep": {"omega_rpm": [10, 20], "head_radius": [0.0]}, "mode": "zip"}, ["zip", "equal length", "grid"]),

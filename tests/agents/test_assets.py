@@ -33,7 +33,7 @@ def test_a_users_turn_map_is_preferred_to_the_shipped_one(tmp_path, monkeypatch)
     assert default_turn_map("paper") == packaged_turn_map("paper")
 
 
-@pytest.mark.parametrize("preset", ["fast", "coarse"])
+@pytest.mark.parametrize("preset", ["coarse"])
 def test_a_retired_presets_turn_map_is_refused_naming_the_replacement(preset, tmp_path, monkeypatch):
     from agents.turn_decision_env import load_turn_map
 

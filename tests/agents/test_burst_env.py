@@ -50,7 +50,8 @@ def test_an_action_that_is_not_three_finite_numbers_is_refused(bad):
                                            ({"limits": {"cruise_min_s": 9.0, "cruise_max_s": 3.0}}, "cruise_min_s"),
                                            ({"limits": {"t_c_max_s": -1.0}}, "t_c_max_s"),
                                            ({"planner": "rule"}, "unknown argument"),
-                                           ({"preset": "fast"}, "preset 'fast' was retired"),
+                                           ({"preset": "fast"}, "preset='fast'"),
+                                           ({"preset": "coarse"}, "preset 'coarse' was retired"),
                                            ({"preset": "turbo"}, "preset='turbo'"),
                                            ({"render_mode": "rgb_array"}, "render_mode")])
 def test_bad_arguments_are_refused_in_one_line(kwargs, match):

@@ -224,7 +224,7 @@ def test_resume_refuses_another_network_task_or_a_finished_run(tiny_run):
     meta_before = (out / "meta.json").read_text()
     for change, fragment in [(lambda c: c["tiny"]["policy_kwargs"].update(net_arch=[16]),
                               "policy_kwargs.net_arch is [8] there and [16] in this config"),
-                             (lambda c: c["tiny"]["task"].update(preset="paper"), "preset is 'faithful' there and 'paper'"),
+                             (lambda c: c["tiny"]["task"].update(preset="fast"), "preset is 'faithful' there and 'fast'"),
                              (lambda c: c["tiny"]["task"].update(action_cost=2.0), "action_cost is 0.0 there and 2.0")]:
         other = json.loads(json.dumps(TINY))
         other["tiny"]["n_timesteps"] = done + 3

@@ -1,5 +1,5 @@
 """``import agents`` registers FlagellumTurn-v0 (``TurnDecisionEnv``) and its surrogate and burst twins
-(``agents.registration``; the retired ``-fast`` / ``-coarse`` ids only to refuse them);
+(``agents.registration``; the retired ``-coarse`` id only to refuse it);
 ``gymnasium.make`` builds each, both env checkers pass on each, bad arguments fail at construction, and the reward, ``info``, the no-turn case and seeding behave as
 docs/env.md says.
 
@@ -83,19 +83,19 @@ def test_import_agents_registers_the_turn_ids_with_their_classes():
     assert live == str(sorted((i, e, None) for i, e in {**TURN_ENV_IDS, **SURROGATE_TURN_ENV_IDS,
                                                            **BURST_ENV_IDS}.items()))
     assert retired == str(sorted((i, (i, *v)) for i, v in RETIRED_TURN_ENV_IDS.items()))
-    assert sorted(TURN_ENV_IDS) == ["FlagellumTurn-v0"]
-    assert sorted(RETIRED_TURN_ENV_IDS) == ["FlagellumTurn-coarse-v0", "FlagellumTurn-fast-v0"]
+    assert sorted(TURN_ENV_IDS) == ["FlagellumTurn-fast-v0", "FlagellumTurn-v0"]
+    assert sorted(RETIRED_TURN_ENV_IDS) == ["FlagellumTurn-coarse-v0"]
     assert sorted(BURST_ENV_IDS) == ["FlagellumBurst-surrogate-v0", "FlagellumBurst-v0"]
 
 
-def test_make_gives_the_ids_class_and_preset():
-    env = gym.make("FlagellumTurn-v0").unwrapped
-    assert type(env).env_id == "FlagellumTurn-v0" and env.preset == "faithful"
+@pytest.mark.parametrize("env_id, preset", [("FlagellumTurn-v0", "faithful"), ("FlagellumTurn-fast-v0", "fast")])
+def test_make_gives_the_ids_class_and_preset(env_id, preset):
+    env = gym.make(env_id).unwrapped
+    assert type(env).env_id == env_id and env.preset == preset
     env.close()
 
 
 @pytest.mark.parametrize("env_id, preset, why", [
-    ("FlagellumTurn-fast-v0", "fast", "no faster than 'faithful'"),
     ("FlagellumTurn-coarse-v0", "coarse", "slower than 'faithful' and wrong: it does not buckle")])
 def test_a_retired_id_or_preset_is_refused_on_one_line_naming_the_replacement(env_id, preset, why):
     retired = (f"preset {preset!r} was retired ({why}; docs/bench_quick.md); use 'faithful' (the default), or "
@@ -162,6 +162,7 @@ def test_the_defaults_are_the_first_agents_settings():
     assert DEFAULT_RANDOM_PATH == {"n_waypoints": 3, "segment_length_m": [0.12, 0.2], "min_turn_deg": 30.0,
                                    "max_turn_deg": 150.0, "planar": [True, False]}
     assert env.paths is None and len(env._path_configs) == 2
+    assert gym.make("FlagellumTurn-fast-v0").unwrapped.preset == "fast"
 
 
 BAD = [({"preset": "quick"}, "preset='quick'"), ({"limits": {"max_dtc": 0.1}}, "max_dtc"),
