@@ -2,7 +2,7 @@
 planners, and PPO agents.
 
 ``import agents`` registers the turn-level env of the residual agents (``agents.turn_decision_env``: one step =
-one turn the planner plans) as ``FlagellumTurn-v0`` and its variants, and its turn-level surrogate
+one turn the planner plans) as ``FlagellumTurn-v0`` and its variant ``FlagellumTurn-fast-v0``, and its turn-level surrogate
 ``FlagellumTurn-surrogate-v0`` (``agents.surrogate_turn_env``: no rod), and the burst action design for agents with
 no planner (``agents.burst_design``: one step = one burst command) as ``FlagellumBurst-v0`` (the rod) and
 ``FlagellumBurst-surrogate-v0`` (``agents.registration``)::
@@ -19,7 +19,7 @@ names the entry points: ``import agents`` loads Gymnasium, not the env, the phys
 from __future__ import annotations
 
 from agents.registration import (BURST_ENV_ID, BURST_ENV_IDS, BURST_SURROGATE_ENV_ID, SURROGATE_TURN_ENV_IDS,
-                                 TURN_COARSE_ENV_ID, TURN_ENV_ID, TURN_ENV_IDS, TURN_FAST_ENV_ID, TURN_SURROGATE_ENV_ID)
+                                 TURN_ENV_ID, TURN_ENV_IDS, TURN_FAST_ENV_ID, TURN_SURROGATE_ENV_ID)
 
-__all__ = ["BURST_ENV_ID", "BURST_ENV_IDS", "BURST_SURROGATE_ENV_ID", "SURROGATE_TURN_ENV_IDS", "TURN_COARSE_ENV_ID",
-           "TURN_ENV_ID", "TURN_ENV_IDS", "TURN_FAST_ENV_ID", "TURN_SURROGATE_ENV_ID"]
+__all__ = ["BURST_ENV_ID", "BURST_ENV_IDS", "BURST_SURROGATE_ENV_ID", "SURROGATE_TURN_ENV_IDS", "TURN_ENV_ID",
+           "TURN_ENV_IDS", "TURN_FAST_ENV_ID", "TURN_SURROGATE_ENV_ID"]

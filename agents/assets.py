@@ -22,6 +22,8 @@ import os
 from importlib import resources
 from pathlib import Path
 
+from physics.presets import RETIRED_PRESETS, retired_preset_message
+
 #: The agent ``--controller ppo`` loads.
 SHIPPED_AGENT = "ppo_residual_adaptive"
 #: Environment variable naming the folder of the user's turn maps.
@@ -54,7 +56,9 @@ def eval_paths_dir() -> Path:
 
 
 def packaged_turn_map(preset: str) -> Path:
-    """The turn map shipped for ``preset`` (it may not exist for a preset without one)."""
+    """The turn map shipped for ``preset`` (it may not exist for a preset without one); ValueError (one line) for a
+    retired preset."""
+    _refuse_retired(preset)
     return package_file("turn_maps", f"{preset}.json")
 
 
@@ -69,9 +73,15 @@ def user_turn_map_dir() -> Path:
 
 def default_turn_map(preset: str) -> Path:
     """The turn map ``rule`` and ``ppo`` use for ``preset``: the user's (``user_turn_map_dir()``)
-    if there is one, else the shipped one."""
+    if there is one, else the shipped one; ValueError (one line) for a retired preset."""
+    _refuse_retired(preset)
     user = user_turn_map_dir() / f"{preset}.json"
     return user if user.is_file() else packaged_turn_map(preset)
+
+
+def _refuse_retired(preset: str) -> None:
+    if preset in RETIRED_PRESETS:
+        raise ValueError(retired_preset_message(preset))
 
 
 def missing_turn_map_message(path: Path, preset: str, given: bool = False) -> str:

@@ -3,7 +3,7 @@
 The file has one top-level key, the agent's name, holding the stable-baselines3 PPO
 hyperparameters (flat, as in rl-zoo3's ``hyperparams/ppo.yml``) and a ``task`` section::
 
-    ppo_residual_coarse:
+    ppo_residual:
       policy: MlpPolicy
       n_envs: 2                 # SubprocVecEnv workers
       n_timesteps: 640          # turn decisions (steps of TurnDecisionEnv)
@@ -19,7 +19,7 @@ hyperparameters (flat, as in rl-zoo3's ``hyperparams/ppo.yml``) and a ``task`` s
       task:
         design: residual        # or burst: a burst command per decision, no planner (agents.burst_design)
         tier: physics           # or surrogate: the turn-level surrogate of the default preset's map
-        preset: coarse
+        preset: faithful        # fast, reference or paper; the retired coarse is refused
         turn_map: null          # null: the preset's turn map (agents.assets.default_turn_map)
         planner: rule            # the planner corrected: rule or adaptive (agents.residual_planner)
         limits: {max_dtc_fraction: 0.05, max_dphase_deg: 15}
@@ -54,7 +54,7 @@ import yaml
 from agents.burst_design import BurstLimits, parse_map_noise
 from agents.residual_planner import ResidualLimits, base_planner
 from flagellum_env.paths import RandomPathConfig, WaypointPath, random_path
-from physics.presets import DEFAULT_PRESET, preset_names
+from physics.presets import DEFAULT_PRESET, check_preset
 from physics.validation import require_finite
 
 #: PPO constructor arguments a config may set (stable-baselines3 2.x).
@@ -201,8 +201,10 @@ class TrainConfig:
         validation = ValidationConfig(tuple(seeds), _int(val.get("every"), f"{where}: {name}.task.validation.every", 1),
                                       _random_path(val.get("random_path"), f"{where}: {name}.task.validation.random_path"))
         preset = task.get("preset", DEFAULT_PRESET)
-        if preset not in preset_names():
-            raise ValueError(f"{where}: {name}.task.preset={preset!r} is not allowed; choose one of {preset_names()}")
+        try:
+            check_preset(preset, f"{name}.task.preset")
+        except ValueError as exc:
+            raise ValueError(f"{where}: {exc}") from None
         design, tier = task.get("design", "residual"), task.get("tier", "physics")
         for key, value, allowed in (("design", design, DESIGNS), ("tier", tier, TIERS)):
             if value not in allowed:

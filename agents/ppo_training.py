@@ -104,8 +104,8 @@ def agent_env(config: TrainConfig) -> tuple[str, dict[str, Any]]:
     that later changes of the defaults do not change it): the config's task on the last curriculum stage's
     paths, nominal or randomised as trained. ``PPO.load`` and ``VecNormalize.load`` of the agent's files on
     ``make_vec_env(env_id, env_kwargs=make_kwargs)`` reproduce it with plain stable-baselines3."""
-    from agents.registration import (BURST_ENV_ID, BURST_SURROGATE_ENV_ID, TURN_COARSE_ENV_ID, TURN_ENV_ID,
-                                     TURN_FAST_ENV_ID, TURN_SURROGATE_ENV_ID)
+    from agents.registration import (BURST_ENV_ID, BURST_SURROGATE_ENV_ID, TURN_ENV_ID, TURN_FAST_ENV_ID,
+                                     TURN_SURROGATE_ENV_ID)
 
     if config.design == "burst":
         return BURST_SURROGATE_ENV_ID if config.tier == "surrogate" else BURST_ENV_ID, {"preset": config.preset, "turn_map": config.turn_map,
@@ -118,7 +118,7 @@ def agent_env(config: TrainConfig) -> tuple[str, dict[str, Any]]:
     if config.tier == "surrogate":
         env_id = TURN_SURROGATE_ENV_ID
     else:
-        env_id = {"fast": TURN_FAST_ENV_ID, "coarse": TURN_COARSE_ENV_ID}.get(config.preset, TURN_ENV_ID)
+        env_id = {"fast": TURN_FAST_ENV_ID}.get(config.preset, TURN_ENV_ID)
     return env_id, {"preset": config.preset, "turn_map": config.turn_map, "env_kwargs": dict(config.env_kwargs),
                     "limits": dataclasses.asdict(ResidualLimits(**config.limits)), "action_cost": config.action_cost,
                     "random_path": dict(config.curriculum[-1].random_path),

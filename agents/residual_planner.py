@@ -65,7 +65,7 @@ class ResidualLimits:
     """How far the residual may move a planned turn: the burst length by up to the fraction
     ``max_dtc_fraction`` (in (0, 1)), the burst phase by up to ``max_dphase_deg`` (degrees, > 0).
 
-    The defaults are the first agent's (agents/configs/ppo_residual_coarse.yml): 5 % of the
+    The defaults are the first agent's (its config retired with its preset; in git history): 5 % of the
     burst and 15 degrees."""
 
     max_dtc_fraction: float = 0.05

@@ -56,7 +56,7 @@ from agents.turn_map import TurnMap
 from agents.turn_planner import BEHIND_PENALTY_M, PlannerEpisode, RulePlanner
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M, SteerConfig, draw_randomization, make_config
 from flagellum_env.tracking import PathTracker
-from physics.presets import DEFAULT_PRESET
+from physics.presets import DEFAULT_PRESET, RETIRED_PRESETS, retired_preset_message
 from physics.validation import require_finite
 
 #: With the target behind, or ``line_weight`` > 0, the planner re-plans every control step while no turn helps;
@@ -282,6 +282,8 @@ def surrogate_setup(env_id: str, preset: str, turn_map: str | os.PathLike | None
     a request outside the calibration (``_check_calibrated``), a rendering or a bad argument."""
     if render_mode is not None:
         raise ValueError(f"render_mode={render_mode!r} is not allowed in {env_id} (no rod to draw); allowed: None")
+    if preset in RETIRED_PRESETS:
+        raise ValueError(retired_preset_message(preset))
     if preset != DEFAULT_PRESET:
         raise ValueError(f"preset={preset!r} is outside the surrogate's calibration; allowed: "
                          f"{DEFAULT_PRESET!r} (the map it replays)")

@@ -1,6 +1,6 @@
 """Training environment of the residual PPO agent: one step = one turn the planner plans.
 
-``TurnDecisionEnv`` (``FlagellumTurn-v0``; ``-fast`` and ``-coarse`` variants, all registered by
+``TurnDecisionEnv`` (``FlagellumTurn-v0``; a ``-fast`` variant, both registered by
 ``import agents``) runs ``FlagellumSteer-v0`` under a ``ResidualPlanner`` (0.1 s control steps,
 the rule planner's; ``planner="adaptive"``: an ``AdaptiveResidualPlanner``, the adaptive planner's). Whenever
 the planner plans a turn it stops and hands the turn's features to the
@@ -40,14 +40,13 @@ from agents.turn_map import TurnMap
 from flagellum_env.config import resolve_path
 from flagellum_env.paths import RandomPathConfig, WaypointPath
 from flagellum_env.paths import random_path as draw_random_path
-from agents.registration import TURN_COARSE_ENV_ID, TURN_ENV_ID, TURN_FAST_ENV_ID
+from agents.registration import TURN_ENV_ID, TURN_FAST_ENV_ID
 from flagellum_env.steer_env import FlagellumSteerEnv
-from physics.presets import DEFAULT_PRESET, preset_names
+from physics.presets import DEFAULT_PRESET, check_preset
 from physics.validation import require_finite
 
-#: The first agent's env settings (agents/configs/ppo_residual_coarse.yml: its task and last curriculum stage;
-#: ``flagellum train --config`` that file retrains it) are the defaults of every ``FlagellumTurn`` id;
-#: ``FlagellumTurn-coarse-v0`` is that agent's env with no argument at all. The shipped agent
+#: The first agent's env settings (its task and last curriculum stage; its config retired with the preset it was
+#: trained on, in git history) are the defaults of every ``FlagellumTurn`` id. The shipped agent
 #: (agents/pretrained/ppo_residual_adaptive) stores its own env in its ``meta.json`` (``env_id``, ``make_kwargs``). The correction limits are ``ResidualLimits()``'s defaults.
 DEFAULT_ACTION_COST = 5.0
 DEFAULT_ENV_KWARGS: dict[str, Any] = {"reward": {"cross_track_per_cm_s": 0.05}}
@@ -164,7 +163,7 @@ class TurnDecisionEnv(TurnEpisodes, gym.Env):
 
     | Argument    | Default                          | Meaning                                               |
     |-------------|----------------------------------|-------------------------------------------------------|
-    | preset      | "faithful" (the id's)            | physics preset: "paper", "faithful", "fast", "coarse" |
+    | preset      | "faithful" (the id's)            | physics preset: "faithful", "fast", "reference" or "paper" |
     | turn_map    | None                             | a turn-map file (None: the preset's, ``agents.assets.default_turn_map``) |
     | env_kwargs  | {"reward": {"cross_track_per_cm_s": 0.05}} | further ``FlagellumSteer-v0`` arguments (not ``path``); a dict given replaces the default |
     | paths       | None                             | fixed paths used in turn (any form of ``FlagellumSteer-v0``'s ``path`` but "random") |
@@ -174,8 +173,8 @@ class TurnDecisionEnv(TurnEpisodes, gym.Env):
     | planner     | "rule"                           | the planner corrected: "rule" (``ResidualPlanner``) or "adaptive" (``AdaptiveResidualPlanner``), either optionally with "@line=W" (``PlannerConfig.line_weight``) |
     | render_mode | None                             | None or "rgb_array" (the base env's frame after the step) |
 
-    The defaults are the settings of the first agent (trained on ``coarse``; agents/configs/ppo_residual_coarse.yml),
-    so ``FlagellumTurn-coarse-v0`` with no argument is that agent's env. Every agent's ``meta.json`` stores its
+    The defaults are the settings of the first agent (its config retired with the preset it was trained on; in
+    git history). Every agent's ``meta.json`` stores its
     env as ``env_id`` and ``make_kwargs``: the shipped agent (agents/pretrained/ppo_residual_adaptive, trained at
     ``faithful`` on the adaptive planner with randomised swimmers) is ``gym.make(meta["env_id"],
     **meta["make_kwargs"])``, and ``PPO.load`` plus ``VecNormalize.load`` of its files on that env reproduce it. Invalid values raise ``ValueError`` naming the argument and the
@@ -183,15 +182,16 @@ class TurnDecisionEnv(TurnEpisodes, gym.Env):
 
     ## Variants
 
-    ``FlagellumTurn-fast-v0`` (``TurnDecisionFastEnv``) and ``FlagellumTurn-coarse-v0``
-    (``TurnDecisionCoarseEnv``): preset "fast" and "coarse". The coarse swimmer turns differently
-    (``FlagellumSteerCoarseEnv``), with its own turn map; a decision costs a few CPU seconds at
-    each preset (docs/env.md, Speed).
+    ``FlagellumTurn-fast-v0`` (``TurnDecisionFastEnv``): preset "fast", with its own turn map. A decision
+    costs a few CPU seconds at each preset (docs/env.md, Speed); ``FlagellumTurn-surrogate-v0`` replays the
+    turn map with no rod. ``FlagellumTurn-coarse-v0`` was retired with its preset (``gym.make`` of it raises a
+    one-line ValueError naming the replacement).
 
     ## Version History
 
     - v0: initial version; ``render_mode``, ``info`` on every step, validation at construction, the
-      first agent's settings as defaults and the ``-fast`` / ``-coarse`` variants added.
+      first agent's settings as defaults and the ``-fast`` / ``-coarse`` variants added; the ``-coarse``
+      variant retired with its preset (``FlagellumTurn-v0`` itself unchanged).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 2}
@@ -301,25 +301,13 @@ class TurnDecisionFastEnv(TurnDecisionEnv):
     default_preset: ClassVar[str] = "fast"
 
 
-class TurnDecisionCoarseEnv(TurnDecisionEnv):
-    """``FlagellumTurn-coarse-v0``: ``FlagellumTurn-v0`` (``TurnDecisionEnv``, whose docstring is the manual)
-    at the ``coarse`` preset: the first PPO agent's env, as it was trained (agents/configs/
-    ppo_residual_coarse.yml). The coarse swimmer (N = 45, 10 ms steps) buckles later and **turns differently**
-    from the default preset's (``FlagellumSteerCoarseEnv``) and has its own turn map (it is not cheaper:
-    docs/env.md, Speed). Every other argument and default is ``FlagellumTurn-v0``'s."""
-
-    env_id: ClassVar[str] = TURN_COARSE_ENV_ID
-    default_preset: ClassVar[str] = "coarse"
-
-
 # --- shared with agents.burst_decision_env -------------------------------------------------------
 def steer_base_env(preset: str, turn_map: str | os.PathLike | None, env_kwargs: Mapping[str, Any] | None,
                    render_mode: str | None, defaults: Mapping[str, Any]) -> tuple[FlagellumSteerEnv, TurnMap]:
     """(``FlagellumSteer-v0`` on random paths, the turn map) of a turn-level env: ``env_kwargs`` (None:
     ``DEFAULT_ENV_KWARGS``) merged over ``defaults`` (a controller kind's ``CONTROLLER_ENV_DEFAULTS``) and
     ``preset``; ``turn_map`` None: the preset's. ValueError (one line) naming a bad preset, argument or map."""
-    if preset not in preset_names():
-        raise ValueError(f"preset={preset!r} is not allowed; choose one of {preset_names()}")
+    check_preset(preset)
     kwargs = {**defaults, "preset": preset, **turn_env_kwargs(env_kwargs)}
     try:
         base = FlagellumSteerEnv(path="random", render_mode=render_mode, **kwargs)

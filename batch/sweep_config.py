@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any, Union
 
 from physics.params import NumericsConfig, SwimmerParams, apply_overrides, parameter_table
-from physics.presets import apply_preset, preset_names
+from physics.presets import apply_preset, check_preset
 from physics.run import DEFAULT_NODE_RECORD_INTERVAL_S, DEFAULT_RECORD_INTERVAL_S, validate_run_arguments
 from physics.schedule import MAX_RPM, MotorSchedule
 
@@ -106,8 +106,11 @@ class SweepConfig:
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise SweepConfigError(f"mode={self.mode!r} is not allowed; choose one of {list(MODES)}")
-        if self.preset is not None and self.preset not in preset_names():
-            raise SweepConfigError(f"preset={self.preset!r} is not allowed; choose one of {preset_names()}")
+        if self.preset is not None:
+            try:
+                check_preset(self.preset)
+            except ValueError as exc:
+                raise SweepConfigError(str(exc)) from None
         if not isinstance(self.save_trajectories, bool):
             raise SweepConfigError(f"save_trajectories={self.save_trajectories!r} is not allowed; "
                                    "allowed: true or false")

@@ -44,7 +44,7 @@ import numpy as np
 from agents.ppo_config import HELD_OUT_SEED0, PPO_KEYS
 from agents.ppo_training import CHECKPOINT_PREFIX, latest_checkpoint, stop_vec_workers
 from batch.provenance import git_commit
-from physics.presets import DEFAULT_PRESET, preset_names
+from physics.presets import DEFAULT_PRESET, RETIRED_PRESETS, preset_names, retired_preset_message
 
 ENV_ID = "FlagellumSteer-v0"
 #: One-turn paths: one waypoint 10-16 cm away, 30-150 deg off the initial heading, planar.
@@ -134,6 +134,8 @@ def resolve_run(out: Path, resume: bool, given: dict[str, Any], timesteps: int |
 def validate_config(c: dict[str, Any]) -> None:
     """Every setting; ValueError (one line) naming the bad value and what is allowed. Builds the env and a PPO
     model on it (no physics runs) so that their own checks speak too."""
+    if c["preset"] in RETIRED_PRESETS:
+        raise ValueError(retired_preset_message(c["preset"]))
     if c["preset"] not in preset_names():
         raise ValueError(f"--preset {c['preset']!r} is not allowed; choose one of {preset_names()}")
     if c["action_type"] not in ("continuous", "discrete"):

@@ -71,7 +71,9 @@ LADDER: tuple[FidelityConfig, ...] = (
     FidelityConfig("LSBT N = 60, h = 5 ms, refresh 0.1 r0", "paper",  # `balanced` before 2026-12-01
                    params={"n_nodes": 60}, numerics={"dt": 5e-3, "hydro_refresh_tol": 0.1}),
     FidelityConfig("fast", "fast"),
-    FidelityConfig("coarse", "coarse"),
+    # the retired preset coarse (docs/bench_quick.md), as its configuration
+    FidelityConfig("LSBT N = 45, h = 10 ms, refresh 0.1 r0", None, params={"n_nodes": 45},
+                   numerics={"dt": 1e-2, "hydro_refresh_tol": 0.1, "newton_tol": 1e-5}),
     FidelityConfig("LSBT N = 30, h = 50 ms, one iteration", "paper",
                    params={"n_nodes": 30}, numerics={"dt": 0.05, "single_iteration": True, "hydro_refresh_tol": 0.3}),
     FidelityConfig("RFT N = 122, h = 5 ms", "paper", numerics={"dt": 5e-3, "hydro_model": "rft"}),

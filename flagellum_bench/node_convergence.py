@@ -1,8 +1,9 @@
-"""Why the coarse presets turn less: the buckling onset against node count, time step and refresh rule.
+"""Why coarse grids turn less: the buckling onset against node count, time step and refresh rule.
 
 One metric, the turning angle after a t_c = 40 s burst at ``OMEGA_HIGH_RPM`` from steady 10 rpm
 swimming (``turn_tc40`` of ``flagellum_bench.fidelity``), on a grid of discretisations that start from
-``fast``'s numerics (Newton tolerance 1e-5, LSBT + Higdon head): node count N at h = 10 ms for two
+the numerics of the retired N = 45 preset (implicit Euler, Newton tolerance 1e-5, LSBT + Higdon head; the
+parameter defaults otherwise): node count N at h = 10 ms for two
 refresh tolerances, and the time step h at N = 122. The reference is ``paper``'s value from the
 fidelity ladder. Results are appended to a JSONL file as they finish (resumable).
 """
@@ -28,8 +29,8 @@ def sweep_configs() -> tuple[FidelityConfig, ...]:
     """The grid: N x refresh at h = 10 ms, then h at N = 122 and refresh 0.03 r0 (no duplicates)."""
     grid = [(n, 1e-2, tol) for tol in REFRESH_TOLS for n in NODE_COUNTS]
     grid += [(122, h, 0.03) for h in TIME_STEPS_S if h != 1e-2]
-    return tuple(FidelityConfig(_name(n, h, tol), "coarse", params={"n_nodes": n},
-                                numerics={"dt": h, "hydro_refresh_tol": tol}) for n, h, tol in grid)
+    return tuple(FidelityConfig(_name(n, h, tol), None, params={"n_nodes": n},
+                                numerics={"dt": h, "hydro_refresh_tol": tol, "newton_tol": 1e-5}) for n, h, tol in grid)
 
 
 def sweep_rows(done: dict[tuple[str, str], dict], reference: dict[str, float] | None) -> list[dict[str, Any]]:

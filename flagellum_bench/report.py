@@ -54,10 +54,11 @@ def _turn_error(row: dict[str, Any]) -> float | None:
 
 
 #: Preset names given to other configurations on 2026-12-02: a row measured before that date under the old name is
-#: labelled with today's name for that configuration (or as retired). name -> (date of the change, label).
-RENAMED = {"fast": ("2026-12-02", "coarse (N = 45, h = 10 ms; named 'fast' then)"),
+#: labelled with today's name for that configuration (or as retired). name -> (date of the change, label). The
+#: configuration named 'fast' before that date was then named 'coarse', itself retired since (docs/bench_quick.md).
+RENAMED = {"fast": ("2026-12-02", "retired 'coarse' (N = 45, h = 10 ms; named 'fast' then)"),
            "balanced": ("2026-12-02", "retired 'balanced' (paper grid, h = 20 ms)")}
-TODAYS_PRESETS = ("reference", "paper", "faithful", "fast", "coarse")
+TODAYS_PRESETS = ("reference", "paper", "faithful", "fast")  # coarse retired (docs/bench_quick.md)
 
 
 def display_name(row: dict[str, Any]) -> tuple[str, bool]:

@@ -12,7 +12,9 @@
 |----------------------------|----------------------------------------------------|----------|
 | ``FlagellumSteer-v0``      | motor speed every ``control_dt`` (2 s)            | faithful |
 | ``FlagellumSteer-fast-v0`` | the same, looser error tolerance                  | fast     |
-| ``FlagellumSteer-coarse-v0`` | the same on the coarse grid                     | coarse   |
+
+``FlagellumSteer-coarse-v0`` was retired with its preset: ``gym.make`` of it
+raises a one-line ValueError naming the replacement (``flagellum_env.registration.RETIRED_ENV_IDS``).
 
 The turn-level ids of the PPO agents (``FlagellumTurn-*``: one step = one turn the planner plans) are registered
 by ``import agents``, one layer up (``agents.registration``).
@@ -27,18 +29,12 @@ paths) load on first use (PEP 562).
 
 from __future__ import annotations
 
-from flagellum_env.registration import (
-    ENV_IDS,
-    STEER_COARSE_ENV_ID,
-    STEER_ENV_ID,
-    STEER_FAST_ENV_ID,
-)
+from flagellum_env.registration import ENV_IDS, STEER_ENV_ID, STEER_FAST_ENV_ID
 
 ENV_ID = STEER_ENV_ID
 
 #: Public name -> module that defines it (imported on first access).
 _API = {"FlagellumSteerEnv": "flagellum_env.steer_env", "FlagellumSteerFastEnv": "flagellum_env.steer_env",
-        "FlagellumSteerCoarseEnv": "flagellum_env.steer_env",
         "RandomizationConfig": "flagellum_env.config", "SteerConfig": "flagellum_env.config",
         "RewardConfig": "flagellum_env.rewards",
         "RandomPathConfig": "flagellum_env.paths", "WaypointPath": "flagellum_env.paths",
@@ -46,7 +42,7 @@ _API = {"FlagellumSteerEnv": "flagellum_env.steer_env", "FlagellumSteerFastEnv":
         "random_path": "flagellum_env.paths", "save_path": "flagellum_env.paths",
         "square_path": "flagellum_env.paths"}
 
-__all__ = sorted(["ENV_ID", "ENV_IDS", "STEER_ENV_ID", "STEER_FAST_ENV_ID", "STEER_COARSE_ENV_ID", *_API])
+__all__ = sorted(["ENV_ID", "ENV_IDS", "STEER_ENV_ID", "STEER_FAST_ENV_ID", *_API])
 
 
 def __getattr__(name: str):

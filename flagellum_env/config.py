@@ -20,7 +20,7 @@ import numpy as np
 from flagellum_env.paths import RandomPathConfig, WaypointPath, load_path, path_from_waypoints, square_path
 from flagellum_env.rewards import RewardConfig
 from physics.params import NumericsConfig, SwimmerParams
-from physics.presets import DEFAULT_PRESET, apply_preset, preset_names
+from physics.presets import DEFAULT_PRESET, apply_preset, check_preset
 from physics.validation import is_real, require_finite
 
 PATH_NAMES = ("square", "random")
@@ -116,8 +116,7 @@ class SteerConfig:
         s = self._set
         s("fixed_path", _resolve_path(self.path))
         s("random_path", _sub_config(self.random_path, RandomPathConfig, "random_path"))
-        if self.preset not in preset_names():
-            raise ValueError(f"preset={self.preset!r} is not allowed; choose one of {preset_names()}")
+        check_preset(self.preset)
         s("params", _overrides(self.params, SwimmerParams, "params"))
         s("numerics", _overrides(self.numerics, NumericsConfig, "numerics"))
         s("control_dt", require_finite("control_dt", self.control_dt, 0.0, MAX_CONTROL_DT_S, lo_open=True, unit="s"))

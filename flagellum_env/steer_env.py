@@ -12,8 +12,7 @@ from gymnasium import spaces
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M, SteerConfig, _resolve_path, draw_randomization, make_config
 from flagellum_env.observations import ObservationModel
 from flagellum_env.paths import WaypointPath, random_path
-from flagellum_env.registration import (STEER_COARSE_ENV_ID, STEER_ENV_ID, STEER_FAST_ENV_ID,
-                                        registered_max_episode_steps)
+from flagellum_env.registration import STEER_ENV_ID, STEER_FAST_ENV_ID, registered_max_episode_steps
 from flagellum_env.render import HumanWindow, Renderer, Scene
 from flagellum_env.rewards import TERMS, reward_terms
 from flagellum_env.start_frame import StartFrame
@@ -146,7 +145,7 @@ class FlagellumSteerEnv(gym.Env):
     |---------------------|----------------------|-----------------------------------------------------------|
     | path                | "random"             | "square" (paper, side 0.25 m), "random" (new each reset), a path-file name (JSON), a list of [x, y, z] waypoints (m) or a ``WaypointPath`` |
     | random_path         | None                 | ``RandomPathConfig`` or dict: n_waypoints 3, segment_length_m (0.03, 0.08), max_turn_deg 90, planar True |
-    | preset              | "faithful"           | physics preset: "paper", "faithful", "fast" or "coarse"  |
+    | preset              | "faithful"           | physics preset: "faithful", "fast", "reference" or "paper" |
     | params / numerics   | None                 | dicts of ``SwimmerParams`` / ``NumericsConfig`` fields applied after the preset |
     | control_dt          | 2.0                  | simulated seconds per env step (a whole number of physics steps; <= 600) |
     | omega_range_rpm     | (10, 150)            | motor speeds of the continuous action, rpm (0 < lo < hi)  |
@@ -175,9 +174,9 @@ class FlagellumSteerEnv(gym.Env):
     ## Variants
 
     Registered ids with other defaults (``flagellum_env.registration``): ``FlagellumSteer-fast-v0``
-    (``FlagellumSteerFastEnv``, preset ``fast``) and ``FlagellumSteer-coarse-v0``
-    (``FlagellumSteerCoarseEnv``, preset ``coarse``). Their docstrings say what each costs and how it
-    differs.
+    (``FlagellumSteerFastEnv``, preset ``fast``); its docstring says what it costs and how it differs. The
+    ``-coarse`` variant was retired with its preset (``gym.make`` of it raises a one-line ValueError naming the
+    replacement; ``flagellum_env.registration.RETIRED_ENV_IDS``). Other presets: ``preset=``.
 
     Invalid values raise ``ValueError`` naming the argument and the allowed values.
     ``reset(options={"path": ...})`` replaces the path for one episode (same forms as ``path``).
@@ -185,7 +184,8 @@ class FlagellumSteerEnv(gym.Env):
     ## Version History
 
     - v0: initial version; ``max_episode_steps`` at registration, ``render_fps`` from ``control_dt``
-      and the ``-fast`` / ``-coarse`` variants added without changing the dynamics.
+      and the ``-fast`` / ``-coarse`` variants added without changing the dynamics; the ``-coarse``
+      variant retired with its preset (``FlagellumSteer-v0`` itself unchanged).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"],
@@ -472,29 +472,11 @@ class FlagellumSteerFastEnv(FlagellumSteerEnv):
 
     The paper's grid (N = 122) and variable-step BDF3 with Newton-Krylov steps as ``faithful``, with a ten
     times looser local error tolerance (``step_tol`` 1e-3): the same swimmer and grid at a lower cost per step,
-    with larger integration errors (docs/bench_quick.md measures the presets against ``reference``: turn
-    angle within 0.9 %). Every
+    with larger integration errors (docs/bench_quick.md measures the presets against ``reference``: 1.4x
+    ``faithful``'s speed cruising, 1.5x in a burst, 1.3x its random-policy env steps/s; θ 0.6 % and φ 7 % off). Every
     argument and default is ``FlagellumSteer-v0``'s except ``preset="fast"``; ``max_episode_steps`` = 400
     at registration as there.
     """
 
     env_id: ClassVar[str] = STEER_FAST_ENV_ID
     defaults: ClassVar[dict[str, Any]] = {"preset": "fast"}
-
-
-class FlagellumSteerCoarseEnv(FlagellumSteerEnv):
-    """``FlagellumSteer-coarse-v0``: ``FlagellumSteer-v0`` (``FlagellumSteerEnv``, whose docstring is the
-    manual) at the ``coarse`` preset. Not the cheapest: with their BDF3 + Newton-Krylov solvers ``faithful``
-    and ``fast`` cost less per env step (docs/bench_quick.md).
-
-    A coarser grid (N = 45 nodes instead of the paper's 122) with fixed 10 ms implicit Euler steps: it
-    swims straight like ``paper`` (its steady speed at 10 rpm is within 0.3 % of the others) but **buckles later and turns
-    differently**: a burst at a given speed gives another turning angle than at ``faithful``, so a turn
-    map, a planner's tuning or a policy learnt here does not carry over to the other presets as it is
-    (each preset has its own turn map, agents/turn_maps/). Use it where the physics is not the point
-    (trying code, tests, the shipped PPO agent's training). Every argument and default is
-    ``FlagellumSteer-v0``'s except ``preset="coarse"``; ``max_episode_steps`` = 400 at registration.
-    """
-
-    env_id: ClassVar[str] = STEER_COARSE_ENV_ID
-    defaults: ClassVar[dict[str, Any]] = {"preset": "coarse"}

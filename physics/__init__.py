@@ -13,7 +13,8 @@ Plain NumPy/SciPy with Numba kernels; imports nothing from the layers above it. 
 - ``Simulator`` (``physics.simulator``): the swimmer; ``step()``, ``advance(T)``, state and observables.
 - ``SwimmerParams``, ``NumericsConfig`` (``physics.params``): the physical and numerical parameters.
 - ``configure(preset, overrides)`` (``physics.presets``): the defaults, a preset, then overrides;
-  ``preset_names()``. The commands and the environment use ``physics.presets.DEFAULT_PRESET``
+  ``preset_names()`` (the live presets: ``reference``, ``paper``, ``faithful``, ``fast``; the retired
+  ``coarse`` is refused with a one-line ValueError, ``physics.presets.check_preset``). The commands and the environment use ``physics.presets.DEFAULT_PRESET``
   (``"faithful"``); ``configure()`` without a preset is the bare parameter defaults (the paper's
   model with implicit Euler at h = 1 ms, as ``"paper"``).
 - ``MotorSchedule`` (``physics.schedule``): piecewise-constant motor speed.

@@ -13,11 +13,16 @@ grid, integrated by variable-step BDF3 with the local error per step held below 
 buckling, relaxation) are solved by Newton-Krylov in the mobility form (``physics.solvers.newton_krylov``),
 the others by the chord iteration on the reused dense factorisation; ``dt`` = 0.1 s is the sampling /
 control step inside which the adaptive steps are taken. ``fast`` is the same grid and scheme with a
-looser error tolerance. ``reference`` is the converged swimmer every preset's error is measured against:
-the same model with BDF2 at step_tol 1e-7, Newton 1e-8 and the resistance rebuilt at 0.003 r0 of
-deformation (BDF3 stalls below step_tol 1e-6: its steps collapse to microseconds; the convergence of
-``reference``: docs/time_integration.md). ``coarse`` (N = 45, h = 10 ms implicit Euler) swims like
-``paper`` but buckles later and turns differently: its turns are its own, and so is its turn map.
+looser error tolerance (step_tol 1e-3): the cheaper tier, at a measured price (docs/bench_quick.md: 1.4x
+``faithful``'s speed cruising, 1.5x in the burst, 0.6 % off in θ and 7 % in φ). ``reference`` is the converged
+swimmer every preset's error is measured against: the same model with BDF2 at step_tol 1e-7, Newton 1e-8 and the resistance rebuilt at
+0.003 r0 of deformation (BDF3 stalls below step_tol 1e-6: its steps collapse to microseconds; the convergence of
+``reference``: docs/time_integration.md). ``paper`` is the paper's own numerics (1 ms implicit Euler), for
+validation only.
+
+Retired (``RETIRED_PRESETS``; asking for it anywhere raises a one-line ValueError naming the replacement,
+``check_preset``): ``coarse`` (N = 45, 10 ms implicit Euler: slower than ``faithful`` and wrong, it does not
+buckle); docs/bench_quick.md.
 
 Measured costs and errors against ``reference``: docs/bench_quick.md (``flagellum bench --quick``); the wider
 ladder: docs/fidelity.md (scripts/bench_fidelity.py).
@@ -54,14 +59,48 @@ PRESETS: dict[str, dict[str, dict[str, Any]]] = {
     "fast": {"params": {"n_nodes": 122},
              "numerics": {**_ADAPTIVE, "integrator": "bdf3", "step_tol": 1e-3, "hydro_refresh_tol": 0.03,
                           "newton_tol": 1e-5}},
-    "coarse": {"params": {"n_nodes": 45},
-               "numerics": {"dt": 1e-2, "hydro_model": "lsbt", "head_model": "higdon",
-                            "hydro_refresh_tol": 0.1, "newton_tol": 1e-5}},
+}
+
+#: One-line description of each preset (CLI help, docs).
+PRESET_DESCRIPTIONS = {
+    "reference": "the converged yardstick (BDF2 at step_tol 1e-7)",
+    "paper": "the paper's own numerics (1 ms implicit Euler), for validation only",
+    "faithful": "the default: the paper's grid, error-controlled BDF3 steps",
+    "fast": "faithful at a looser step tolerance (step_tol 1e-3): cheaper, at a measured price",
+}
+
+#: Presets that were retired, with why (docs/bench_quick.md): asking for one raises ``retired_preset_message``.
+RETIRED_PRESETS = {
+    "coarse": "slower than 'faithful' and wrong: it does not buckle",
 }
 
 
 def preset_names() -> list[str]:
+    """The live presets (never a retired one)."""
     return list(PRESETS)
+
+
+def retired_preset_message(name: str) -> str:
+    """The one-line refusal of the retired preset ``name``, naming the replacement."""
+    return (f"preset {name!r} was retired ({RETIRED_PRESETS[name]}; docs/bench_quick.md); use {DEFAULT_PRESET!r} "
+            "(the default), or FlagellumTurn-surrogate-v0 / FlagellumBurst-surrogate-v0 for a cheap turn-level swimmer")
+
+
+def retired_env_message(env_id: str, preset: str, replacement: str) -> str:
+    """The one-line refusal of a registered env id that went with the retired ``preset``, naming ``replacement``."""
+    return f"{env_id} was retired with its preset (use {replacement}): {retired_preset_message(preset)}"
+
+
+def check_preset(name: object, label: str = "preset") -> str:
+    """``name`` if it is a live preset; else ValueError on one line: the retirement message for a retired preset,
+    ``{label}={name!r} is not allowed; choose one of [...]`` for anything else. Every place that takes a preset
+    name (``configure``, the environments, the training and sweep configs, the CLI's ``--preset``, the turn maps)
+    checks it here."""
+    if isinstance(name, str) and name in RETIRED_PRESETS:
+        raise ValueError(retired_preset_message(name))
+    if not isinstance(name, str) or name not in PRESETS:
+        raise ValueError(f"{label}={name!r} is not allowed; choose one of {preset_names()}")
+    return name
 
 
 def configure(preset: str | None = None,
@@ -93,8 +132,7 @@ def configure(preset: str | None = None,
 def apply_preset(name: str, params: SwimmerParams | None = None,
                  numerics: NumericsConfig | None = None) -> tuple[SwimmerParams, NumericsConfig]:
     """(params, numerics) with the preset's discretisation and numerics applied on top."""
-    if name not in PRESETS:
-        raise ValueError(f"unknown preset {name!r}; choose one of {preset_names()}")
+    check_preset(name)
     p = (params or SwimmerParams()).replace(**PRESETS[name]["params"])
     n = (numerics or NumericsConfig()).replace(**PRESETS[name]["numerics"])
     return p, n

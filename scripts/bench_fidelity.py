@@ -24,12 +24,13 @@ DOCS_INTRO = (
     "nodes, each measured on the same metrics, errors against `paper`. The committed records "
     "(results/bench/fidelity_full.results.jsonl) were measured with the head torque-free "
     "(`head_rotation=torque_free`; the default reading is `fixed`). In the tables the row `fast` is N = 45, "
-    "implicit Euler at h = 10 ms, refresh 0.1 r0, Newton 1e-5: the configuration of the `coarse` preset. The "
+    "implicit Euler at h = 10 ms, refresh 0.1 r0, Newton 1e-5: the configuration of the `coarse` preset (retired "
+    "since: [presets.md](presets.md)), named `fast` when it was measured, not today's `fast`. The "
     "error-controlled presets (`faithful`, `fast`, `reference`) are not in them: their speed by phase and their "
     "errors against `reference` are in [bench_quick.md](bench_quick.md) (`flagellum bench --quick`).\n\n"
     "![Fidelity ladder: error against paper vs real-time factor](figures/fidelity_pareto.png)\n\n"
     "*Error against `paper` against the real-time factor, the points labelled with the presets' names (the row "
-    "`fast` as `coarse`). Redrawn from docs/fidelity.json by `python scripts/bench_fidelity.py --figure-only` (no "
+    "`fast` as the retired `coarse`). Redrawn from docs/fidelity.json by `python scripts/bench_fidelity.py --figure-only` (no "
     "simulation).*")
 
 

@@ -37,8 +37,8 @@ def main(argv: list[str] | None = None) -> int:
     header = ("# Buckling onset against the discretisation\n\n"
               "Produced by `python scripts/bench_node_convergence.py` (one core per run, two at a time). "
               "Each run: steady 10 rpm swimming, a 40 s burst at 90 rpm, back to 10 rpm until the heading "
-              "settles (`agents.turn_measurement.measure_turn`); θ is the turn. All runs start from `coarse`'s "
-              "numerics (implicit Euler, Newton tolerance 1e-5); N, h and the resistance-refresh tolerance vary. "
+              "settles (`agents.turn_measurement.measure_turn`); θ is the turn. All runs start from the numerics of "
+              "the retired `coarse` preset (implicit Euler, Newton tolerance 1e-5); N, h and the resistance-refresh tolerance vary. "
               f"Head reading: `head_rotation={head_rotation}`. θ error = |θ - θ_paper| / θ_paper.")
     Path("docs").mkdir(exist_ok=True)
     Path("docs/node_convergence.json").write_text(json.dumps({"reference": reference, "rows": rows}, indent=2) + "\n")

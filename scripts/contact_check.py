@@ -3,8 +3,10 @@
     python scripts/contact_check.py [--runs balanced:90:100 paper:90:100 ...] [--workers 2]
 
 A run is PRESET:RPM:SECONDS[:off]; besides today's presets, ``balanced`` is a retired preset
-(``paper`` at h = 20 ms, Newton tolerance 1e-5), kept here so the recorded runs can be repeated;
-the runs at ``coarse`` were recorded under that configuration's earlier name, ``fast``.
+(``paper`` at h = 20 ms, Newton tolerance 1e-5), kept here so the recorded runs can be repeated.
+The runs named ``fast:150:25`` in docs/contact_check.json were recorded at the configuration later named
+``coarse`` (N = 45, 10 ms implicit Euler; not today's ``fast``), since retired: the 150 rpm case now runs at
+``faithful``.
                                     [--out docs/contact_check.json]
 
 Each run (PRESET:RPM:SECONDS[:off]) starts from rest at a constant motor speed, with contact on
@@ -29,7 +31,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 DEFAULT_RUNS = ["balanced:10:20", "balanced:10:20:off", "balanced:90:100", "balanced:90:100:off",
-                "coarse:150:25", "coarse:150:25:off", "paper:10:5", "paper:10:5:off", "paper:90:100"]
+                "faithful:150:25", "faithful:150:25:off", "paper:10:5", "paper:10:5:off", "paper:90:100"]
 #: retired presets these runs still use: name -> (today's preset, numerics changed on top of it)
 RETIRED_PRESETS = {"balanced": ("paper", {"dt": 0.02, "newton_tol": 1e-5})}
 

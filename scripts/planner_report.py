@@ -28,7 +28,7 @@ from agents.turn_map import PLANNER_OMEGA_H_RPM, TurnMap
 
 DOCS = Path("docs")
 TEMPLATE = Path(__file__).with_name("templates") / "planner.md"
-PRESETS = ("faithful", "paper", "fast", "coarse")
+PRESETS = ("faithful", "paper", "fast")  # coarse retired (docs/presets.md)
 BURST_RPM = (60, 90, 150)
 LEVELS = ("0", "0.1")
 

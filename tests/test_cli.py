@@ -199,3 +199,44 @@ def test_train_help_names_both_engines_and_the_ray_controller(capsys):
         main(["train", "--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert "--engine {sb3,ray}" in text and "rllib_ppo_surrogate.yml" in text and "--controller rllib:DIR" in text
+
+
+RETIRED = {"coarse": "slower than 'faithful' and wrong: it does not buckle"}
+
+
+@pytest.mark.parametrize("preset", sorted(RETIRED))
+@pytest.mark.parametrize("command", [["simulate", "--omega-rpm", "10", "--duration", "0.1"], ["params"],
+                                     ["calibrate-turns", "--t-c", "5", "--phases", "0"],
+                                     ["follow", "--path", "square"], ["evaluate", "--paths", "square"]])
+def test_a_retired_preset_is_refused_on_one_line_with_status_2_before_any_output(usage_error, capsys, tmp_path,
+                                                                                   command, preset):
+    out = tmp_path / "o"
+    argv = [*command, "--preset", preset] + ([] if command == ["params"] else ["--out", str(out)])
+    line = usage_error(argv)
+    assert line == (f"flagellum: error: argument --preset: preset {preset!r} was retired ({RETIRED[preset]}; "
+                    "docs/bench_quick.md); use 'faithful' (the default), or FlagellumTurn-surrogate-v0 / "
+                    f"FlagellumBurst-surrogate-v0 for a cheap turn-level swimmer (see 'flagellum {command[0]} --help')")
+    assert capsys.readouterr().out == "" and not out.exists()
+
+
+def test_the_preset_choices_in_help_are_the_live_presets_only(capsys):
+    with pytest.raises(SystemExit):
+        main(["simulate", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "{reference,paper,faithful,fast}" in text and "coarse" not in text
+
+
+@pytest.mark.parametrize("preset", sorted(RETIRED))
+def test_a_training_config_with_a_retired_preset_is_refused_before_any_output(usage_error, capsys, tmp_path, preset):
+    import yaml
+
+    from agents.assets import package_file
+
+    doc = yaml.safe_load(package_file("configs", "ppo_residual_adaptive.yml").read_text())
+    doc[next(iter(doc))]["task"]["preset"] = preset
+    cfg, out = tmp_path / "cfg.yml", tmp_path / "o"
+    cfg.write_text(yaml.safe_dump(doc))
+    line = usage_error(["train", "--config", str(cfg), "--out", str(out)])
+    assert str(cfg) in line and f"preset {preset!r} was retired ({RETIRED[preset]}; docs/bench_quick.md); use " \
+                                  "'faithful' (the default)" in line
+    assert capsys.readouterr().out == "" and not out.exists()

@@ -47,7 +47,7 @@ def test_output_folders_that_cannot_be_made_are_named(usage_error, a_file, one_t
 
 
 @pytest.mark.parametrize("command", [["bench", "--quick"], ["evaluate", "--paths", "square", "--controller", "rule"],
-                                     ["calibrate-turns", "--preset", "coarse"], ["follow", "--path", "square"]])
+                                     ["calibrate-turns", "--preset", "faithful"], ["follow", "--path", "square"]])
 @pytest.mark.parametrize("value", ["-1", "0", "1.5", "many"])
 def test_workers_must_be_a_whole_number_of_at_least_one(usage_error, tmp_path, command, value):
     line = usage_error(command + ["--workers", value, "--out" if command[0] != "bench" else "--json",
@@ -116,7 +116,7 @@ def test_a_failing_turn_in_calibrate_turns_is_one_line_with_advice_that_does_not
         return []
 
     monkeypatch.setattr(turn_calibration, "run_tasks", all_fail)
-    line = usage_error(["calibrate-turns", "--preset", "coarse", "--t-c", "5", "--phases", "0", "--out",
+    line = usage_error(["calibrate-turns", "--preset", "faithful", "--t-c", "5", "--phases", "0", "--out",
                                  str(tmp_path / "m.json"), "--no-progress"])
     assert "1 of 1 turns were not measured" in line and "t_c=5 s" in line and "Newton failed at t=3" in line
     assert "leave its burst length out of --t-c" in line
@@ -127,7 +127,7 @@ def test_a_bad_training_setting_names_the_file_and_the_key(usage_error, tmp_path
 
     from agents.assets import package_file
 
-    doc = yaml.safe_load(package_file("configs", "ppo_residual_coarse.yml").read_text())
+    doc = yaml.safe_load(package_file("configs", "ppo_residual_adaptive.yml").read_text())
     doc[next(iter(doc))]["learning_rate"] = -1
     cfg = tmp_path / "cfg.yml"
     cfg.write_text(yaml.safe_dump(doc))
@@ -137,7 +137,7 @@ def test_a_bad_training_setting_names_the_file_and_the_key(usage_error, tmp_path
 
 @pytest.mark.parametrize("command", [["sweep", "--config", "examples/sweep_small.yaml"],
                                      ["evaluate", "--paths", "square", "--controller", "rule"],
-                                     ["calibrate-turns", "--preset", "coarse"], ["bench", "--quick"]])
+                                     ["calibrate-turns", "--preset", "faithful"], ["bench", "--quick"]])
 @pytest.mark.parametrize("address, fragments", [
     ("nope", ["--scheduler 'nope'", "tcp://HOST:PORT"]),
     ("tcp://127.0.0.1:99999", ["'tcp://127.0.0.1:99999'", "tcp://HOST:PORT"]),
@@ -163,7 +163,7 @@ def test_a_scheduler_nobody_listens_at_fails_at_once_with_its_address(usage_erro
 
 
 @pytest.mark.parametrize("command, module", [(["evaluate", "--paths", "square", "--controller", "rule"], evaluation),
-                                             (["calibrate-turns", "--preset", "coarse"], turn_calibration)])
+                                             (["calibrate-turns", "--preset", "faithful"], turn_calibration)])
 def test_evaluate_and_calibrate_turns_pass_the_scheduler_to_the_task_pool(tmp_path, command, module, monkeypatch):
     import batch.backends as backends
 
@@ -229,7 +229,7 @@ def _wait_for_workers(proc: subprocess.Popen, n: int, deadline_s: float = 120.0)
 
 
 def test_sigterm_stops_simulate_like_ctrl_c_and_writes_what_was_computed(tmp_path):
-    proc = _cli(["simulate", "--omega-rpm", "10", "--duration", "5000", "--preset", "coarse", "--out",
+    proc = _cli(["simulate", "--omega-rpm", "10", "--duration", "5000", "--preset", "faithful", "--out",
                  str(tmp_path / "o")], tmp_path)
     seen = b""
     while b"%|" not in seen:  # the progress bar is up: the simulation runs
@@ -270,7 +270,7 @@ def test_sigterm_stops_evaluate_and_its_workers(tmp_path, one_turn):
 
 def test_workers_exit_when_their_parent_is_killed(tmp_path):
     cfg = tmp_path / "long.yaml"
-    cfg.write_text("preset: coarse\nsweep: {omega_rpm: [10, 20]}\nduration_s: 5000\n")
+    cfg.write_text("preset: faithful\nsweep: {omega_rpm: [10, 20]}\nduration_s: 5000\n")
     proc = _cli(["sweep", "--config", str(cfg), "--workers", "2", "--no-progress", "--out", str(tmp_path / "o")],
                 tmp_path, start_new_session=True)
     workers = _wait_for_workers(proc, 2)
@@ -297,7 +297,7 @@ def test_an_unknown_option_before_the_command_is_named(usage_error):
 
 @pytest.mark.parametrize("command", [["sweep", "--config", "examples/sweep_small.yaml"],
                                      ["evaluate", "--paths", "square", "--controller", "rule"],
-                                     ["calibrate-turns", "--preset", "coarse"]])
+                                     ["calibrate-turns", "--preset", "faithful"]])
 def test_an_absurd_number_of_workers_is_refused(usage_error, tmp_path, command):
     line = usage_error(command + ["--workers", "100000", "--out", str(tmp_path / "o")])
     assert "--workers '100000'" in line and "<= 256" in line
@@ -306,7 +306,7 @@ def test_an_absurd_number_of_workers_is_refused(usage_error, tmp_path, command):
 
 def test_calibrate_turns_refuses_a_folder_as_out_before_measuring(usage_error, tmp_path, monkeypatch):
     monkeypatch.setattr(turn_calibration, "run_tasks", lambda *a, **k: pytest.fail("a turn was measured"))
-    line = usage_error(["calibrate-turns", "--preset", "coarse", "--t-c", "5", "--phases", "0", "--out",
+    line = usage_error(["calibrate-turns", "--preset", "faithful", "--t-c", "5", "--phases", "0", "--out",
                         str(tmp_path)])
     assert f"--out {str(tmp_path)!r} is a folder" in line and ".json" in line
     assert list(tmp_path.iterdir()) == []  # no runs folder, no stray .tmp
@@ -321,7 +321,7 @@ def test_calibrate_turns_refuses_a_folder_as_out_before_measuring(usage_error, t
 def test_empty_and_repeated_controllers_are_refused_before_any_output(usage_error, tmp_path, one_turn, command,
                                                                       controllers, fragment, monkeypatch):
     monkeypatch.setattr(evaluation, "run_tasks", lambda *a, **k: pytest.fail("an episode ran"))
-    argv = [command, "--path" if command == "follow" else "--paths", str(one_turn), "--preset", "coarse"]
+    argv = [command, "--path" if command == "follow" else "--paths", str(one_turn), "--preset", "faithful"]
     for c in controllers:
         argv += ["--controller", c]
     line = usage_error(argv + ["--out", str(tmp_path / "o")])
@@ -358,7 +358,7 @@ def test_train_refuses_bad_policy_kwargs_before_creating_the_out_folder(usage_er
 
     from agents.assets import package_file
 
-    doc = yaml.safe_load(package_file("configs", "ppo_residual_coarse.yml").read_text())
+    doc = yaml.safe_load(package_file("configs", "ppo_residual_adaptive.yml").read_text())
     doc[next(iter(doc))]["policy_kwargs"] = policy_kwargs
     cfg = tmp_path / "cfg.yml"
     cfg.write_text(yaml.safe_dump(doc))
@@ -413,7 +413,7 @@ def test_calibrate_turns_resume_refuses_another_calibration(usage_error, tmp_pat
     """Issue 24: other --t-c / --phases / --set replaced an 8-point map by a 1-point one, mixing two swimmers."""
     monkeypatch.setattr(turn_calibration, "run_tasks", lambda todo, store, **k: [(t, "interrupted") for t in todo])
     out = tmp_path / "m.json"
-    base = ["calibrate-turns", "--preset", "coarse", "--t-c", "5", "6", "--phases", "0", "--out", str(out),
+    base = ["calibrate-turns", "--preset", "faithful", "--t-c", "5", "6", "--phases", "0", "--out", str(out),
             "--no-progress"]
     usage_error(base)  # nothing measured (the stub), but the runs folder now says which calibration it holds
     for extra, fragment in [(["--t-c", "5"], "t_c_values is [5.0, 6.0] there and [5.0] here"),

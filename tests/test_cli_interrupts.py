@@ -1,6 +1,6 @@
 """Issue 24: `follow` and `train` stopped by Ctrl-C (SIGINT) or SIGTERM write what they computed and exit 130 without
 a traceback; killing `train` (SIGKILL) leaves none of its env worker processes behind. Real processes, as in
-tests/test_cli_faults.py. The training runs are tiny (coarse preset, one-turn paths) but still take ~30-45 s each:
+tests/test_cli_faults.py. The training runs are tiny (faithful preset, one-turn paths) but still take ~30-45 s each:
 the start of a run (imports, the envs' steady start, the first decision) is most of it."""
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import yaml
 pytest.importorskip("psutil")
 import psutil  # noqa: E402
 
-# long enough that the episode is still running when the signal comes (~1000 simulated s: a minute even at coarse)
+# long enough that the episode is still running when the signal comes (~1000 simulated s: a minute even at faithful)
 LONG = {"name": "long", "waypoints": [[0.2, 0.0, 0.0], [0.2, 0.2, 0.0]], "reach_radius_m": 0.01}
 ONE_TURN = {"n_waypoints": 1, "segment_length_m": [0.03, 0.04], "min_turn_deg": 70.0, "max_turn_deg": 90.0}
 
@@ -27,7 +27,7 @@ ONE_TURN = {"n_waypoints": 1, "segment_length_m": [0.03, 0.04], "min_turn_deg": 
 def tiny_config(n_envs: int) -> dict:
     return {"tiny": {"n_envs": n_envs, "n_timesteps": 400, "seed": 0, "checkpoint_every": 100, "n_steps": 4,
                      "batch_size": 4, "n_epochs": 1, "policy_kwargs": {"net_arch": [8], "log_std_init": -1.0},
-                     "task": {"preset": "coarse", "limits": {"max_dtc_fraction": 0.1},
+                     "task": {"preset": "faithful", "limits": {"max_dtc_fraction": 0.1},
                               "curriculum": [{"name": "one", "until": 400, "random_path": ONE_TURN}],
                               "validation": {"seeds": [5], "every": 1000, "random_path": ONE_TURN}}}}
 
@@ -92,7 +92,7 @@ def test_an_interrupted_follow_writes_the_episode_so_far(tmp_path, sig):
     path = tmp_path / "long.json"
     path.write_text(json.dumps(LONG))
     out = tmp_path / "o"
-    proc = _cli(["follow", "--path", str(path), "--preset", "coarse", "--out", str(out), "--no-progress"], tmp_path)
+    proc = _cli(["follow", "--path", str(path), "--preset", "faithful", "--out", str(out), "--no-progress"], tmp_path)
     try:
         _wait_for(proc, lambda: out.is_dir())  # the episode is about to start (controllers built, folder made)
         time.sleep(3.0)  # into the episode
@@ -116,7 +116,7 @@ def test_an_interrupted_parallel_follow_writes_every_episode_so_far(tmp_path):
     path = tmp_path / "long.json"
     path.write_text(json.dumps(LONG))
     out = tmp_path / "o"
-    proc = _cli(["follow", "--path", str(path), "--preset", "coarse", "--controller", "rule", "--controller",
+    proc = _cli(["follow", "--path", str(path), "--preset", "faithful", "--controller", "rule", "--controller",
                  "adaptive", "--out", str(out), "--no-progress"], tmp_path)
     kids: list[psutil.Process] = []
     try:

@@ -36,7 +36,7 @@ ONE_TURN = '{"name": "one_turn", "waypoints": [[0.02, 0.0, 0.0], [0.02, 0.08, 0.
 TINY_TRAINING = {"tiny": {
     "n_envs": 1, "n_timesteps": 3, "seed": 0, "checkpoint_every": 1, "n_steps": 3, "batch_size": 3, "n_epochs": 1,
     "policy_kwargs": {"net_arch": [8], "log_std_init": -1.0},
-    "task": {"preset": "coarse", "limits": {"max_dtc_fraction": 0.1},
+    "task": {"preset": "faithful", "limits": {"max_dtc_fraction": 0.1},
              "curriculum": [{"name": "one", "until": 3, "random_path": {
                  "n_waypoints": 1, "segment_length_m": [0.03, 0.04], "min_turn_deg": 70.0, "max_turn_deg": 90.0}}],
              "validation": {"seeds": [5], "every": 3, "random_path": {
@@ -46,8 +46,8 @@ TINY_TRAINING = {"tiny": {
 #: folder. Each name is the one its document gives.
 SHORTENED: dict[str, tuple[tuple[str, str], ...]] = {
     "one burst, one-turn path": (
-        (r"calibrate-turns --preset coarse\b",
-         "calibrate-turns --preset coarse --t-c 1 --phases 0 --out {scratch}/coarse.json"),
+        (r"calibrate-turns --preset faithful\b",
+         "calibrate-turns --preset faithful --t-c 1 --phases 0 --out {scratch}/faithful.json"),
         (r"--path square\b", "--path {scratch}/one_turn.json"),
         (r"--paths eval\b", "--paths {scratch}/one_turn.json"),
     ),

@@ -131,7 +131,7 @@ def test_relative_error_floors_angles_only():
 
 def test_bench_runs_its_tasks_on_a_dask_cluster_with_scheduler(tmp_path, monkeypatch):
     """``flagellum bench --quick --scheduler ADDR`` on a Dask LocalCluster. Every task but the cheapest
-    (coarse: steady swimming) is already in ``--results`` (resume), so one real task runs, on the cluster."""
+    (faithful: steady swimming) is already in ``--results`` (resume), so one real task runs, on the cluster."""
     distributed = pytest.importorskip("distributed")
     import batch.backends as backends
     from flagellum.cli import main
@@ -143,7 +143,7 @@ def test_bench_runs_its_tasks_on_a_dask_cluster_with_scheduler(tmp_path, monkeyp
     monkeypatch.setattr(backends, "LocalBackend", no_local_processes)
     configs = quick_configs()
     tasks = quick_tasks(configs)
-    cheap = next((c, m) for c, m in tasks if c.name == "coarse" and m == "swim_per_turn_10rpm")
+    cheap = next((c, m) for c, m in tasks if c.name == "faithful" and m == "swim_per_turn_10rpm")
     stubs = {"swim_per_turn_10rpm": {"swim_per_turn_10rpm": 0.0028, "rtf": 1.0, "rtf_cpu": 1.0, "wall_s": 1.0},
              "burst": {"theta_burst": 80.0, "phi_burst": 80.0, "lratio_burst": 0.5, "straight": True, "rtf": 1.0,
                        "rtf_cpu": 1.0, "wall_s": 1.0},
@@ -164,7 +164,7 @@ def test_bench_runs_its_tasks_on_a_dask_cluster_with_scheduler(tmp_path, monkeyp
     lines = results.read_text().splitlines()
     assert len(lines) == len(tasks)
     rec = json.loads(lines[-1])
-    assert rec["config"] == "coarse" and rec["metric"] == "swim_per_turn_10rpm" and rec["error"] is None
+    assert rec["config"] == "faithful" and rec["metric"] == "swim_per_turn_10rpm" and rec["error"] is None
     assert 0.001 < rec["result"]["swim_per_turn_10rpm"] < 0.01  # m per motor turn
     rows = json.loads((tmp_path / "quick.json").read_text())
     assert [r["config"] for r in rows] == [c.name for c in configs]
@@ -174,4 +174,4 @@ def test_bench_runs_its_tasks_on_a_dask_cluster_with_scheduler(tmp_path, monkeyp
     assert row["errors"]["theta"] == 0.0 and row["episode_wall_s"] == 9.0  # the stubs equal reference's
     assert row["env_steps_per_s_random"] == 4.0
     assert next(r for r in rows if r["config"] == "reference")["episode_wall_s"] is None  # not run for reference
-    assert "coarse" in (tmp_path / "quick.md").read_text()
+    assert "faithful" in (tmp_path / "quick.md").read_text()

@@ -78,12 +78,12 @@ def test_zip_expansion_pairs_the_i_th_values():
 
 
 def test_preset_then_fixed_then_point_values_are_applied_in_that_order():
-    config = SweepConfig(sweep={"dt": [0.01]}, duration_s=0.1, preset="coarse", fixed={"omega_rpm": 10, "n_nodes": 26})
+    config = SweepConfig(sweep={"dt": [0.01]}, duration_s=0.1, preset="paper", fixed={"omega_rpm": 10, "n_nodes": 26})
     (point,) = config.points()
     assert point.params.n_nodes == 26 and point.numerics.dt == 0.01
     from physics.presets import PRESETS
 
-    assert point.numerics.hydro_refresh_tol == PRESETS["coarse"]["numerics"]["hydro_refresh_tol"]  # from the preset
+    assert point.numerics.hydro_refresh_tol == PRESETS["paper"]["numerics"]["hydro_refresh_tol"]  # from the preset
     assert point.omega_rpm == 10.0
 
 
@@ -101,6 +101,7 @@ BAD_CONFIGS = [
     ({"sweep": {"omega_rpm": [10]}, "duration_s": "long"}, ["duration_s", "'long'", "not a number"]),
     ({"sweep": {"omega_rpm": [10]}, "duration_s": 0.01}, ["duration_s", "dt = 0.02"]),
     ({"sweep": {"omega_rpm": [10]}, "preset": "turbo"}, ["preset", "'turbo'", "paper", "fast"]),
+    ({"sweep": {"omega_rpm": [10]}, "preset": "coarse"}, ["preset 'coarse' was retired", "use 'faithful'"]),
     ({"sweep": {"omega_rpm": [10]}, "mode": "cartesian"}, ["mode", "'cartesian'", "grid", "zip"]),
     ({"sweep": {"omega_rpm": [10, 20], "head_radius": [0.0]}, "mode": "zip"}, ["zip", "equal length", "grid"]),
     ({"sweep": {"head_radius": [0.0]}}, ["omega_rpm", "missing", "fixed"]),

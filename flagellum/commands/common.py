@@ -8,7 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from physics import NumericsConfig, SwimmerParams, configure, preset_names
-from physics.presets import DEFAULT_PRESET, PRESETS
+from physics.presets import DEFAULT_PRESET, PRESETS, RETIRED_PRESETS, retired_preset_message
 
 
 class UsageError(Exception):
@@ -21,6 +21,14 @@ PARAMETER_DEFAULTS = "the parameter defaults: the paper's model at h = 1 ms, as 
 DEFAULT_PRESET_ARG = (DEFAULT_PRESET, f"{DEFAULT_PRESET} (the paper's grid with error-controlled "
                                       f"{PRESETS[DEFAULT_PRESET]['numerics']['integrator'].upper()} steps; "
                                       "its accuracy against 'reference': docs/bench_quick.md)")
+
+
+def preset_argument(value: str) -> str:
+    """``--preset``'s type: a retired preset is refused with its own one-line message (argparse's choices, the
+    live presets only, refuse the rest)."""
+    if value in RETIRED_PRESETS:
+        raise argparse.ArgumentTypeError(retired_preset_message(value))
+    return value
 
 
 def add_common_arguments(parser: argparse.ArgumentParser, accepts_set: bool = True,
@@ -38,7 +46,7 @@ def add_common_arguments(parser: argparse.ArgumentParser, accepts_set: bool = Tr
         parser.set_defaults(preset=None)
         return
     default, meaning = preset
-    parser.add_argument("--preset", choices=preset_names(), default=default,
+    parser.add_argument("--preset", type=preset_argument, choices=preset_names(), default=default,
                         help="speed/accuracy preset" + (", applied before --set" if accepts_set else "")
                              + f" (reference = the converged yardstick, paper = the paper's 1 ms implicit Euler; errors of each: docs/bench_quick.md); default: {meaning}")
 

@@ -92,7 +92,7 @@ def _run_ray(args: argparse.Namespace, config_file: Path) -> int:
                          "extra: pip install '.[ray]' in a clone (or 'flagellum-swimmer[ray]')") from None
     if args.preset is not None:
         raise UsageError(f"--preset {args.preset} is not used with --engine ray; allowed: the config's env_id and "
-                         "env_kwargs (e.g. env_kwargs: {preset: coarse})")
+                         "env_kwargs (e.g. env_kwargs: {preset: fast})")
     try:
         config = RayTrainConfig.from_yaml(config_file)
         if args.address is not None:

@@ -27,10 +27,22 @@ def test_every_preset_has_a_shipped_turn_map_that_loads():
 def test_a_users_turn_map_is_preferred_to_the_shipped_one(tmp_path, monkeypatch):
     monkeypatch.setenv("FLAGELLUM_TURN_MAPS", str(tmp_path))
     assert user_turn_map_dir() == tmp_path
-    assert default_turn_map("coarse") == packaged_turn_map("coarse")
-    (tmp_path / "coarse.json").write_text(packaged_turn_map("coarse").read_text())
-    assert default_turn_map("coarse") == tmp_path / "coarse.json"
+    assert default_turn_map("faithful") == packaged_turn_map("faithful")
+    (tmp_path / "faithful.json").write_text(packaged_turn_map("faithful").read_text())
+    assert default_turn_map("faithful") == tmp_path / "faithful.json"
     assert default_turn_map("paper") == packaged_turn_map("paper")
+
+
+@pytest.mark.parametrize("preset", ["coarse"])
+def test_a_retired_presets_turn_map_is_refused_naming_the_replacement(preset, tmp_path, monkeypatch):
+    from agents.turn_decision_env import load_turn_map
+
+    monkeypatch.setenv("FLAGELLUM_TURN_MAPS", str(tmp_path))
+    (tmp_path / f"{preset}.json").write_text(packaged_turn_map("faithful").read_text())  # even a user's own
+    assert not (ROOT / "agents" / "turn_maps" / f"{preset}.json").exists()
+    for lookup in (default_turn_map, packaged_turn_map, lambda p: load_turn_map(None, p)):
+        with pytest.raises(ValueError, match=f"^preset {preset!r} was retired .*; use 'faithful' \\(the default\\)"):
+            lookup(preset)
 
 
 def test_the_user_folder_defaults_to_xdg_data_home(tmp_path, monkeypatch):

@@ -144,10 +144,12 @@ def test_a_bad_action_is_refused():
 
 
 def test_flagellum_turn_is_bit_identical_to_before_the_shared_code():
-    """FlagellumTurn-v0 (coarse, a randomised swimmer, two fixed corrections) as recorded at 5c2c9bf, before its
-    base env and info were shared with FlagellumBurst-v0 (tests/agents/data/turn_env_coarse_seed3.json)."""
-    ref = json.loads((DATA / "turn_env_coarse_seed3.json").read_text())
-    env = gym.make("FlagellumTurn-v0", preset="coarse",
+    """FlagellumTurn-v0 (faithful, a randomised swimmer, a short two-turn path, two fixed corrections) as recorded
+    at e5953da (tests/agents/data/turn_env_faithful_seed3.json). It replaces the recording on the retired coarse preset
+    made at 5c2c9bf, before the base env and info were shared with FlagellumBurst-v0; that one was still reproduced
+    bit for bit at e5953da, and this one was recorded there, so together they hold the shared code unchanged."""
+    ref = json.loads((DATA / "turn_env_faithful_seed3.json").read_text())
+    env = gym.make("FlagellumTurn-v0", preset="faithful",
                    paths=[path_from_waypoints(ref["path"], name="p", reach_radius_m=0.015)],
                    env_kwargs={"reward": {"cross_track_per_cm_s": 0.05},
                                "randomize": {"youngs_modulus": 0.1}}).unwrapped

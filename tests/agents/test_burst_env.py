@@ -51,6 +51,8 @@ def test_an_action_that_is_not_three_finite_numbers_is_refused(bad):
                                            ({"limits": {"t_c_max_s": -1.0}}, "t_c_max_s"),
                                            ({"planner": "rule"}, "unknown argument"),
                                            ({"preset": "fast"}, "preset='fast'"),
+                                           ({"preset": "coarse"}, "preset 'coarse' was retired"),
+                                           ({"preset": "turbo"}, "preset='turbo'"),
                                            ({"render_mode": "rgb_array"}, "render_mode")])
 def test_bad_arguments_are_refused_in_one_line(kwargs, match):
     with pytest.raises(ValueError, match=match) as err:

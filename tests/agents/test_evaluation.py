@@ -22,11 +22,11 @@ def test_controllers_followed_at_once_match_one_after_the_other():
     from flagellum_env.steer_env import FlagellumSteerEnv
 
     path, specs = SHORT, ["rule", "adaptive"]
-    got, interrupted = follow_controllers([FollowTask(s, path, "coarse") for s in specs], workers=2)
+    got, interrupted = follow_controllers([FollowTask(s, path, "faithful") for s in specs], workers=2)
     assert interrupted is False and list(got) == specs
     for spec in specs:
-        env = FlagellumSteerEnv(path=path, **env_settings(spec, "coarse"))
-        metrics, trace = run_episode(env, make_controller(spec, env, "coarse"), path)
+        env = FlagellumSteerEnv(path=path, **env_settings(spec, "faithful"))
+        metrics, trace = run_episode(env, make_controller(spec, env, "faithful"), path)
         par_metrics, par_trace = got[spec]
         assert par_metrics["time_s"] > 0.0 and "interrupted" not in par_metrics
         for field in ("t", "head", "omega_rpm", "end_to_end_ratio", "cross_track_m", "waypoint_index"):
@@ -37,7 +37,7 @@ def test_controllers_followed_at_once_match_one_after_the_other():
 
 def test_evaluate_writes_results_and_resumes(tmp_path, monkeypatch):
     out = tmp_path / "eval"
-    res = evaluate([SHORT], ["rule"], "coarse", out, workers=1, progress=False)
+    res = evaluate([SHORT], ["rule"], "faithful", out, workers=1, progress=False)
     doc = json.loads((out / "results.json").read_text())
     assert doc == json.loads(json.dumps(res))
     row = doc["per_path"][0]
@@ -53,11 +53,11 @@ def test_evaluate_writes_results_and_resumes(tmp_path, monkeypatch):
     assert "| success rate (%) | 100 |" in (out / "results.md").read_text()
     # a resumed run starts no worker and gives the same numbers
     monkeypatch.setattr(task_pool, "make_backend", lambda *a: pytest.fail("resume started workers"))
-    again = evaluate([SHORT], ["rule"], "coarse", out, resume=True, progress=False)
+    again = evaluate([SHORT], ["rule"], "faithful", out, resume=True, progress=False)
     assert again["per_path"][0]["time_s"] == row["time_s"]
     # report-only lists what was never run instead of running it
     other = path_from_waypoints([[0.0, 0.004, 0.0]], name="other")
-    partial = evaluate([SHORT, other], ["rule"], "coarse", out, report_only=True, progress=False)
+    partial = evaluate([SHORT, other], ["rule"], "faithful", out, report_only=True, progress=False)
     assert partial["missing"] == ["rule on other"] and len(partial["per_path"]) == 1
 
 
@@ -66,10 +66,10 @@ def test_seed0_draws_each_paths_swimmer_from_its_own_seed_and_the_report_pairs_t
 
     out = tmp_path / "eval"
     other = path_from_waypoints([[0.0, 0.004, 0.0]], name="other", reach_radius_m=0.002)
-    res = evaluate([SHORT, other], ["rule"], "coarse", out, workers=1, progress=False, seed_per_path=True, seed0=7)
+    res = evaluate([SHORT, other], ["rule"], "faithful", out, workers=1, progress=False, seed_per_path=True, seed0=7)
     assert res["seeds"] == {"short": 7, "other": 8}
     with pytest.raises(ValueError, match="seed0"):
-        evaluate([SHORT], ["rule"], "coarse", tmp_path / "e2", workers=1, progress=False, seed0=-1)
+        evaluate([SHORT], ["rule"], "faithful", tmp_path / "e2", workers=1, progress=False, seed0=-1)
     lines = folder_report(out, tmp_path / "figures", "short_paths")
     text = "\n".join(lines)
     assert "| other (8) | " in text and "| short (7) | yes (1/1)" in text
@@ -134,7 +134,7 @@ def test_resolve_paths_errors_and_folders(tmp_path):
     (["evaluate", "--paths", "square", "--controller", "rule", "--seed0", "-1"], "--seed0 '-1' is not allowed"),
     (["follow", "--path", "square", "--controller", "ppo:no_agent_here"], "no trained PPO agent"),
     (["follow", "--path", "square", "--controller", "rule:nomap.json"], "no turn map at 'nomap.json'"),
-    (["calibrate-turns", "--preset", "coarse", "--t-c", "-1"], "--t-c '-1' is not allowed"),
+    (["calibrate-turns", "--preset", "faithful", "--t-c", "-1"], "--t-c '-1' is not allowed"),
 ])
 def test_cli_rejects_bad_input(argv, message, capsys, tmp_path):
     with pytest.raises(SystemExit) as info:
@@ -166,7 +166,7 @@ def test_follow_randomize_draws_the_swimmer_from_the_seed_and_records_it(tmp_pat
     for name, extra in (("nominal", []), ("a", ["--randomize", "0.1", "--seed", "3"]),
                         ("b", ["--randomize", "0.1", "--seed", "3"])):
         out = tmp_path / name
-        assert main(["follow", "--path", str(path), "--preset", "coarse", "--no-progress", "--out", str(out)]
+        assert main(["follow", "--path", str(path), "--preset", "faithful", "--no-progress", "--out", str(out)]
                     + extra) == 0
         runs[name] = json.loads((out / "summary.json").read_text())
     assert runs["nominal"]["randomize"] is None

@@ -126,15 +126,15 @@ def test_config_is_validated():
         HorizonConfig(beam=0)
 
 
-def test_horizon_episode_on_the_coarse_preset():
+def test_horizon_episode_on_the_faithful_preset():
     from agents.path_following import make_controller, run_episode
     from flagellum_env.paths import path_from_waypoints
     from flagellum_env.steer_env import FlagellumSteerEnv
 
     # a 60 deg turn 2 cm ahead, then 12 cm: long enough for the turn to be observed
     path = path_from_waypoints([[0.02, 0.0, 0.0], [0.08, 0.104, 0.0]], name="one_turn", reach_radius_m=0.015)
-    env = FlagellumSteerEnv(path=path, preset="coarse", control_dt=0.1)
-    planner = make_controller("horizon", env, "coarse")
+    env = FlagellumSteerEnv(path=path, preset="faithful", control_dt=0.1)
+    planner = make_controller("horizon", env, "faithful")
     t0 = time.process_time()
     metrics, _ = run_episode(env, planner, path)
     cpu = time.process_time() - t0

@@ -112,9 +112,9 @@ def test_controller_spec_carries_the_line_weight():
     assert controller_kind("adaptive@line=2") == "adaptive" and controller_options("adaptive@line=2") == {"line": 2.0}
     assert controller_options("rule@line=0.5:some/map.json") == {"line": 0.5}
     assert controller_options("rule") == {} and controller_options("ppo:agents/x@y") == {}
-    env = FlagellumSteerEnv(path=path_from_waypoints([[0.05, 0.0, 0.0]]), preset="coarse", control_dt=0.1)
-    assert make_controller("rule@line=3", env, "coarse").config.line_weight == 3.0
-    assert make_controller("rule", env, "coarse").config.line_weight == 0.0
+    env = FlagellumSteerEnv(path=path_from_waypoints([[0.05, 0.0, 0.0]]), preset="faithful", control_dt=0.1)
+    assert make_controller("rule@line=3", env, "faithful").config.line_weight == 3.0
+    assert make_controller("rule", env, "faithful").config.line_weight == 0.0
     for bad, fragment in [("horizon@line=1", "none for 'horizon'"), ("rule@line=x", "line='x'"),
                           ("adaptive@bend=1", "option 'bend=1'")]:
         with pytest.raises(ValueError, match=fragment):
@@ -131,10 +131,10 @@ def test_a_residual_agent_may_correct_a_planner_with_a_line_weight():
     for bad in ("horizon", "adaptive:map.json", "rule@line=-2", "ppo"):
         with pytest.raises(ValueError, match=f"planner={bad!r} is not allowed"):
             base_planner(bad)
-    env = TurnDecisionEnv(preset="coarse", planner="adaptive@line=2")
+    env = TurnDecisionEnv(preset="faithful", planner="adaptive@line=2")
     assert isinstance(env.planner, AdaptiveResidualPlanner) and env.planner.config.line_weight == 2.0
     with pytest.raises(ValueError, match="planner='rule@bend=1' is not allowed"):
-        TurnDecisionEnv(preset="coarse", planner="rule@bend=1")
+        TurnDecisionEnv(preset="faithful", planner="rule@bend=1")
 
 
 def test_the_line_agents_config_differs_from_the_shipped_agents_in_the_planner_alone():

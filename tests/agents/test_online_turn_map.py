@@ -163,10 +163,10 @@ def test_adaptive_planner_reads_the_nominal_swimmer_as_nominal_and_learns_from_i
 
     # one turn of 60 deg (within the planner's 80 deg cap for one burst), then a segment long enough
     # for the heading to settle (the turn is observed). A 90 deg turn 2 cm from the start needs two
-    # capped bursts and the coarse swimmer overshoots the second waypoint and circles it (measured).
+    # capped bursts and the swimmer of the retired coarse preset overshot the second waypoint and circled it (measured).
     path = path_from_waypoints([[0.02, 0.0, 0.0], [0.12, 0.173, 0.0]], name="one_turn_long", reach_radius_m=0.015)
-    env = FlagellumSteerEnv(path=path, preset="coarse", control_dt=0.1)
-    planner = make_controller("adaptive", env, "coarse")
+    env = FlagellumSteerEnv(path=path, preset="faithful", control_dt=0.1)
+    planner = make_controller("adaptive", env, "faithful")
     metrics, _ = run_episode(env, planner, path)
     assert metrics["success"], metrics
     readings = planner.online_map.readings

@@ -27,7 +27,7 @@ ONE_TURN = path_from_waypoints([[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]], name="one_
 SHORT_TURN = {"n_waypoints": 1, "segment_length_m": [0.03, 0.04], "min_turn_deg": 70.0, "max_turn_deg": 90.0}
 TINY = {"tiny": {"n_envs": 1, "n_timesteps": 3, "seed": 0, "checkpoint_every": 1, "n_steps": 3, "batch_size": 3,
                  "n_epochs": 1, "policy_kwargs": {"net_arch": [8], "log_std_init": -1.0},
-                 "task": {"preset": "coarse", "limits": {"max_dtc_fraction": 0.1},
+                 "task": {"preset": "faithful", "limits": {"max_dtc_fraction": 0.1},
                           "curriculum": [{"name": "one", "until": 3, "random_path": SHORT_TURN}],
                           "validation": {"seeds": [5], "every": 3, "random_path": SHORT_TURN}}}}
 
@@ -92,9 +92,9 @@ def test_turn_features_describe_the_turn_the_next_corner_and_the_last_turns_erro
 
 
 def test_shipped_config_loads_and_held_out_seeds_are_refused(tmp_path):
-    cfg = TrainConfig.from_yaml("agents/configs/ppo_residual_coarse.yml")
-    assert cfg.preset == "coarse" and cfg.n_envs == 2 and cfg.max_wall_time_s <= 7200
-    assert cfg.stage_at(0).name == "single_turns" and cfg.stage_at(10_000).name == "eval_like"
+    cfg = TrainConfig.from_yaml("agents/configs/ppo_residual_adaptive.yml")
+    assert cfg.preset == "faithful" and cfg.n_envs == 4 and cfg.max_wall_time_s <= 7200
+    assert cfg.stage_at(0).name == "single_turns" and cfg.stage_at(10_000_000).name == "broad"
     assert all(s < 1000 for s in cfg.validation.seeds)
     assert [p.name for p in cfg.validation.paths()] == [f"{'planar' if i % 2 == 0 else '3d'}_{s}" for i, s in enumerate(cfg.validation.seeds)]
     bad = json.loads(json.dumps(TINY))
@@ -224,7 +224,7 @@ def test_resume_refuses_another_network_task_or_a_finished_run(tiny_run):
     meta_before = (out / "meta.json").read_text()
     for change, fragment in [(lambda c: c["tiny"]["policy_kwargs"].update(net_arch=[16]),
                               "policy_kwargs.net_arch is [8] there and [16] in this config"),
-                             (lambda c: c["tiny"]["task"].update(preset="fast"), "preset is 'coarse' there and 'fast'"),
+                             (lambda c: c["tiny"]["task"].update(preset="fast"), "preset is 'faithful' there and 'fast'"),
                              (lambda c: c["tiny"]["task"].update(action_cost=2.0), "action_cost is 0.0 there and 2.0")]:
         other = json.loads(json.dumps(TINY))
         other["tiny"]["n_timesteps"] = done + 3

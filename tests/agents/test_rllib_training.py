@@ -102,8 +102,8 @@ def test_cli_refuses_a_bad_ray_config_and_a_dead_address_before_writing(usage_er
     assert address in line
     assert not (tmp_path / "o" / "checkpoints").exists()
     line = usage_error(["train", "--engine", "ray", "--config", str(cfg), "--out", str(tmp_path / "o"),
-                        "--preset", "coarse"])
-    assert "--preset coarse" in line and "env_kwargs" in line
+                        "--preset", "paper"])
+    assert "--preset paper" in line and "env_kwargs" in line
 
 
 def test_a_tiny_local_run_checkpoints_resumes_and_flies_as_a_controller(tmp_path):
@@ -149,9 +149,9 @@ def test_a_tiny_local_run_checkpoints_resumes_and_flies_as_a_controller(tmp_path
     assert steps >= 1
     # ... and as a controller of FlagellumSteer (the planner corrected by it), as the ppo controller is built
     spec = f"rllib:{out}"
-    steer = gym.make("FlagellumSteer-coarse-v0", **{k: v for k, v in env_settings(spec, "coarse").items()
-                                                     if k != "preset"})
-    ctrl = make_controller(spec, steer, "coarse")
+    steer = gym.make("FlagellumSteer-v0", **{k: v for k, v in env_settings(spec, "faithful").items()
+                                              if k != "preset"})
+    ctrl = make_controller(spec, steer, "faithful")
     assert ctrl.agent.folder == agent.folder
     features = np.zeros(14, dtype=np.float32)
     assert np.array_equal(ctrl.policy(features), agent.act(features))

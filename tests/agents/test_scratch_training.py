@@ -31,10 +31,11 @@ def _with(task_changes=None, drop=()):
     ({"design": "bursts"}, "task.design='bursts' is not allowed; allowed: ['residual', 'burst']"),
     ({"tier": "reduced"}, "task.tier='reduced' is not allowed; allowed: ['physics', 'surrogate']"),
     ({"planner": "adaptive"}, "design 'burst' has no planner and no action_cost"),
-    ({"preset": "coarse"}, "task.preset='coarse' is not allowed with tier 'surrogate'"),
+    ({"preset": "paper"}, "task.preset='paper' is not allowed with tier 'surrogate'"),
+    ({"preset": "coarse"}, "preset 'coarse' was retired (slower than 'faithful' and wrong: it does not buckle"),
     ({"limits": {"t_c_max": 3.0}}, "t_c_max"),
     ({"limits": {"cruise_min_s": 0.0}}, "cruise_min_s"),
-    ({"tier": "physics", "preset": "coarse", "map_noise": {"direction_deg": 30, "turn_scale": 0.15}},
+    ({"tier": "physics", "preset": "paper", "map_noise": {"direction_deg": 30, "turn_scale": 0.15}},
      "task.map_noise is only allowed with design 'burst' and tier 'surrogate'"),
     ({"map_noise": {"direction_deg": 30, "turn_scale": 1.5}}, "task.map_noise['turn_scale']=1.5 is not allowed"),
     ({"cheap_fraction": 0.5}, "task.cheap_fraction is only allowed with design 'burst' and tier 'physics'"),
@@ -110,7 +111,7 @@ def test_a_short_scratch_run_writes_an_agent_resumes_and_refuses_another_design(
         assert list(d["timesteps"]) == [32, 64]
     model = PPO.load(str(out / "model.zip"), device="cpu")
     assert model.action_space.shape == (N_BURST_ACTIONS,) and model.observation_space.shape == (N_BURST_FEATURES,)
-    other = _with({"design": "residual", "tier": "physics", "preset": "coarse"}, drop=("limits",))
+    other = _with({"design": "residual", "tier": "physics", "preset": "paper"}, drop=("limits",))
     other["scratch"]["n_timesteps"] = 96
     with pytest.raises(ValueError, match="design"):
         train(TrainConfig.from_dict(other), out, resume=True, progress=False)

@@ -177,7 +177,8 @@ def test_the_action_cost_is_subtracted_per_decision():
 
 
 @pytest.mark.parametrize("kwargs, named", [
-    ({"preset": "coarse"}, "preset='coarse'"),
+    ({"preset": "paper"}, "preset='paper'"),
+    ({"preset": "coarse"}, "preset 'coarse' was retired"),
     ({"planner": "adaptive"}, "planner='adaptive'"),
     ({"render_mode": "rgb_array"}, "render_mode='rgb_array'"),
     ({"env_kwargs": {"randomize": {"viscosity": 0.3}}}, "viscosity=0.3"),
@@ -191,7 +192,7 @@ def test_bad_input_is_one_line_naming_the_value(kwargs, named):
     with pytest.raises(ValueError) as exc:
         gym.make(ID, **kwargs)
     msg = str(exc.value)
-    assert named in msg and "\n" not in msg and ("allowed" in msg or "must" in msg or "known" in msg)
+    assert named in msg and "\n" not in msg and ("allowed" in msg or "must" in msg or "known" in msg or "; use " in msg)
 
 
 def test_a_burst_beyond_the_maps_burst_lengths_is_reported_in_info(tmap, tmp_path):

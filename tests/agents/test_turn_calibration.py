@@ -1,4 +1,4 @@
-"""Calibration end to end (fast preset): a 4.5 s burst at 150 rpm (on the rising branch) turns the swimmer, by the same
+"""Calibration end to end (faithful preset): a 4.5 s burst at 150 rpm (on the rising branch) turns the swimmer, by the same
 angle whatever the flagellum's phase at the burst, and the phase sets the turn's direction."""
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ from physics.presets import apply_preset
 
 @pytest.fixture(scope="module")
 def calibrated(tmp_path_factory):
-    out = tmp_path_factory.mktemp("cal") / "coarse.json"
-    p, n = apply_preset("coarse")
-    tmap = calibrate_turns(p, n, out, preset="coarse", t_c_values=[4.5], phases_deg=[0.0, 90.0], workers=1,
+    out = tmp_path_factory.mktemp("cal") / "faithful.json"
+    p, n = apply_preset("faithful")
+    tmap = calibrate_turns(p, n, out, preset="faithful", t_c_values=[4.5], phases_deg=[0.0, 90.0], workers=1,
                            progress=False)
     return out, tmap
 
@@ -36,14 +36,14 @@ def test_map_file_round_trip_and_resume_runs_nothing(calibrated, monkeypatch):
     assert TurnMap.load(out) == tmap
     assert (runs_dir(out) / "results.jsonl").is_file()
     monkeypatch.setattr(task_pool, "make_backend", lambda *a: pytest.fail("resume started workers"))
-    p, n = apply_preset("coarse")
-    again = calibrate_turns(p, n, out, preset="coarse", t_c_values=[4.5], phases_deg=[0.0, 90.0], resume=True,
+    p, n = apply_preset("faithful")
+    again = calibrate_turns(p, n, out, preset="faithful", t_c_values=[4.5], phases_deg=[0.0, 90.0], resume=True,
                             progress=False)
     assert again.points == tmap.points
 
 
 def test_bad_grid_is_rejected_naming_the_values():
-    p, n = apply_preset("coarse")
+    p, n = apply_preset("faithful")
     with pytest.raises(ValueError, match="omega_l_rpm=20"):
         calibration_tasks(p, n, omega_l_rpm=20.0, omega_h_rpm=10.0)
     with pytest.raises(ValueError, match="phases"):
@@ -56,14 +56,14 @@ def test_a_turn_measured_on_a_dask_cluster_equals_the_local_one(calibrated, tmp_
 
     distributed = pytest.importorskip("distributed")
     out, tmap = calibrated
-    dask_out = tmp_path / "coarse.json"
+    dask_out = tmp_path / "faithful.json"
     shutil.copytree(runs_dir(out), runs_dir(dask_out))
     records = runs_dir(dask_out) / "results.jsonl"
     records.write_text(records.read_text().splitlines(keepends=True)[0])
-    p, n = apply_preset("coarse")
+    p, n = apply_preset("faithful")
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster:
-        again = calibrate_turns(p, n, dask_out, preset="coarse", t_c_values=[4.5], phases_deg=[0.0, 90.0],
+        again = calibrate_turns(p, n, dask_out, preset="faithful", t_c_values=[4.5], phases_deg=[0.0, 90.0],
                                 resume=True, progress=False, scheduler=cluster.scheduler_address)
     assert len(records.read_text().splitlines()) == 2
     assert again.points == tmap.points

@@ -1,8 +1,9 @@
-"""``import agents`` registers FlagellumTurn-v0 (``TurnDecisionEnv``) and its variants (``agents.registration``);
+"""``import agents`` registers FlagellumTurn-v0 (``TurnDecisionEnv``) and its surrogate and burst twins
+(``agents.registration``; the retired ``-coarse`` id only to refuse it);
 ``gymnasium.make`` builds each, both env checkers pass on each, bad arguments fail at construction, and the reward, ``info``, the no-turn case and seeding behave as
 docs/env.md says.
 
-Cheap on purpose (coarse preset, a one-turn path): with ``off_path_m = 0.02`` every episode leaves the path
+Cheap on purpose (a one-turn path): with ``off_path_m = 0.02`` every episode leaves the path
 during the first burst (~1.5 s of wall time per episode), which is all the checkers need; the test of the
 reward uses the same episode, the others paths that need no turn.
 """
@@ -21,7 +22,7 @@ import numpy as np
 import pytest
 
 import agents
-from agents.registration import BURST_ENV_IDS, SURROGATE_TURN_ENV_IDS, TURN_ENV_IDS
+from agents.registration import BURST_ENV_IDS, RETIRED_TURN_ENV_IDS, SURROGATE_TURN_ENV_IDS, TURN_ENV_IDS
 from agents.residual_planner import N_FEATURES
 from agents.turn_decision_env import TurnDecisionEnv
 from flagellum_env.paths import path_from_waypoints
@@ -29,7 +30,7 @@ from flagellum_env.paths import path_from_waypoints
 ROOT = Path(__file__).resolve().parents[2]
 # 2 cm ahead, then a left turn of 90 degrees and 8 cm: one planned turn
 ONE_TURN = path_from_waypoints([[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]], name="one_turn", reach_radius_m=0.015)
-CHEAP = {"preset": "coarse", "paths": [ONE_TURN], "env_kwargs": {"off_path_m": 0.02}}
+CHEAP = {"preset": "faithful", "paths": [ONE_TURN], "env_kwargs": {"off_path_m": 0.02}}
 INFO = {"path", "is_success", "waypoints_reached", "mean_cross_track_m", "time_s", "energy_J", "buckling_events",
         "turns"}
 
@@ -37,7 +38,7 @@ INFO = {"path", "is_success", "waypoints_reached", "mean_cross_track_m", "time_s
 def test_import_registers_the_turn_env_and_make_passes_arguments():
     assert agents.TURN_ENV_ID == "FlagellumTurn-v0"
     assert agents.TURN_ENV_ID in gym.registry
-    env = gym.make("FlagellumTurn-v0", preset="coarse", paths=[ONE_TURN], limits={"max_dtc_fraction": 0.1},
+    env = gym.make("FlagellumTurn-v0", preset="faithful", paths=[ONE_TURN], limits={"max_dtc_fraction": 0.1},
                    action_cost=0.5)
     base = env.unwrapped
     assert isinstance(base, TurnDecisionEnv)
@@ -73,26 +74,41 @@ def test_import_agents_is_light():
 
 def test_import_agents_registers_the_turn_ids_with_their_classes():
     r = _fresh_python("import gymnasium as gym, agents\n"
-                      "print(sorted((i, s.entry_point, s.max_episode_steps) for i, s in gym.registry.items() "
-                      "if i.startswith('Flagellum')))")
+                      "ours = {i: s for i, s in gym.registry.items() if i.startswith('Flagellum')}\n"
+                      "print(sorted((i, s.entry_point, s.max_episode_steps) for i, s in ours.items() "
+                      "if isinstance(s.entry_point, str)))\n"
+                      "print(sorted((i, s.entry_point.args) for i, s in ours.items() if not isinstance(s.entry_point, str)))")
     assert r.returncode == 0, r.stderr
-    assert r.stdout.strip() == str(sorted((i, e, None) for i, e in {**TURN_ENV_IDS, **SURROGATE_TURN_ENV_IDS,
-                                                                    **BURST_ENV_IDS}.items()))
-    assert sorted(TURN_ENV_IDS) == ["FlagellumTurn-coarse-v0", "FlagellumTurn-fast-v0", "FlagellumTurn-v0"]
+    live, retired = r.stdout.strip().splitlines()
+    assert live == str(sorted((i, e, None) for i, e in {**TURN_ENV_IDS, **SURROGATE_TURN_ENV_IDS,
+                                                           **BURST_ENV_IDS}.items()))
+    assert retired == str(sorted((i, (i, *v)) for i, v in RETIRED_TURN_ENV_IDS.items()))
+    assert sorted(TURN_ENV_IDS) == ["FlagellumTurn-fast-v0", "FlagellumTurn-v0"]
+    assert sorted(RETIRED_TURN_ENV_IDS) == ["FlagellumTurn-coarse-v0"]
     assert sorted(BURST_ENV_IDS) == ["FlagellumBurst-surrogate-v0", "FlagellumBurst-v0"]
 
 
-@pytest.mark.parametrize("env_id, preset", [("FlagellumTurn-v0", "faithful"), ("FlagellumTurn-fast-v0", "fast"),
-                                            ("FlagellumTurn-coarse-v0", "coarse")])
+@pytest.mark.parametrize("env_id, preset", [("FlagellumTurn-v0", "faithful"), ("FlagellumTurn-fast-v0", "fast")])
 def test_make_gives_the_ids_class_and_preset(env_id, preset):
     env = gym.make(env_id).unwrapped
     assert type(env).env_id == env_id and env.preset == preset
     env.close()
 
 
-def test_the_coarse_variant_says_it_turns_differently():
-    doc = " ".join(type(gym.make("FlagellumTurn-coarse-v0").unwrapped).__doc__.split())
-    assert "turns differently" in doc
+@pytest.mark.parametrize("env_id, preset, why", [
+    ("FlagellumTurn-coarse-v0", "coarse", "slower than 'faithful' and wrong: it does not buckle")])
+def test_a_retired_id_or_preset_is_refused_on_one_line_naming_the_replacement(env_id, preset, why):
+    retired = (f"preset {preset!r} was retired ({why}; docs/bench_quick.md); use 'faithful' (the default), or "
+               "FlagellumTurn-surrogate-v0 / FlagellumBurst-surrogate-v0 for a cheap turn-level swimmer")
+    for kwargs in ({}, CHEAP):
+        with pytest.raises(ValueError) as err:
+            gym.make(env_id, **kwargs)
+        assert str(err.value) == f"{env_id} was retired with its preset (use FlagellumTurn-v0): {retired}"
+    for make in (lambda: gym.make("FlagellumTurn-v0", preset=preset), lambda: TurnDecisionEnv(preset=preset),
+                 lambda: gym.make("FlagellumBurst-v0", preset=preset)):
+        with pytest.raises(ValueError) as err:
+            make()
+        assert str(err.value) == retired
 
 
 @pytest.mark.parametrize("env_id", sorted(TURN_ENV_IDS))
@@ -126,30 +142,26 @@ def test_stable_baselines3_check_env_passes(env_id):
 def test_without_a_prior_import_the_module_prefixed_id_works(module):
     r = _fresh_python("import gymnasium as gym, sys\n"
                       "assert 'agents' not in sys.modules and 'flagellum_env' not in sys.modules\n"
-                      f"env = gym.make('{module}:FlagellumTurn-v0', preset='coarse')\n"
+                      f"env = gym.make('{module}:FlagellumTurn-v0', preset='faithful')\n"
                       "print(type(env.unwrapped).__name__)")
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == "TurnDecisionEnv"
 
 
 def test_the_defaults_are_the_first_agents_settings():
-    """The agent trained on coarse (agents/configs/ppo_residual_coarse.yml) with its config."""
-    import yaml
-
-    from agents.assets import package_file
+    """The task of the first agent (agents/configs/ppo_residual_coarse.yml until its preset was retired; the values
+    as they stood there): FlagellumTurn-v0 with no argument is that agent's env at the default preset."""
     from agents.turn_decision_env import DEFAULT_ACTION_COST, DEFAULT_ENV_KWARGS, DEFAULT_RANDOM_PATH
 
-    doc = yaml.safe_load(package_file("configs", "ppo_residual_coarse.yml").read_text())
-    (task,) = [v["task"] for v in doc.values()]
-    env = gym.make("FlagellumTurn-coarse-v0").unwrapped
-    assert env.preset == task["preset"] == "coarse"
-    assert dataclasses.asdict(env.planner.limits) == task["limits"]
-    assert env.action_cost == DEFAULT_ACTION_COST == task["action_cost"]
-    assert DEFAULT_ENV_KWARGS == task["env_kwargs"]
-    assert env.base.config.reward.cross_track_per_cm_s == task["env_kwargs"]["reward"]["cross_track_per_cm_s"]
-    assert DEFAULT_RANDOM_PATH == task["curriculum"][-1]["random_path"]
+    env = gym.make("FlagellumTurn-v0").unwrapped
+    assert env.preset == "faithful"
+    assert dataclasses.asdict(env.planner.limits) == {"max_dtc_fraction": 0.05, "max_dphase_deg": 15.0}
+    assert env.action_cost == DEFAULT_ACTION_COST == 5.0
+    assert DEFAULT_ENV_KWARGS == {"reward": {"cross_track_per_cm_s": 0.05}}
+    assert env.base.config.reward.cross_track_per_cm_s == 0.05
+    assert DEFAULT_RANDOM_PATH == {"n_waypoints": 3, "segment_length_m": [0.12, 0.2], "min_turn_deg": 30.0,
+                                   "max_turn_deg": 150.0, "planar": [True, False]}
     assert env.paths is None and len(env._path_configs) == 2
-    assert gym.make("FlagellumTurn-v0").unwrapped.preset == "faithful"
     assert gym.make("FlagellumTurn-fast-v0").unwrapped.preset == "fast"
 
 
@@ -170,7 +182,7 @@ def test_bad_arguments_fail_at_construction_naming_the_value(kwargs, match):
 
 def test_bad_actions_and_reset_options_fail_naming_the_value():
     straight = path_from_waypoints([[0.004, 0.0, 0.0]], name="straight", reach_radius_m=0.002)
-    env = TurnDecisionEnv(preset="coarse", paths=[straight])
+    env = TurnDecisionEnv(preset="faithful", paths=[straight])
     with pytest.raises(ValueError, match="'seed'"):
         env.reset(options={"seed": 1})
     with pytest.raises(ValueError, match="'random'"):
@@ -215,7 +227,7 @@ def test_reward_is_the_base_envs_reward_over_the_steps_less_the_action_cost():
 
 def test_a_path_without_a_planned_turn_ends_at_the_first_step_whatever_the_action():
     straight = path_from_waypoints([[0.004, 0.0, 0.0]], name="straight", reach_radius_m=0.002)
-    env = TurnDecisionEnv(preset="coarse", paths=[straight], action_cost=1.0)
+    env = TurnDecisionEnv(preset="faithful", paths=[straight], action_cost=1.0)
     base_rewards = _recording(env)
     obs, _ = env.reset(seed=0)
     assert np.array_equal(obs, np.zeros(N_FEATURES, np.float32))
@@ -226,7 +238,7 @@ def test_a_path_without_a_planned_turn_ends_at_the_first_step_whatever_the_actio
 
 def test_a_seed_fixes_the_drawn_paths_and_reset_without_one_draws_the_next():
     # 4-6 mm paths within 30 deg of the heading: reached (or timed out) swimming straight, so cheap
-    env = TurnDecisionEnv(preset="coarse", env_kwargs={"reach_radius_m": 0.002},
+    env = TurnDecisionEnv(preset="faithful", env_kwargs={"reach_radius_m": 0.002},
                           random_path={"n_waypoints": 1, "segment_length_m": [0.004, 0.006], "max_turn_deg": 30.0})
 
     def episode(seed: int | None) -> dict:
@@ -250,13 +262,13 @@ def test_a_seed_fixes_the_drawn_paths_and_reset_without_one_draws_the_next():
 ])
 def test_bad_arguments_are_value_errors_at_make(kwargs, match):
     with pytest.raises(ValueError, match=match):
-        gym.make("FlagellumTurn-v0", **{"preset": "coarse", **kwargs})
+        gym.make("FlagellumTurn-v0", **{"preset": "faithful", **kwargs})
 
 
 def test_a_render_mode_it_does_not_have_is_refused():
     # (gym.make turns render_mode="human" into a HumanRendering wrapper around rgb_array: construct directly)
     with pytest.raises(ValueError, match="render_mode='human' is not allowed"):
-        TurnDecisionEnv(preset="coarse", render_mode="human")
+        TurnDecisionEnv(preset="faithful", render_mode="human")
 
 
 def test_bad_reset_options_and_actions_are_refused():

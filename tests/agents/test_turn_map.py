@@ -49,7 +49,7 @@ def test_wrap_angle_range():
 
 
 def _map(points, params=None) -> TurnMap:
-    return TurnMap(params=params or SwimmerParams(n_nodes=45), numerics=NumericsConfig(), preset="coarse",
+    return TurnMap(params=params or SwimmerParams(), numerics=NumericsConfig(), preset="faithful",
                    omega_l_rpm=10.0, omega_h_rpm=150.0, phase_node=7, points=tuple(points))
 
 
@@ -103,11 +103,11 @@ def test_save_load_round_trip_and_version_check(tmp_path):
 
 def test_map_refuses_other_parameters_naming_them():
     m = _map([_pt(10, 0, 50, 10.0)])
-    m.check_compatible(SwimmerParams(n_nodes=45))
+    m.check_compatible(SwimmerParams())
     with pytest.raises(TurnMapMismatch, match=r"head_radius: map 0.012, here 0.008"):
-        m.check_compatible(SwimmerParams(n_nodes=45, head_radius=0.008))
+        m.check_compatible(SwimmerParams(head_radius=0.008))
     with pytest.raises(TurnMapMismatch, match="omega_h_rpm"):
-        m.check_compatible(SwimmerParams(n_nodes=45), omega_h_rpm=60.0)
+        m.check_compatible(SwimmerParams(), omega_h_rpm=60.0)
 
 
 def test_phase_node_is_an_observed_node():

@@ -1,4 +1,4 @@
-"""The rule-based planner drives the real environment (fast preset, committed turn map)."""
+"""The rule-based planner drives the real environment (faithful preset, committed turn map)."""
 
 from __future__ import annotations
 
@@ -17,13 +17,13 @@ ONE_TURN = path_from_waypoints([[0.02, 0.0, 0.0], [0.02, 0.08, 0.0]], name="one_
 
 
 def _env(**kw) -> FlagellumSteerEnv:
-    return FlagellumSteerEnv(path=ONE_TURN, preset="coarse", control_dt=0.2, **kw)
+    return FlagellumSteerEnv(path=ONE_TURN, preset="faithful", control_dt=0.2, **kw)
 
 
 @pytest.fixture(scope="module")
 def one_turn_episode():
     env = _env()
-    planner = make_controller("rule", env, "coarse")
+    planner = make_controller("rule", env, "faithful")
     metrics, trace = run_episode(env, planner, ONE_TURN)
     return env, planner, metrics, trace
 
@@ -36,7 +36,7 @@ def test_planner_turns_once_and_reaches_both_waypoints(one_turn_episode):
     first = planner.turns[0]
     assert 60.0 < first["theta_deg"] < 122.5  # about 90 deg, within the map's reach
     assert abs(first["phase_error_deg"]) < 10.0  # burst started at the wanted flagellum phase
-    # the burst lifts the head out of the plane by 1-2 cm (coarse preset; the square's R10 bound is 5 % of 25 cm)
+    # the burst lifts the head out of the plane by 1-2 cm (faithful preset; the square's R10 bound is 5 % of 25 cm)
     assert np.max(np.abs(trace.head[:, 2])) < 0.02
 
 
@@ -48,7 +48,7 @@ def test_dead_reckoned_head_matches_the_simulator(one_turn_episode):
 
 def test_predict_batches_and_is_deterministic():
     env = _env()
-    tmap = TurnMap.load(default_turn_map("coarse"))
+    tmap = TurnMap.load(default_turn_map("faithful"))
     a, b = RulePlanner.for_env(env, tmap), RulePlanner.for_env(env, tmap)
     obs, _ = env.reset(seed=0)
     acts = []
@@ -63,13 +63,13 @@ def test_predict_batches_and_is_deterministic():
 
 
 def test_map_for_other_parameters_is_refused():
-    env = FlagellumSteerEnv(path=ONE_TURN, preset="coarse", control_dt=0.2, params={"head_radius": 0.008})
+    env = FlagellumSteerEnv(path=ONE_TURN, preset="faithful", control_dt=0.2, params={"head_radius": 0.008})
     with pytest.raises(TurnMapMismatch, match="head_radius"):
-        make_controller("rule", env, "coarse")
+        make_controller("rule", env, "faithful")
 
 
 def test_env_that_cannot_serve_the_map_is_refused():
-    tmap = TurnMap.load(default_turn_map("coarse"))
+    tmap = TurnMap.load(default_turn_map("faithful"))
     with pytest.raises(ValueError, match="phase node"):
         RulePlanner.for_env(_env(n_shape_nodes=5), tmap)
     with pytest.raises(ValueError, match="omega_range_rpm"):
@@ -90,12 +90,12 @@ def test_line_miss_ahead_aside_and_behind():
 
 def test_turn_choice_keeps_course_or_predicts_a_better_line():
     env = _env()
-    planner = RulePlanner.for_env(env, TurnMap.load(default_turn_map("coarse")))
+    planner = RulePlanner.for_env(env, TurnMap.load(default_turn_map("faithful")))
     head, d, node = np.zeros(3), np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.006, 0.0])
     assert planner._plan_turn(head, d, np.array([0.2, 0.001, 0.0]), node) is None  # on course
     plan = planner._plan_turn(head, d, np.array([0.0, 0.2, 0.0]), node)
     # the 90 deg turn to a target 20 cm to the left: much nearer the line than going on straight (the map's head
-    # offset and its coarse steps near the branch's end leave ~2 cm at the coarse preset)
+    # offset and its coarse steps near the branch's end leave ~2 cm at the faithful preset)
     assert plan is not None and plan["predicted_miss_m"] < 0.25 * plan["miss_straight_m"]
     assert 45.0 < plan["theta_deg"] < 122.5  # about a right angle, less what the displacement does
 

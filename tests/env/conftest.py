@@ -1,6 +1,6 @@
 """Shared fixtures of the environment tests: small envs (the steady-start cache is in tests/conftest.py).
 
-The small configuration (fast preset, 0.2 s steps, a 6 mm path, 10-40 rpm so the flagellum
+The small configuration (faithful preset, 0.2 s steps, a 6 mm path, 10-40 rpm so the flagellum
 never buckles, a 6 s settle) keeps every episode to a fraction of a second of wall time.
 """
 
@@ -15,7 +15,7 @@ from flagellum_env.steer_env import FlagellumSteerEnv
 
 SMALL: dict[str, Any] = {
     "path": [[0.003, 0.0, 0.0], [0.006, 0.001, 0.0]],
-    "preset": "coarse",
+    "preset": "faithful",
     "control_dt": 0.2,
     "omega_range_rpm": (10.0, 40.0),
     "discrete_speeds_rpm": (10.0, 25.0, 40.0),

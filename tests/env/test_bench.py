@@ -11,7 +11,7 @@ def test_bench_reports_steps_per_second(small_kwargs):
     rows = bench_env({"low": 3, "random": 3}, env_kwargs=small_kwargs)
     assert [r["policy"] for r in rows] == ["low", "random"]
     for r in rows:
-        assert r["n_steps"] == 3 and r["steps_per_s"] > 0 and r["preset"] == "coarse"
+        assert r["n_steps"] == 3 and r["steps_per_s"] > 0 and r["preset"] == "faithful"
         assert r["steps_per_s"] == pytest.approx(1.0 / r["median_step_s"])
     table = format_table(rows)
     assert "steps/s" in table and table.count("\n") == 3

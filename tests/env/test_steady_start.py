@@ -13,12 +13,12 @@ W10 = 10 * RPM_TO_RAD_S
 
 
 @pytest.fixture(scope="module")
-def fast():
-    return apply_preset("coarse")
+def faithful():
+    return apply_preset("faithful")
 
 
-def test_disk_cache_round_trip_is_bit_identical(fast, tmp_path):
-    params, numerics = fast
+def test_disk_cache_round_trip_is_bit_identical(faithful, tmp_path):
+    params, numerics = faithful
     fresh = ss.compute_steady_start(params, numerics, W10, 3.0)
     ss.clear_memory_cache()
     stored = ss.get_steady_start(params, numerics, W10, 3.0, cache_dir=tmp_path)
@@ -34,8 +34,8 @@ def test_disk_cache_round_trip_is_bit_identical(fast, tmp_path):
     assert ss.get_steady_start(params, numerics, W10, 3.0, cache_dir=tmp_path) is loaded  # memory hit
 
 
-def test_the_steady_state_swims_straight_ahead(fast):
-    params, numerics = fast
+def test_the_steady_state_swims_straight_ahead(faithful):
+    params, numerics = faithful
     s = ss.get_steady_start(params, numerics, W10, 6.0)
     sim = s.new_simulator()
     assert 0.5e-3 < s.speed_m_s < 0.9e-3  # ~0.42 cm per turn at 10 rpm (the flagellum turns at 10 rpm in the lab)
@@ -43,8 +43,8 @@ def test_the_steady_state_swims_straight_ahead(fast):
     assert sim.omega == W10
 
 
-def test_key_depends_on_every_input(fast):
-    params, numerics = fast
+def test_key_depends_on_every_input(faithful):
+    params, numerics = faithful
     k = ss.cache_key(params, numerics, W10, 6.0)
     assert k != ss.cache_key(params.replace(viscosity=3.0), numerics, W10, 6.0)
     assert k != ss.cache_key(params, numerics.replace(newton_tol=1e-7), W10, 6.0)
@@ -61,8 +61,8 @@ def test_cache_dir_comes_from_the_environment_variable(monkeypatch, tmp_path):
     assert ss.default_cache_dir() == tmp_path / "xdg" / "flagellum_swimmer"
 
 
-def test_unreadable_cache_file_is_recomputed(fast, tmp_path):
-    params, numerics = fast
+def test_unreadable_cache_file_is_recomputed(faithful, tmp_path):
+    params, numerics = faithful
     key = ss.cache_key(params, numerics, W10, 2.0)
     (tmp_path / "steady_start").mkdir()
     (tmp_path / "steady_start" / f"{key}.npz").write_bytes(b"garbage")
@@ -72,8 +72,8 @@ def test_unreadable_cache_file_is_recomputed(fast, tmp_path):
     assert np.array_equal(s.state["q"], ss.compute_steady_start(params, numerics, W10, 2.0).state["q"])
 
 
-def test_bad_arguments_are_rejected(fast):
-    params, numerics = fast
+def test_bad_arguments_are_rejected(faithful):
+    params, numerics = faithful
     with pytest.raises(ValueError, match="omega_rad_s"):
         ss.get_steady_start(params, numerics, 0.0, 1.0)
     with pytest.raises(ValueError, match="settle_time_s"):

@@ -1,4 +1,4 @@
-"""scripts/train_raw_ppo.py (library: experiments/raw_ppo.py): a tiny PPO run on the raw FlagellumSteer-v0 (coarse
+"""scripts/train_raw_ppo.py (library: experiments/raw_ppo.py): a tiny PPO run on the raw FlagellumSteer-v0 (faithful
 preset) writes SB3's progress.csv, VecMonitor's monitor.csv, a checkpoint per update and meta; a SIGTERM stops it
 cleanly after the finished updates; --resume goes on without losing or repeating rows; the learning curve is
 drawn; bad options are one-line errors with status 2."""
@@ -15,12 +15,12 @@ from pathlib import Path
 import pytest
 
 SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "train_raw_ppo.py"
-# coarse preset, 1 s steps, 10-40 rpm (never buckles), a 6 s steady start, a 3-6 mm path and a 4 s time limit:
+# faithful preset, 1 s steps, 10-40 rpm (never buckles), a 6 s steady start, a 3-6 mm path and a 4 s time limit:
 # every env step is a fraction of a second and an episode ends every few steps
 TINY_ENV = {"settle_time_s": 6.0, "omega_range_rpm": [10.0, 40.0], "reach_radius_m": 0.001, "max_sim_time_s": 4.0,
             "n_shape_nodes": 4}
 TINY_PATH = {"n_waypoints": 1, "segment_length_m": [0.003, 0.006], "max_turn_deg": 20.0}
-TINY = ["--preset", "coarse", "--control-dt", "1.0", "--n-envs", "1", "--n-steps", "8", "--batch-size", "8",
+TINY = ["--preset", "faithful", "--control-dt", "1.0", "--n-envs", "1", "--n-steps", "8", "--batch-size", "8",
         "--random-path", json.dumps(TINY_PATH), "--env-kwargs", json.dumps(TINY_ENV),
         "--ppo-kwargs", json.dumps({"n_epochs": 2, "policy_kwargs": {"net_arch": [8]}})]
 
@@ -78,7 +78,7 @@ def test_run_stop_resume_and_plot(script, tmp_path, monkeypatch):
     assert (out / "model.zip").is_file() and (out / "vecnormalize.pkl").is_file()  # the last finished update's
     meta = json.loads((out / "meta.json").read_text())
     assert meta["sessions"][0]["status"] == "stopped: SIGTERM" and meta["total"]["env_steps"] == 8
-    assert meta["config"]["preset"] == "coarse" and meta["config"]["seed"] == 0
+    assert meta["config"]["preset"] == "faithful" and meta["config"]["seed"] == 0
     assert len(meta["sessions"][0]["loadavg_start"]) == 3 and meta["sessions"][0]["loadavg_end"]
     kept = json.loads((ckpt / "rl_model_state_8_steps.json").read_text())["episodes_total"]
     assert len(_monitor(out)) > kept  # episodes that ended after the checkpoint: --resume drops them
@@ -159,7 +159,7 @@ def test_resume_keeps_the_runs_settings_and_a_run_is_not_overwritten(script, cap
     (out / "checkpoints").mkdir(parents=True)
     for name in ("rl_model_8_steps.zip", "rl_model_vecnormalize_8_steps.pkl"):
         (out / "checkpoints" / name).write_bytes(b"")
-    config = {**script.CONFIG_DEFAULTS, "preset": "coarse", "control_dt": 1.0}
+    config = {**script.CONFIG_DEFAULTS, "preset": "faithful", "control_dt": 1.0}
     (out / "meta.json").write_text(json.dumps({"config": config}))
     msg = _usage_error(script, capsys, ["--out", str(out), "--resume", "--n-envs", "4"])
     assert "--n-envs 4 differs from this run's 2" in msg

@@ -24,8 +24,8 @@ def test_configure_is_defaults_then_preset_then_overrides():
     assert configure() == (SwimmerParams(), NumericsConfig())
     for name in preset_names():
         assert configure(name) == apply_preset(name)
-    p, n = configure("coarse", {"head_radius": "0.01", "dt": 0.005, "head_rotation": "fixed"})
-    p2, n2 = apply_overrides(*apply_preset("coarse"), {"head_radius": "0.01", "dt": "0.005", "head_rotation": "fixed"})
+    p, n = configure("faithful", {"head_radius": "0.01", "dt": 0.005, "head_rotation": "fixed"})
+    p2, n2 = apply_overrides(*apply_preset("faithful"), {"head_radius": "0.01", "dt": "0.005", "head_rotation": "fixed"})
     assert (p, n) == (p2, n2) and p.head_radius == 0.01 and n.dt == 0.005
 
 
@@ -42,12 +42,28 @@ def test_configure_routes_every_field_by_name():
                                                  ({"viscosity": -1.0}, "viscosity")])
 def test_configure_names_what_is_wrong(overrides, fragment):
     with pytest.raises(ValueError, match=fragment):
-        configure("coarse", overrides)
+        configure("faithful", overrides)
+
+
+@pytest.mark.parametrize("name, why", [("coarse", "slower than 'faithful' and wrong: it does not buckle")])
+def test_retired_presets_are_refused_on_one_line_naming_the_replacement(name, why):
+    from physics.presets import check_preset
+
+    assert name not in preset_names()
+    for call in (lambda: configure(name), lambda: apply_preset(name), lambda: check_preset(name)):
+        with pytest.raises(ValueError) as err:
+            call()
+        msg = str(err.value)
+        assert "\n" not in msg
+        assert msg == (f"preset {name!r} was retired ({why}; docs/bench_quick.md); use 'faithful' (the default), or "
+                       "FlagellumTurn-surrogate-v0 / FlagellumBurst-surrogate-v0 for a cheap turn-level swimmer")
+    with pytest.raises(ValueError, match=r"preset='turbo' is not allowed; choose one of \['reference', 'paper', 'faithful', 'fast'\]"):
+        configure("turbo")
 
 
 @pytest.fixture(scope="module")
 def small():
-    return configure("coarse", {"n_nodes": 25})
+    return configure("faithful", {"n_nodes": 25})
 
 
 def _state(sim: Simulator) -> dict:

@@ -145,7 +145,7 @@ def test_end_to_end_ratio_is_the_norm_quotient_bit_for_bit():
     """The shortcut (the end nodes read from q, the undeformed span kept) returns what the definition gives."""
     from physics import advance, configure
 
-    sim = Simulator(*configure("coarse", {"n_nodes": 25}))
+    sim = Simulator(*configure("faithful", {"n_nodes": 25}))
     sim.set_motor_speed(150 * RPM_TO_RAD_S)
     x0 = sim.nodes
     for _ in range(3):

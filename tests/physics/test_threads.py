@@ -44,7 +44,7 @@ def _blas_threads() -> set[int]:
 
 
 def test_the_run_loop_holds_blas_at_one_thread_and_restores_the_callers_setting():
-    sim = Simulator(*configure("coarse", {"n_nodes": 25}))
+    sim = Simulator(*configure("faithful", {"n_nodes": 25}))
     seen: list[set[int]] = []
     with threadpool_limits(limits=2, user_api="blas"):
         assert _blas_threads() == {2}
@@ -61,7 +61,7 @@ def test_a_direct_step_is_held_at_one_thread_too_and_gives_the_run_loops_numbers
 
     seen: list[set[int]] = []
     probe = one_blas_thread(lambda: seen.append(_blas_threads()))
-    a, b = (Simulator(*configure("coarse", {"n_nodes": 25})) for _ in range(2))
+    a, b = (Simulator(*configure("faithful", {"n_nodes": 25})) for _ in range(2))
     for sim in (a, b):
         sim.set_motor_speed(30 * RPM_TO_RAD_S)
     with threadpool_limits(limits=2, user_api="blas"):

@@ -78,8 +78,9 @@ def test_controller_and_end_of_step_splitting():
 
 
 def _burst_end(integrator: str, dt: float, step_tol: float = 0.0) -> np.ndarray:
-    """Node positions after a 0.4 s burst at 150 rpm from rest (a coarse rod, so the test is cheap)."""
-    p, n = configure("coarse", {"n_nodes": 24, "integrator": integrator, "dt": dt, "step_tol": step_tol,
+    """Node positions after a 0.4 s burst at 150 rpm from rest (a rod of 24 nodes, so the test is cheap; the parameter
+    defaults otherwise)."""
+    p, n = configure(None, {"n_nodes": 24, "integrator": integrator, "dt": dt, "step_tol": step_tol,
                                 "newton_tol": 1e-9, "jacobian_refresh": "resistance", "hydro_refresh_tol": 0.0})
     sim = Simulator(p, n)
     sim.set_motor_speed(150 * RPM_TO_RAD_S)
@@ -250,7 +251,7 @@ def test_step_duration_is_checked():
     sim = Simulator(*configure("faithful", {"n_nodes": 20}))
     with pytest.raises(ValueError, match="allowed: > 0 and <= dt"):
         sim.step(0.5)
-    fixed = Simulator(*configure("coarse", {"n_nodes": 20}))
+    fixed = Simulator(*configure("paper", {"n_nodes": 20}))
     with pytest.raises(ValueError, match="fixed steps"):
         fixed.step(0.005)
 
