@@ -193,6 +193,12 @@ def _vec_env(config: TrainConfig, n: int, paths=None, seed_offset: int = 0):
     return VecMonitor(venv, info_keywords=("is_success",))
 
 
+def _csv_header(file: Path) -> list[str]:
+    """The column names of a CSV file's first line."""
+    with open(file, newline="", encoding="utf-8") as f:
+        return next(csv.reader(f), [])
+
+
 def run_identity(config: TrainConfig) -> dict[str, Any]:
     """What makes a training run the same run (a resume must not change it): the agent, its task and its network.
     The budget (n_timesteps, max_wall_time_s), the curriculum, validation, checkpoints and PPO's step sizes may
@@ -504,7 +510,7 @@ class _Bookkeeping(BaseCallback):
                          "tier": "surrogate" if info.get("cheap") else self.config.tier})
         if rows:
             # a run begun before a column was added keeps its header (the new column is left out)
-            fields = EPISODE_FIELDS if new else file.open(encoding="utf-8").readline().strip().split(",")
+            fields = EPISODE_FIELDS if new else _csv_header(file)
             with _signals_deferred(), open(file, "a", newline="", encoding="utf-8") as f:
                 w = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
                 if new:
