@@ -9,6 +9,7 @@ import pytest
 
 from agents.assets import (default_turn_map, eval_paths_dir, packaged_turn_map, pretrained_dir,
                            user_turn_map_dir)
+from agents.burst_pilot import SCRATCH_AGENT_DIR
 from agents.evaluation import resolve_paths
 from agents.turn_map import TurnMap
 from physics.presets import preset_names
@@ -58,8 +59,9 @@ def test_paths_eval_is_the_twenty_shipped_evaluation_paths():
 
 
 def test_the_wheel_ships_every_asset_file():
-    """Each file under agents/turn_maps, agents/eval_paths and the shipped agent matches a package-data glob
-    of pyproject.toml, and nothing else is left in agents/pretrained (validation, checkpoints and earlier agents live in results/)."""
+    """Each file under agents/turn_maps, agents/eval_paths and the shipped agents (``ppo``, ``ppo-scratch``) matches a
+    package-data glob of pyproject.toml, and nothing else is left in agents/pretrained (validation, checkpoints and
+    earlier agents are not shipped)."""
     tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
     globs = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]["agents"]
     agents = ROOT / "agents"
@@ -69,4 +71,7 @@ def test_the_wheel_ships_every_asset_file():
     assert not unshipped, unshipped
     assert sorted(f.name for f in pretrained_dir().iterdir()) == ["config.yml", "episodes.csv", "meta.json", "model.zip",
                                                                   "training_curve.png", "vecnormalize.pkl"]
-    assert [d.name for d in (agents / "pretrained").iterdir()] == [pretrained_dir().name]
+    assert sorted(f.name for f in SCRATCH_AGENT_DIR.iterdir()) == ["config.yml", "meta.json", "model.zip",
+                                                                   "training_curve.png", "vecnormalize.pkl"]
+    assert sorted(d.name for d in (agents / "pretrained").iterdir()) == sorted([pretrained_dir().name,
+                                                                                SCRATCH_AGENT_DIR.name])
