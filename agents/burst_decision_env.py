@@ -184,7 +184,7 @@ class BurstDecisionEnv(TurnEpisodes, gym.Env):
     @property
     def time_s(self) -> float:
         """Simulated time since the episode started, s."""
-        return float(self._base_info["sim_time_s"])
+        return self.flight.time_s
 
     @property
     def bursts(self) -> int:

@@ -70,8 +70,7 @@ NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma")
 TOP_KEYS = ("algorithm", "policy", "n_envs", "n_timesteps", "max_wall_time_s", "seed", "checkpoint_every",
             "normalize", "task", "init_from", *dict.fromkeys(PPO_KEYS + SAC_KEYS))
 TASK_KEYS = ("design", "tier", "preset", "turn_map", "planner", "limits", "action_cost", "env_kwargs", "map_noise",
-             "cheap_fraction",
-             "curriculum", "validation")
+             "cheap_fraction", "curriculum", "validation")
 #: ``task.design``: what an action is. "residual": a correction of the planner's turn (``FlagellumTurn-*``);
 #: "burst": a burst command with no planner (``FlagellumBurst-*``, ``agents.burst_design``).
 DESIGNS = ("residual", "burst")

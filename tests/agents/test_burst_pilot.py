@@ -17,7 +17,7 @@ import pytest
 
 import agents  # noqa: F401  (registers the ids)
 from agents.burst_design import N_BURST_FEATURES
-from agents.burst_pilot import SCRATCH_AGENT_DIR, BurstPilot, burst_agent_folder
+from agents.burst_pilot import BurstPilot, burst_agent_folder
 from agents.path_following import env_settings, make_controller
 from agents.ppo_policy import TrainedAgent, load_agent
 from agents.turn_map import TurnMap
@@ -99,7 +99,6 @@ def test_an_env_without_two_waypoints_is_refused():
         BurstPilot.for_env(steer, _scripted_agent(), TurnMap.load(default_turn_map("faithful")))
 
 
-@pytest.mark.skipif(not (SCRATCH_AGENT_DIR / "model.zip").is_file(), reason="no shipped from-scratch agent")
 def test_the_shipped_agent_is_a_burst_agent():
     steer = FlagellumSteerEnv(path=ONE_TURN, **env_settings("ppo-scratch", "faithful"))
     pilot = make_controller("ppo-scratch", steer, "faithful")
