@@ -83,14 +83,22 @@ DIRECTION_FULL_TURN_RAD = math.radians(10.0)
 N_BURST_FEATURES = 27 + HISTORY_FEATURES * HISTORY_BURSTS
 
 
+#: How a burst may end (``BurstLimits.burst_end``): after t_c of flight time, or when L'/L reaches the map's L'/L at
+#: the end of a burst of t_c (the ratio clock, ``agents.burst_flight``).
+BURST_ENDS = ("time", "ratio")
+
+
 @dataclass(frozen=True)
 class BurstLimits:
     """What one action can ask for: bursts up to ``t_c_max_s`` (s), cruises of ``cruise_min_s`` to
-    ``cruise_max_s`` (s). ValueError naming a value that is not finite, not positive or out of order."""
+    ``cruise_max_s`` (s), and how a burst ends (``burst_end``, one of ``BURST_ENDS``): "time" flies t_c seconds,
+    "ratio" flies until the flagellum's L'/L reaches what the map's swimmer shows after t_c (the module docstring).
+    ValueError naming a value that is not finite, not positive, out of order or not allowed."""
 
     t_c_max_s: float = 3.7
     cruise_min_s: float = 2.0
     cruise_max_s: float = 60.0
+    burst_end: str = "time"
 
     def __post_init__(self) -> None:
         for name in ("t_c_max_s", "cruise_min_s", "cruise_max_s"):
@@ -100,6 +108,8 @@ class BurstLimits:
         if not self.cruise_min_s <= self.cruise_max_s:
             raise ValueError(f"BurstLimits.cruise_min_s={self.cruise_min_s!r} must be <= cruise_max_s="
                              f"{self.cruise_max_s!r}")
+        if self.burst_end not in BURST_ENDS:
+            raise ValueError(f"BurstLimits.burst_end={self.burst_end!r} is not allowed; allowed: {list(BURST_ENDS)}")
 
 
 def burst_limits(limits: BurstLimits | Mapping[str, Any] | None) -> BurstLimits:
@@ -110,11 +120,11 @@ def burst_limits(limits: BurstLimits | Mapping[str, Any] | None) -> BurstLimits:
         return limits
     if not isinstance(limits, Mapping):
         raise ValueError(f"limits={limits!r} must be BurstLimits, a dict of its fields or None")
-    known = ("t_c_max_s", "cruise_min_s", "cruise_max_s")
+    known = ("t_c_max_s", "cruise_min_s", "cruise_max_s", "burst_end")
     unknown = sorted(set(limits) - set(known))
     if unknown:
         raise ValueError(f"unknown limits key(s) {unknown}; allowed: {list(known)}")
-    return BurstLimits(**{k: float(v) for k, v in limits.items()})
+    return BurstLimits(**{k: (v if k == "burst_end" else float(v)) for k, v in limits.items()})
 
 
 def parse_map_noise(map_noise: Mapping[str, Any] | None) -> tuple[float, float] | None:
@@ -147,12 +157,14 @@ def parse_map_noise(map_noise: Mapping[str, Any] | None) -> tuple[float, float] 
 
 @dataclass(frozen=True)
 class BurstCommand:
-    """A decoded action: ``t_c_s`` burst length (s, whole control steps, 0: none), ``beta_rad`` the phase node's
-    azimuth to burst at (rad, [-pi, pi]), ``cruise_s`` (s, whole control steps, >= one)."""
+    """A decoded action: ``t_c_s`` burst length (s, whole control steps, 0: none; with ``burst_end`` "ratio" the map
+    swimmer's burst length whose L'/L ends the burst), ``beta_rad`` the phase node's azimuth to burst at (rad,
+    [-pi, pi]), ``cruise_s`` (s, whole control steps, >= one), ``burst_end`` (``BURST_ENDS``)."""
 
     t_c_s: float
     beta_rad: float
     cruise_s: float
+    burst_end: str = "time"
 
 
 def parse_burst_action(action) -> np.ndarray:
@@ -174,7 +186,7 @@ def decode_burst_action(action, limits: BurstLimits, control_dt: float) -> Burst
     steps = round(max(float(a[0]), 0.0) * limits.t_c_max_s / control_dt)
     cruise = limits.cruise_min_s + 0.5 * (float(a[3]) + 1.0) * (limits.cruise_max_s - limits.cruise_min_s)
     return BurstCommand(steps * control_dt, math.atan2(float(a[2]), float(a[1])),
-                        max(1, round(cruise / control_dt)) * control_dt)
+                        max(1, round(cruise / control_dt)) * control_dt, limits.burst_end)
 
 
 def turn_seen(before: np.ndarray, after: np.ndarray) -> tuple[float, float]:

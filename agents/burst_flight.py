@@ -12,6 +12,15 @@ period (``period_heading``), the phase node's azimuth about it (``ObservationLay
    most ``max_relax_factor`` x the map's relaxation time). Skipped when t_c = 0;
 2. cruise at omega_l for the command's cruise time, ending at the first control step that reaches a waypoint.
 
+A command with ``burst_end`` "ratio" ends its burst by the ratio clock of the adaptive planner
+(``agents.online_turn_map``, ``OnlineMapConfig``'s "Flying by L'/L"): the map records L'/L at each burst's end, and
+on its rising branch L'/L falls steadily once the flagellum buckles, so the L'/L the map's swimmer shows after t_c
+is a clock that runs with the swimmer's own buckling. The burst ends at the control step nearest to where the
+observed L'/L reaches the map's L'/L for t_c (``RatioClock``), so that a swimmer that buckles earlier
+or later than the map's turns about as the map says for t_c; at most ``RATIO_BURST_FACTOR`` x t_c +
+``RATIO_BURST_MARGIN_S`` (a swimmer that buckles much later), and by time when t_c is too short for the map's L'/L
+to fall below ``OnlineMapConfig.ratio_valid`` (turns below ~15 deg).
+
 The flight is a generator of motor speeds (rpm): whoever drives it steps the swimmer at the speed it yields, then
 calls ``observe`` with what the step showed, then asks for the next speed. It never sees the episode's end: the
 driver stops asking. ``FlagellumBurst-v0`` drives it with the base env's exact head position and waypoint index;
@@ -20,12 +29,14 @@ the controller (``agents.burst_pilot``) with the head and index it reads from th
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
 
 from agents.burst_design import BurstCommand
+from agents.online_turn_map import RatioClock
 from agents.turn_geometry import azimuth, unit, wrap_angle
 from agents.turn_map import TurnMap
 from agents.turn_planner import (ObservationLayout, PlannerConfig, RulePlanner, hover_check, period_heading,
@@ -33,6 +44,10 @@ from agents.turn_planner import (ObservationLayout, PlannerConfig, RulePlanner, 
 
 #: The start frame's x axis: the swimming direction when an episode starts (the heading before one is measured).
 START_HEADING = np.array([1.0, 0.0, 0.0])
+#: A burst ended by the ratio clock lasts at most this x t_c + ``RATIO_BURST_MARGIN_S``: the burst time law of
+#: ``agents.surrogate_swimmer`` puts swimmers within +-10 % (E, mu, b) and +-4 % (helix) at most ~1.5x the map's.
+RATIO_BURST_FACTOR = 1.6
+RATIO_BURST_MARGIN_S = 0.5
 
 
 class BurstFlight:
@@ -48,6 +63,8 @@ class BurstFlight:
         self.turn_map, self.layout, self.control_dt = turn_map, layout, float(control_dt)
         self.config = config or PlannerConfig()
         self.period_steps = wobble_period_steps(turn_map.period_s, self.control_dt)
+        #: the map's L'/L against burst length (bursts ended by L'/L)
+        self.clock = RatioClock(turn_map)
         self.start(np.zeros(3), np.zeros(0), 0, 0.0)
 
     @classmethod
@@ -98,7 +115,7 @@ class BurstFlight:
         if command.t_c_s > 0.0:
             yield from self.hover_to_phase(command.beta_rad)
             self.bursts += 1
-            yield from self.burst(command.t_c_s)
+            yield from self.burst(command.t_c_s, command.burst_end)
         yield from self.cruise(round(command.cruise_s / self.control_dt), stop_at_waypoint=True)
 
     def cruise(self, steps: int, stop_at_waypoint: bool) -> Iterator[float]:
@@ -135,15 +152,41 @@ class BurstFlight:
             restarts += 1
             yield from self.cruise(k + 1, stop_at_waypoint=False)
 
-    def burst(self, t_c: float) -> Iterator[float]:
-        """``t_c`` s at omega_h (whole control steps), then omega_l until ``relax_over``."""
+    def burst(self, t_c: float, burst_end: str = "time") -> Iterator[float]:
+        """A burst at omega_h, then omega_l until ``relax_over``. ``burst_end`` "time": ``t_c`` s (whole control
+        steps); "ratio": until L'/L reaches the map's after ``t_c`` (module docstring)."""
         tm, dt = self.turn_map, self.control_dt
-        for _ in range(max(1, round(t_c / dt))):
-            yield tm.omega_h_rpm
-        t0, waited = self.time_s, 0
+        target = self.clock.ratio_for(t_c) if burst_end == "ratio" else None
+        if target is not None and self.layout.end_ratio is None:
+            raise ValueError("a burst ended by L'/L needs the observation's end_to_end_ratio (ObservationLayout)")
+        t0 = self.time_s
+        if target is None:
+            for _ in range(max(1, round(t_c / dt))):
+                yield tm.omega_h_rpm
+            stopped_by = "time"
+        else:
+            longest = max(1, round((RATIO_BURST_FACTOR * t_c + RATIO_BURST_MARGIN_S) / dt))
+            steps, prev = 0, math.inf
+            stopped_by = "time"
+            while steps < longest:
+                yield tm.omega_h_rpm
+                steps += 1
+                ratio = float(self.obs[self.layout.end_ratio][0])
+                # the step nearest to the crossing: stop once the next step's fall would overshoot more than half
+                drop = prev - ratio if math.isfinite(prev) else 0.0
+                if ratio - target <= 0.5 * max(drop, 0.0):
+                    stopped_by = "ratio"
+                    break
+                prev = ratio
+        self.last_burst.update(burst_s=self.time_s - t0, end_ratio=self._end_ratio(), stopped_by=stopped_by)
+        t1, waited = self.time_s, 0
         while True:
             yield tm.omega_l_rpm
             waited += 1
             if relax_over(self.heads, waited, self.period_steps, self.config, tm.relax_s, dt):
                 break
-        self.last_burst["relax_s"] = self.time_s - t0
+        self.last_burst["relax_s"] = self.time_s - t1
+
+    def _end_ratio(self) -> float | None:
+        """L'/L in the observation now (None if the layout does not read it)."""
+        return None if self.layout.end_ratio is None else float(self.obs[self.layout.end_ratio][0])

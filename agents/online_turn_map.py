@@ -191,6 +191,28 @@ def ratio_branch(turn_map: TurnMap, t_branch: np.ndarray, ratio_valid: float) ->
     return t[keep], rr[keep]
 
 
+def ratio_at(branch: tuple[np.ndarray, np.ndarray] | None, map_t: float) -> float | None:
+    """L'/L on a ``ratio_branch`` at map time ``map_t`` (s), linear between its points; None off the branch
+    (before L'/L falls below the branch's ``ratio_valid``, past its last point, or no branch)."""
+    if branch is None or map_t < branch[0][0] or map_t > branch[0][-1]:
+        return None
+    return float(np.interp(map_t, *branch))
+
+
+class RatioClock:
+    """The map's L'/L at a burst's end against the burst's length on the rising branch, from where it falls below
+    ``ratio_valid`` (``ratio_branch``): the ratio clock of ``OnlineMapConfig``'s "Flying by L'/L", without the
+    learning. ``start_s``: the shortest burst it reads (s; inf without a branch)."""
+
+    def __init__(self, turn_map: TurnMap, ratio_valid: float = OnlineMapConfig.ratio_valid) -> None:
+        self.branch = ratio_branch(turn_map, turn_map.rising_branch()[0], ratio_valid)
+        self.start_s = float(self.branch[0][0]) if self.branch is not None else math.inf
+
+    def ratio_for(self, map_t: float) -> float | None:
+        """The map's L'/L at the end of a burst of ``map_t`` s, or None off the branch (``ratio_at``)."""
+        return ratio_at(self.branch, map_t)
+
+
 #: three-point Gauss-Hermite rule for N(0, 1): nodes and weights (exact for polynomials up to degree 5)
 GAUSS_HERMITE_3 = (np.array([-math.sqrt(3.0), 0.0, math.sqrt(3.0)]), np.array([1.0, 4.0, 1.0]) / 6.0)
 
@@ -275,9 +297,7 @@ class OnlineTurnMap:
     def ratio_for(self, map_t: float) -> float | None:
         """The map's L'/L at the end of a burst of map time ``map_t`` (s), or None where the map's
         ratio is not yet below ``ratio_valid`` (before buckling, or no ratios recorded)."""
-        if self._ratio is None or map_t < self._ratio[0][0] or map_t > self._ratio[0][-1]:
-            return None
-        return float(np.interp(map_t, *self._ratio))
+        return ratio_at(self._ratio, map_t)
 
     def map_time_for_ratio(self, ratio: float) -> float | None:
         """Map time (s) at which the map's L'/L is ``ratio`` (clipped to the branch), or None if

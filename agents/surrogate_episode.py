@@ -91,14 +91,16 @@ class SurrogateEpisode:
         togo = (beta - omega_phase * self.time_s) % (2.0 * math.pi)
         return self.cruise(max(1, math.ceil(togo / omega_phase / dt - 1e-9)) * dt, stop_at_waypoint=False)
 
-    def burst(self, t_c: float, beta: float, min_wait_s: float, max_wait_s: float
+    def burst(self, t_c: float, beta: float, min_wait_s: float, max_wait_s: float, burst_end: str = "time"
               ) -> tuple[SurrogateTurn, tuple[bool, bool] | None]:
-        """A burst of ``t_c`` s (whole control steps) started at azimuth ``beta`` (rad), then the relaxation at
+        """A burst of ``t_c`` s (whole control steps; ended by ``burst_end``, ``SurrogateSwimmer.burst_times``, its
+        flight time rounded to whole control steps) started at azimuth ``beta`` (rad), then the relaxation at
         omega_l, waiting the map's relaxation time for this swimmer clamped to [``min_wait_s``, ``max_wait_s``]
         (whole control steps): the head moves along the chord of the map's displacement (plus any cruise past the
         relaxation) and the heading jumps to the new one at the end. Returns the turn and the episode's end or None."""
         sw, dt = self.swimmer, self.config.control_dt
-        out = sw.turn(self.heading, t_c, beta)
+        out = sw.turn(self.heading, t_c, beta, burst_end)
+        flown = max(1, round(sw.burst_times(t_c, burst_end)[0] / dt)) * dt if burst_end != "time" else t_c
         if not out.in_range and self.out_of_range is None:
             t_max = sw.table.t_c[-1]
             self.out_of_range = (f"burst of {t_c:.3g} s reads the map at t_c = {out.map_time_s:.4g} s, beyond its "
@@ -109,8 +111,8 @@ class SurrogateEpisode:
         wait = max(1, math.ceil(wait / dt - 1e-9)) * dt
         # the map's displacement covers the burst and its relaxation; the wait differs by a cruise
         end_point = self.head + out.displacement + sw.speed_m_s * (wait - out.relax_s) * out.heading
-        energy = sw.burst_energy_j(t_c) + sw.cruise_power_w * wait
-        end = self.collect(self.fly(end_point, t_c + wait, stop_at_waypoint=False, energy_j=energy))
+        energy = sw.burst_energy_j(t_c, burst_end) + sw.cruise_power_w * wait
+        end = self.collect(self.fly(end_point, flown + wait, stop_at_waypoint=False, energy_j=energy))
         self.heading = out.heading
         return out, end
 

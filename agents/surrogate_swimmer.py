@@ -31,6 +31,16 @@ pitch turns the swimmer 1.4-2.2 times as far as the map says (scripts/compare_su
 relaxation lasts tau / tau_0 times the map's; the cruise speed and the wobble period stay nominal; motor energies
 scale with mu (Stokes drag is linear in mu at a given motor speed). Each factor must lie within
 ``FACTOR_RANGE`` (measured at +-5 %, the physics envs randomise +-10 % and +-5 %).
+
+A burst ended by L'/L (``burst_end`` "ratio", ``agents.burst_flight``) stops when the swimmer's L'/L reaches the
+map's after t_c, so it turns nearly as the map's burst of t_c whatever the swimmer's buckling time: measured on the
+rod (``scripts/measure_ratio_clock.py``, docs/ratio_clock.json: swimmers within +-10 %, bursts of 2.8-3.6 s) it turns
+as the map's burst of
+
+    t_map = t_c + k (t_c - t_on) ln F,      F = prod_k f_k^e_k (above),   k = ``RATIO_CLOCK_COEFFICIENT``
+
+(t_on: the shortest burst the clock reads, ``RatioClock.start_s``), against t_c F - t_c ~ t_c ln F flown by time:
+the clock removes ~3/4 of a swimmer's timing error. It flies t_map / F seconds. Shorter bursts are flown by time.
 """
 
 from __future__ import annotations
@@ -42,6 +52,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from agents.online_turn_map import RatioClock
 from agents.surrogate_calibration import SurrogateCalibration
 from agents.turn_geometry import perpendicular_basis, wrap_angle
 from agents.turn_map import TurnMap
@@ -51,6 +62,9 @@ from physics.params import SwimmerParams
 #: physics envs randomise E, mu and b by +-10 % and the helix by +-5 %.
 FACTOR_RANGE = (0.85, 1.15)
 #: factor name -> the ``SwimmerParams`` field it is read from (E scales G alike: ``draw_randomization``)
+#: k of a burst ended by L'/L (module docstring): the least-squares fit of the map time the rod turned as, minus t_c,
+#: on (t_c - t_on) ln F over 74 bursts (``scripts/measure_ratio_clock.py``; residual 0.07 s rms).
+RATIO_CLOCK_COEFFICIENT = 0.78
 FACTOR_FIELDS = {"youngs_modulus": "youngs_modulus", "viscosity": "viscosity", "head_radius": "head_radius",
                  "pitch": "pitch", "helix_radius": "helix_radius"}
 
@@ -108,6 +122,8 @@ class TurnMapTable:
         self.channels = np.concatenate([np.stack([theta, np.cos(psi), np.sin(psi)], axis=-1), offset,
                                         np.stack([relax, ratio], axis=-1)], axis=-1)
         self._t_list, self._ph_list = [float(x) for x in tcs], [float(x) for x in self.phases]
+        #: the map's L'/L against burst length (bursts ended by L'/L)
+        self.clock = RatioClock(turn_map)
 
     def weights(self, t_map: float, beta: float) -> tuple[int, int, float, int, int, float, float, bool]:
         """(k0, k1, w_t, j0, j1, w_b, theta_scale, in_range): the grid corners and weights of (t_map s, beta rad);
@@ -176,15 +192,25 @@ class SurrogateSwimmer:
         """The map's burst length (s) that turns the nominal swimmer as ``t_c`` s turn this one."""
         return t_c * self.time_factor
 
-    def burst_energy_j(self, t_c: float) -> float:
-        """Motor energy of a burst of ``t_c`` s at omega_h, J (the calibration's, times mu / mu_0)."""
-        return self.calibration.burst_energy(self.map_time(t_c)) * self.mu_ratio
+    def burst_times(self, t_c: float, burst_end: str = "time") -> tuple[float, float]:
+        """(the burst's flight time, the map's burst length it turns as), s, for a command of ``t_c`` s ended by
+        ``burst_end`` ("time" or "ratio": the module docstring)."""
+        start = self.table.clock.start_s
+        if burst_end == "ratio" and self.table.clock.ratio_for(t_c) is not None:
+            t_map = t_c + RATIO_CLOCK_COEFFICIENT * (t_c - start) * math.log(self.time_factor)
+            return t_map / self.time_factor, t_map
+        return t_c, self.map_time(t_c)
 
-    def turn(self, d: np.ndarray, t_c: float, beta: float) -> SurrogateTurn:
-        """The outcome of a burst of ``t_c`` s at the reference direction's azimuth ``beta`` (rad) about the unit
-        heading ``d`` (3,)."""
+    def burst_energy_j(self, t_c: float, burst_end: str = "time") -> float:
+        """Motor energy of a burst of ``t_c`` s at omega_h ended by ``burst_end``, J (the calibration's, times
+        mu / mu_0)."""
+        return self.calibration.burst_energy(self.burst_times(t_c, burst_end)[1]) * self.mu_ratio
+
+    def turn(self, d: np.ndarray, t_c: float, beta: float, burst_end: str = "time") -> SurrogateTurn:
+        """The outcome of a burst of ``t_c`` s ended by ``burst_end`` (``burst_times``) at the reference
+        direction's azimuth ``beta`` (rad) about the unit heading ``d`` (3,)."""
         tab = self.table
-        t_map = self.map_time(t_c)
+        t_map = self.burst_times(t_c, burst_end)[1]
         k0, k1, w_t, j0, j1, w_b, scale, in_range = tab.weights(t_map, beta)
         th, pc, ps, o0, o1, o2, relax, ratio = tab.read(tab.channels, k0, k1, w_t, j0, j1, w_b).tolist()
         theta, psi = scale * th, math.atan2(ps, pc)

@@ -87,6 +87,7 @@ class ObservationLayout:
     length_scale_m: float
     phase_slot: int  # which observed shape node is the turn map's phase node
     time_left: slice | None = None  # the fraction of the episode's time budget left (None: not read)
+    end_ratio: slice | None = None  # the flagellum's L'/L (None: not read)
 
     @classmethod
     def from_env(cls, env, turn_map: TurnMap) -> ObservationLayout:
@@ -101,7 +102,8 @@ class ObservationLayout:
                              f"nodes {model.shape_nodes.tolist()}; use n_shape_nodes=8 (the default) or "
                              "calibrate for this observation")
         s = model.slices()
-        return cls(s["waypoints"], s["orientation"], s["shape"], model.length_scale_m, int(slots[0]), s["time_left"])
+        return cls(s["waypoints"], s["orientation"], s["shape"], model.length_scale_m, int(slots[0]), s["time_left"],
+                   s["end_to_end_ratio"])
 
     def read(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(the observed targets minus the head, (k, 3); the phase node minus the head, (3,)), both m in the start
