@@ -17,9 +17,9 @@ and the env flies it: hover at omega_l until the phase node's azimuth about the 
 t_c, relax at omega_l (at least two wobble periods), then cruise; a cruise ends early at a waypoint, so that the
 agent decides again when its target changes. How the burst ends is the design's ``BurstLimits.burst_end``: "time"
 (the default) flies t_c seconds; "ratio" flies until the flagellum's L'/L reaches the map swimmer's L'/L after t_c
-(``agents.burst_flight``), so that t_c names a turn of the map rather than a time: a swimmer that buckles earlier or
-later than the map's (E, mu, b, the helix off by a few %) turns 20-70 deg more or less in a timed burst of 3-3.4 s,
-and about a quarter of that ended by L'/L (``scripts/measure_ratio_clock.py``, docs/rl.md). ``t_c_max`` (3.7 s) ends one control step before the map's largest
+(``agents.burst_flight``), so that t_c names a turn of the map rather than a time: across swimmers within +-10 %
+(E, mu, b; the helix +-4 %) a timed burst of 2.8-3.4 s turns 27-33 deg rms off the map's turn, one ended by L'/L
+4-21 deg (``scripts/measure_ratio_clock.py``, docs/ratio_clock.json). ``t_c_max`` (3.7 s) ends one control step before the map's largest
 turn (3.75 s, 138 deg): past it the turn scatters (post-buckling), where the surrogate, which interpolates the
 map, and the rod disagree by 19-39 deg rms per decision against ~1 deg on the rising branch
 (``scripts/compare_burst_twins.py``, docs/rl.md), and a policy trained on the surrogate with 4.5 s learned to
