@@ -6,13 +6,15 @@ the code ``FlagellumBurst-v0`` flies it with, and asks the agent for the next co
 reads the head and the waypoint index from its base env, the pilot reads them from the observations, as the rule
 planner does (``dead_reckon``: the head from the change of the targets relative to it; a waypoint counted reached
 when the first target moves), so it needs nothing but ``predict(obs)``. Without ``DIR`` the agent shipped with the
-package (``SCRATCH_AGENT_DIR``, package data) flies.
+package (``SCRATCH_AGENT_DIR``, package data) flies. ``--controller rllib:DIR`` of a ``FlagellumBurst-*`` checkpoint
+(``flagellum train --engine ray``) flies through the same pilot (``agents.rllib_policy``).
 """
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
@@ -28,6 +30,13 @@ from agents.turn_planner import RulePlanner, dead_reckon
 SCRATCH_AGENT_DIR = package_file("pretrained", "sac_burst_scratch")
 #: A target that moves by more than this (m) between two control steps was reached (the next one is shown).
 _TARGET_SWITCH_M = 1e-3
+
+
+class BurstAgent(Protocol):
+    """What the pilot asks of an agent: a burst action (4,) in [-1, 1] for one ``burst_observation``
+    (``TrainedAgent``, a stable-baselines3 agent; ``agents.rllib_policy.RLlibAgent``, an RLlib one)."""
+
+    def act(self, features: np.ndarray, deterministic: bool = True) -> np.ndarray: ...
 
 
 def burst_agent_folder(arg: str | None) -> Path:
@@ -52,12 +61,13 @@ def burst_agent_folder(arg: str | None) -> Path:
 class BurstPilot:
     """A burst agent as a controller of ``FlagellumSteer-v0`` with a stable-baselines3-like ``predict`` (one env).
 
-    agent: the trained policy (``load_policy``); planner: the rule planner of the env and its turn map, used as an
-    instrument (speed -> action, observation layout, timing); limits: the agent's ``BurstLimits``. The env must
-    show two waypoints and the time left (``n_lookahead=2``, the default; ValueError otherwise).
+    agent: the trained policy (``BurstAgent``: ``load_policy``'s, or an RLlib checkpoint's for ``rllib:DIR``,
+    ``agents.rllib_policy``); planner: the rule planner of the env and its turn map, used as an instrument (speed ->
+    action, observation layout, timing); limits: the agent's ``BurstLimits``. The env must show two waypoints and
+    the time left (``n_lookahead=2``, the default; ValueError otherwise).
     """
 
-    def __init__(self, agent: TrainedAgent, planner: RulePlanner, limits: BurstLimits) -> None:
+    def __init__(self, agent: BurstAgent, planner: RulePlanner, limits: BurstLimits) -> None:
         self.agent, self.limits = agent, limits
         self.action_of, self.layout = planner.action_of, planner.layout
         if self.layout.time_left is None or self.layout.waypoints.stop - self.layout.waypoints.start != 6:

@@ -10,9 +10,9 @@ from typing import Any
 #: Environment settings each controller kind needs (merged under the caller's settings).
 #: The rule planner times its bursts to the flagellum's phase (~40 deg/s at 10 rpm) and its turns
 #: grow by up to ~100 deg per second of burst (paper preset), so it steps every 0.1 s.
-#: The PPO agents (``ppo``: stable-baselines3; ``rllib``: an RLlib checkpoint) correct the planner's turns
-#: (agents.residual_planner), so they step like the planner; ``ppo-scratch`` (a from-scratch burst agent,
-#: agents.burst_pilot) hovers and bursts as the planner does.
+#: The PPO agents (``ppo``: stable-baselines3; ``rllib``: an RLlib checkpoint of a FlagellumTurn env) correct the
+#: planner's turns (agents.residual_planner), so they step like the planner; ``ppo-scratch`` (a from-scratch burst
+#: agent, agents.burst_pilot; ``rllib`` of a FlagellumBurst env too) hovers and bursts as the planner does.
 CONTROLLER_ENV_DEFAULTS: dict[str, dict[str, Any]] = {"rule": {"control_dt": 0.1}, "adaptive": {"control_dt": 0.1},
                                                       "horizon": {"control_dt": 0.1}, "ppo": {"control_dt": 0.1},
                                                       "ppo-scratch": {"control_dt": 0.1},

@@ -3,7 +3,7 @@
 The file has one top-level key, the run's name, holding::
 
     rllib_ppo_surrogate:
-      env_id: FlagellumTurn-surrogate-v0   # any id this package registers (RLLIB_ENV_IDS)
+      env_id: FlagellumTurn-surrogate-v0   # any id this package registers (rllib_env_ids())
       env_kwargs: {}                       # gymnasium.make(env_id, **env_kwargs)
       num_env_runners: 2                   # Ray actors that step the envs (0: in the driver)
       num_envs_per_env_runner: 1
@@ -57,11 +57,20 @@ RESUMABLE_KEYS = ("iterations", "max_wall_time_s", "checkpoint_every", "address"
 
 
 def rllib_env_ids() -> list[str]:
-    """The Gymnasium ids this package registers (``FlagellumSteer-*`` and ``FlagellumTurn-*``)."""
-    from agents.registration import SURROGATE_TURN_ENV_IDS, TURN_ENV_IDS
+    """The Gymnasium ids this package registers (``FlagellumSteer-*``, ``FlagellumTurn-*`` and
+    ``FlagellumBurst-*``)."""
     from flagellum_env.registration import ENV_IDS
 
-    return [*ENV_IDS, *TURN_ENV_IDS, *SURROGATE_TURN_ENV_IDS]
+    return [*ENV_IDS, *rllib_controller_env_ids()]
+
+
+def rllib_controller_env_ids() -> list[str]:
+    """The ids whose checkpoints fly as ``--controller rllib:DIR`` (``agents.rllib_policy``): ``FlagellumTurn-*``
+    (a residual agent correcting the planner's turns) and ``FlagellumBurst-*`` (a burst agent with no planner,
+    flown by ``agents.burst_pilot.BurstPilot``)."""
+    from agents.registration import BURST_ENV_IDS, SURROGATE_TURN_ENV_IDS, TURN_ENV_IDS
+
+    return [*TURN_ENV_IDS, *SURROGATE_TURN_ENV_IDS, *BURST_ENV_IDS]
 
 
 _HOST_PORT = re.compile(r"^[A-Za-z0-9._-]+:(\d{1,5})$")

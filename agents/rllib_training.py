@@ -72,7 +72,7 @@ class TrainingInterrupted(KeyboardInterrupt):
 
 def make_env(env_config: dict[str, Any]):
     """RLlib's env creator: ``gymnasium.make(env_id, **env_kwargs)`` after ``import agents`` (which registers the
-    FlagellumTurn ids in the env runner's process)."""
+    FlagellumTurn and FlagellumBurst ids in the env runner's process)."""
     import gymnasium as gym
 
     import agents  # noqa: F401  (registers the ids in this process)

@@ -18,7 +18,8 @@ DESCRIPTION = ("Train from --config into --out. --engine sb3 (the default; rl-zo
                "meta.json, config.yml, episodes.csv, eval/, checkpoints/, tb/ (tensorboard); use the result with "
                "--controller ppo:DIR (residual) or ppo-scratch:DIR (burst). --engine ray (RLlib PPO, env runners on a local Ray or on the cluster at "
                "--address; default config agents/configs/rllib_ppo_surrogate.yml; keys: docs/ray.md): run.json, "
-               "config.yml, progress.csv, checkpoints/; use a FlagellumTurn run with --controller rllib:DIR. "
+               "config.yml, progress.csv, checkpoints/; use a FlagellumTurn or FlagellumBurst run with --controller "
+               "rllib:DIR. "
                "--resume continues from the newest checkpoint; Ctrl-C or SIGTERM saves one and exits.")
 ACCEPTS_SET = False  # the turn map fixes the swimmer: edit the config's task
 PRESET = (None, "the config's task.preset (an other value is refused); not used with --engine ray (the config's "
@@ -83,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_ray(args: argparse.Namespace, config_file: Path) -> int:
     """``--engine ray``: agents.rllib_training."""
-    from agents.rllib_config import RayTrainConfig
+    from agents.rllib_config import RayTrainConfig, rllib_controller_env_ids
 
     try:
         import ray  # noqa: F401
@@ -113,7 +114,7 @@ def _run_ray(args: argparse.Namespace, config_file: Path) -> int:
               f"{r.checkpoint}; --resume continues from there", file=sys.stderr)
         return 130
     budget = " (stopped by the wall-time budget)" if result.stopped_by_budget else ""
-    use = (f"; use it with --controller rllib:{result.out_dir}" if config.env_id.startswith("FlagellumTurn")
+    use = (f"; use it with --controller rllib:{result.out_dir}" if config.env_id in rllib_controller_env_ids()
            else "")
     print(f"trained {result.iterations} iterations ({result.env_steps} env steps) in {result.wall_time_s / 60:.1f} "
           f"min, {result.cpu_time_s / 60:.1f} CPU min{budget}; checkpoint {result.checkpoint}{use}")

@@ -1,6 +1,7 @@
 """Ray RLlib training (``agents.rllib_config``, ``agents.rllib_training``, ``agents.rllib_policy``, ``flagellum train
 --engine ray``): the config's checks need no Ray; with Ray installed, a tiny local run on FlagellumTurn-surrogate-v0
-checkpoints, resumes, refuses another config, and its checkpoint flies as a controller."""
+checkpoints, resumes, refuses another config, and its checkpoint flies as a controller; a tiny run on
+FlagellumBurst-surrogate-v0 flies as a BurstPilot, and a burst checkpoint of another observation size is refused."""
 
 from __future__ import annotations
 
@@ -22,7 +23,8 @@ def _config(**changes) -> dict:
 
 @pytest.mark.parametrize("changes, fragments", [
     ({"no_such_key": 1}, ["unknown key(s) ['no_such_key']", "allowed", "env_id"]),
-    ({"env_id": "CartPole-v1"}, ["env_id='CartPole-v1'", "FlagellumTurn-surrogate-v0", "FlagellumSteer-v0"]),
+    ({"env_id": "CartPole-v1"}, ["env_id='CartPole-v1'", "FlagellumTurn-surrogate-v0", "FlagellumSteer-v0",
+                                 "FlagellumBurst-surrogate-v0"]),
     ({"env_id": None}, ["env_id=None", "allowed"]),
     ({"address": "nowhere"}, ["address='nowhere'", "'auto'", "host:port"]),
     ({"address": "localhost:99999"}, ["address='localhost:99999'", "host:port"]),
@@ -59,6 +61,19 @@ def test_the_shipped_config_is_valid_and_its_identity_ignores_the_budget_and_whe
     assert other.identity_hash() != config.identity_hash()
     with pytest.raises(ValueError, match="--address='x y'"):
         config.with_address("x y")
+
+
+def test_the_burst_ids_pass_the_config_check_and_the_shipped_burst_config_is_valid():
+    from agents.assets import package_file
+    from agents.registration import BURST_ENV_IDS
+    from agents.rllib_config import rllib_controller_env_ids, rllib_env_ids
+
+    assert set(BURST_ENV_IDS) <= set(rllib_env_ids()) and set(BURST_ENV_IDS) <= set(rllib_controller_env_ids())
+    for env_id in BURST_ENV_IDS:
+        assert RayTrainConfig.from_dict(_config(env_id=env_id)).env_id == env_id
+    config = RayTrainConfig.from_yaml(package_file("configs", "rllib_ppo_burst_surrogate.yml"))
+    assert config.env_id == "FlagellumBurst-surrogate-v0" and config.iterations and config.train_batch_size == 4000
+    assert set(config.env_kwargs) == {"env_kwargs", "random_path", "limits"}
 
 
 def _as_dict(config: RayTrainConfig) -> dict:
@@ -170,3 +185,102 @@ def test_a_folder_without_a_checkpoint_is_not_a_controller(tmp_path):
 
     with pytest.raises(ValueError, match="no RLlib checkpoint"):
         checkpoint_folder(str(tmp_path))
+
+
+# --- burst agents ------------------------------------------------------------------------------------------------
+#: Not the default limits: the pilot must read them from the checkpoint.
+BURST_LIMITS = {"t_c_max_s": 3.5, "cruise_min_s": 2.0, "cruise_max_s": 30.0, "burst_end": "time"}
+
+
+@pytest.fixture(scope="module")
+def burst_run(tmp_path_factory) -> Path:
+    """A tiny local run on FlagellumBurst-surrogate-v0 (no env runner actor, one iteration of 64 decisions)."""
+    pytest.importorskip("ray")
+    from agents.rllib_training import train
+
+    tiny = {"env_id": "FlagellumBurst-surrogate-v0", "env_kwargs": {"limits": BURST_LIMITS}, "num_env_runners": 0,
+            "train_batch_size": 64, "minibatch_size": 32, "num_epochs": 1, "net_arch": [8], "iterations": 1}
+    out = tmp_path_factory.mktemp("burst") / "run"
+    result = train(RayTrainConfig.from_dict({"tiny_burst": tiny}), out, progress=False)
+    assert result.iterations == 1 and result.env_steps >= 64 and result.checkpoint is not None
+    return out
+
+
+def test_a_bad_burst_env_argument_is_refused_before_ray_starts(tmp_path):
+    pytest.importorskip("ray")
+    from agents.rllib_training import train
+
+    bad = {"env_id": "FlagellumBurst-surrogate-v0", "env_kwargs": {"limits": {"t_c_max_s": -1.0}}, "iterations": 1}
+    with pytest.raises(ValueError) as info:
+        train(RayTrainConfig.from_dict({"bad": bad}), tmp_path / "o", progress=False)
+    assert "t_c_max_s=-1.0" in str(info.value) and "\n" not in str(info.value)
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_tiny_burst_run_flies_as_a_burst_pilot(burst_run):
+    from agents.burst_design import N_BURST_FEATURES, BurstLimits
+    from agents.burst_pilot import BurstPilot
+    from agents.path_following import env_settings, make_controller
+    from agents.rllib_policy import RLlibAgent, load_rllib_agent
+    from agents.rllib_training import checkpoint_info, checkpoints
+    from flagellum_env.steer_env import FlagellumSteerEnv
+
+    info = checkpoint_info(checkpoints(burst_run)[-1])
+    assert info["env_id"] == "FlagellumBurst-surrogate-v0" and info["env_kwargs"] == {"limits": BURST_LIMITS}
+    assert info["observation_shape"] == [N_BURST_FEATURES] and info["action_shape"] == [4]
+
+    spec = f"rllib:{burst_run}"
+    steer = FlagellumSteerEnv(**env_settings(spec, "faithful"))  # the random path of seed 0
+    pilot = make_controller(spec, steer, "faithful")
+    assert isinstance(pilot, BurstPilot) and isinstance(pilot.agent, RLlibAgent)
+    assert pilot.limits == BurstLimits(**BURST_LIMITS)
+    agent = load_rllib_agent(str(burst_run), N_BURST_FEATURES)
+    features = np.linspace(-1.0, 1.0, N_BURST_FEATURES, dtype=np.float32)
+    assert np.array_equal(pilot.agent.act(features), agent.act(features))
+
+    asked: list[np.ndarray] = []
+    rllib_agent = pilot.agent
+
+    class _Recording:
+        def act(self, features: np.ndarray, deterministic: bool = True) -> np.ndarray:
+            asked.append(np.array(features))
+            return rllib_agent.act(features, deterministic)
+
+    pilot.agent = _Recording()
+    obs, _ = steer.reset(seed=0)
+    for _ in range(80):  # 8 s: the heading measured over a wobble period (5.5 s), then the agent's first command
+        action, _ = pilot.predict(obs)
+        assert steer.action_space.contains(action)
+        obs, _, terminated, truncated, _ = steer.step(action)
+        assert not (terminated or truncated)
+        if asked:
+            break
+    assert len(asked) == 1 and asked[0].shape == (N_BURST_FEATURES,)
+
+
+def test_a_burst_checkpoint_of_another_observation_size_or_a_steer_checkpoint_is_refused(burst_run, tmp_path):
+    import json
+    import shutil
+
+    from agents.path_following import env_settings, make_controller
+    from agents.rllib_policy import load_rllib_agent
+    from agents.rllib_training import checkpoints
+    from flagellum_env.steer_env import FlagellumSteerEnv
+
+    copy = tmp_path / "ckpt"
+    shutil.copytree(checkpoints(burst_run)[-1], copy)
+    info_file = copy / "flagellum.json"
+    info = json.loads(info_file.read_text())
+    info_file.write_text(json.dumps({**info, "observation_shape": [35]}))
+    spec = f"rllib:{copy}"
+    steer = FlagellumSteerEnv(**env_settings(spec, "faithful"))
+    with pytest.raises(ValueError) as refused:
+        make_controller(spec, steer, "faithful")
+    msg = str(refused.value)
+    assert "\n" not in msg and "(35,)" in msg and "(43,)" in msg and "retrain it" in msg, msg
+
+    info_file.write_text(json.dumps({**info, "env_id": "FlagellumSteer-v0"}))
+    with pytest.raises(ValueError) as refused:
+        load_rllib_agent(str(copy))
+    msg = str(refused.value)
+    assert "\n" not in msg and "'FlagellumSteer-v0'" in msg and "FlagellumBurst-surrogate-v0" in msg, msg
