@@ -22,7 +22,8 @@ hyperparameters (flat, as in rl-zoo3's ``hyperparams/ppo.yml``) and a ``task`` s
         preset: faithful        # fast, reference or paper; the retired coarse is refused
         turn_map: null          # null: the preset's turn map (agents.assets.default_turn_map)
         planner: rule            # the planner corrected: rule or adaptive (agents.residual_planner)
-        limits: {max_dtc_fraction: 0.05, max_dphase_deg: 15}
+        limits: {max_dtc_fraction: 0.05, max_dphase_deg: 15}   # design burst: BurstLimits fields (t_c_max_s,
+                                # cruise_min_s, cruise_max_s, burst_end: time or ratio)
         action_cost: 5.0        # reward - action_cost |a|^2 per decision
         env_kwargs: {randomize: true, reward: {cross_track_per_cm_s: 0.05}}
         map_noise: null         # design burst, tier surrogate only: {direction_deg: D, turn_scale: S}, the map
