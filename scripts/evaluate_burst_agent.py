@@ -1,7 +1,7 @@
 """A from-scratch agent (``flagellum train`` with ``task.design: burst``) on fixed paths, in a ``FlagellumBurst-*`` env.
 
-The agent's deterministic action (stable-baselines3 PPO or SAC, as its ``meta.json`` says; observations normalised by
-its ``vecnormalize.pkl``) flies each path once in ``--env`` (``FlagellumBurst-v0``: the rod at ``--preset``; or
+The agent's deterministic action (stable-baselines3 PPO or SAC, as its ``meta.json`` says, with the ``BurstLimits`` it
+was trained with; observations normalised by its ``vecnormalize.pkl``) flies each path once in ``--env`` (``FlagellumBurst-v0``: the rod at ``--preset``; or
 ``FlagellumBurst-surrogate-v0``), with the seeds of ``flagellum evaluate``: every path at ``--seed0`` for the
 nominal swimmer, the k-th path (in file-name order) at ``--seed0 + k`` with ``--randomize F`` (E, mu and b by F,
 the helix by 0.4 F, as ``flagellum evaluate --randomize F``), so the swimmers are those the planners met there.
@@ -46,7 +46,10 @@ def fly(task: dict) -> dict:
         f = task["randomize"]
         env_kwargs["randomize"] = {"youngs_modulus": f, "viscosity": f, "head_radius": f, "geometry": 0.4 * f,
                                    "obs_noise_std": 0.0}
-    make_kwargs = {"env_kwargs": env_kwargs, "paths": [path]}
+    agent_meta = json.loads((Path(task["agent"]) / "meta.json").read_text(encoding="utf-8"))
+    # the agent's own action design (its BurstLimits: t_c_max, cruises, how a burst ends), as the pilot flies it
+    make_kwargs = {"env_kwargs": env_kwargs, "paths": [path],
+                   "limits": agent_meta.get("make_kwargs", {}).get("limits")}
     if task["env"] == "FlagellumBurst-v0":
         make_kwargs["preset"] = task["preset"]
     agent = Path(task["agent"])
@@ -87,7 +90,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if not 0.0 <= args.randomize <= 0.15:
         parser.error(f"--randomize {args.randomize!r} is not allowed; allowed: a fraction in [0, 0.15]")
-    for f in ("model.zip", "vecnormalize.pkl"):
+    for f in ("model.zip", "vecnormalize.pkl", "meta.json"):
         if not (args.agent / f).is_file():
             parser.error(f"--agent {str(args.agent)!r} lacks {f}; allowed: a folder written by flagellum train")
     files = sorted(args.paths.glob("*.json"))
