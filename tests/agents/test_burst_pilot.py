@@ -44,12 +44,14 @@ class _Scripted:
         return COMMANDS[min(len(self.seen) - 1, len(COMMANDS) - 1)], None
 
 
-def _scripted_agent() -> TrainedAgent:
-    return TrainedAgent(_Scripted(), None, 10.0, 1e-8, {"mode": "scratch", "design": "burst"}, Path("."))
+def _scripted_agent(burst_end: str = "time") -> TrainedAgent:
+    meta = {"mode": "scratch", "design": "burst", "make_kwargs": {"limits": {"burst_end": burst_end}}}
+    return TrainedAgent(_Scripted(), None, 10.0, 1e-8, meta, Path("."))
 
 
-def test_the_pilot_flies_the_twin_envs_episode():
-    env = gym.make("FlagellumBurst-v0", paths=[ONE_TURN]).unwrapped
+@pytest.mark.parametrize("burst_end", ["time", "ratio"])
+def test_the_pilot_flies_the_twin_envs_episode(burst_end):
+    env = gym.make("FlagellumBurst-v0", paths=[ONE_TURN], limits={"burst_end": burst_end}).unwrapped
     obs, info = env.reset(seed=0)
     env_obs = [obs]
     for command in COMMANDS:
@@ -58,9 +60,11 @@ def test_the_pilot_flies_the_twin_envs_episode():
         assert not (term or trunc)
     assert info["turns"] == 1
 
-    agent = _scripted_agent()
+    assert env.last_burst["stopped_by"] == burst_end   # the 3.5 s burst: read by the clock when asked
+    agent = _scripted_agent(burst_end)
     steer = FlagellumSteerEnv(path=ONE_TURN, **env_settings("ppo-scratch", "faithful"))
     pilot = BurstPilot.for_env(steer, agent, TurnMap.load(default_turn_map("faithful")))
+    assert pilot.limits.burst_end == burst_end
     obs, step_info = steer.reset(seed=0, options={"path": ONE_TURN})
     cross = []
     while True:  # until the agent is asked for a fourth command: the three commands are flown
