@@ -19,13 +19,15 @@ agent decides again when its target changes. How the burst ends is the design's 
 (the default) flies t_c seconds; "ratio" flies until the flagellum's L'/L reaches the map swimmer's L'/L after t_c
 (``agents.burst_flight``), so that t_c names a turn of the map rather than a time: across swimmers within +-10 %
 (E, mu, b; the helix +-4 %) a timed burst of 2.8-3.4 s turns 27-33 deg rms off the map's turn, one ended by L'/L
-4-21 deg (``scripts/measure_ratio_clock.py``, docs/ratio_clock.json). ``t_c_max`` (3.7 s) ends one control step before the map's largest
-turn (3.75 s, 138 deg): past it the turn scatters (post-buckling), where the surrogate, which interpolates the
-map, and the rod disagree by 19-39 deg rms per decision against ~1 deg on the rising branch
-(``scripts/compare_burst_twins.py``, docs/rl.md), and a policy trained on the surrogate with 4.5 s learned to
-lean on the surrogate's smooth 84 deg at 4.5 s. A swimmer that buckles later makes its largest turns in two
-bursts. The azimuth is given as a direction (a_1, a_2), not as one number: a turn's direction lies ~130 deg from beta on the rising branch
-(the map's psi), and an angle in one action entry would put a seam where a Gaussian policy cannot cross it.
+4-21 deg (``scripts/measure_ratio_clock.py``, docs/ratio_clock.json).
+
+``t_c_max`` (3.7 s) ends one control step before the map's largest turn (3.75 s, 138 deg): past it the turn
+scatters (post-buckling), where the surrogate, which interpolates the map, and the rod disagree by 19-39 deg rms per
+decision against ~1 deg on the rising branch (``scripts/compare_burst_twins.py``, docs/rl.md), and a policy trained
+on the surrogate with 4.5 s learned to lean on the surrogate's smooth 84 deg at 4.5 s. A swimmer that buckles later
+makes its largest turns in two bursts. The azimuth is given as a direction (a_1, a_2), not as one number: a turn's
+direction lies ~130 deg from beta on the rising branch (the map's psi), and an angle in one action entry would put a
+seam where a Gaussian policy cannot cross it.
 
 The observation (``burst_observation``, ``N_BURST_FEATURES`` values) is the task in the heading's frame
 (d, e1, e2) = (heading, ``perpendicular_basis(heading)``), the frame beta is measured in: the next two waypoints
