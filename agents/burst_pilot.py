@@ -71,8 +71,9 @@ class BurstPilot:
         self.agent, self.limits = agent, limits
         self.action_of, self.layout = planner.action_of, planner.layout
         if self.layout.time_left is None or self.layout.waypoints.stop - self.layout.waypoints.start != 6:
-            raise ValueError("the ppo-scratch controller reads the next two waypoints and the time left from the "
-                             "observation; make FlagellumSteer-v0 with n_lookahead=2 (the default)")
+            raise ValueError("a burst agent (ppo-scratch, or rllib:DIR of a FlagellumBurst run) reads the next two "
+                             "waypoints and the time left from the observation; make FlagellumSteer-v0 with "
+                             "n_lookahead=2 (the default)")
         self.flight = BurstFlight.for_planner(planner)
         self.reset()
 
@@ -92,7 +93,8 @@ class BurstPilot:
         """(action, None) for one observation of ``FlagellumSteer-v0`` (D,) or a batch of one (1, D)."""
         obs = np.asarray(observation, dtype=np.float64)
         if obs.ndim == 2 and obs.shape[0] != 1:
-            raise ValueError(f"the ppo-scratch controller flies one env; got a batch of {obs.shape[0]} observations")
+            raise ValueError(f"a burst agent (ppo-scratch, or rllib:DIR of a FlagellumBurst run) flies one env; got a "
+                             f"batch of {obs.shape[0]} observations")
         single = obs.ndim == 1
         obs = obs.reshape(-1)
         if episode_start is not None and bool(np.asarray(episode_start).reshape(-1)[0]):

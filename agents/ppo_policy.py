@@ -119,13 +119,20 @@ def load_agent(arg: str | None = None) -> TrainedAgent:
 
 
 class _AgentDriven:
-    """A residual planner driven by a trained agent (mixin); ``predict`` like a stable-baselines3 policy."""
+    """A residual planner driven by a trained agent (mixin); ``predict`` like a stable-baselines3 policy.
+    ``deterministic``: what the last ``predict`` asked for (the agent acts on it)."""
 
     agent: TrainedAgent
-    _deterministic: bool = True
+    deterministic: bool = True
+
+    def drive_with(self, agent) -> None:
+        """Let ``agent`` (anything with ``act(features, deterministic)``: ``TrainedAgent``, an RLlib agent) correct
+        the planner's turns."""
+        self.agent = agent
+        self.policy = lambda f: agent.act(f, self.deterministic)
 
     def predict(self, observation: np.ndarray, state=None, episode_start=None, deterministic: bool = True):
-        self._deterministic = bool(deterministic)
+        self.deterministic = bool(deterministic)
         return super().predict(observation, state, episode_start, deterministic)  # type: ignore[misc]
 
 
@@ -148,6 +155,5 @@ def load_ppo_controller(arg: str | None, env, preset: str) -> PPOController | Ad
     kind, _, config = base_planner(agent.meta.get("planner", "rule"))
     cls = AdaptivePPOController if kind == "adaptive" else PPOController
     ctrl = cls.for_env(env, TurnMap.load(tmap_file), config, limits=limits)
-    ctrl.agent = agent
-    ctrl.policy = lambda f: agent.act(f, ctrl._deterministic)
+    ctrl.drive_with(agent)
     return ctrl

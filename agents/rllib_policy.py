@@ -160,8 +160,7 @@ def load_rllib_controller(arg: str, env, preset: str) -> PPOController | Adaptiv
     limits = residual_limits(env_kwargs.get("limits")) or ResidualLimits()
     cls = AdaptivePPOController if kind == "adaptive" else PPOController
     ctrl = cls.for_env(env, tmap, config, limits=limits)
-    ctrl.agent = agent
-    ctrl.policy = lambda f: agent.act(f, ctrl._deterministic)
+    ctrl.drive_with(agent)
     return ctrl
 
 
