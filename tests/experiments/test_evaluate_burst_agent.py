@@ -25,19 +25,22 @@ def _script():
 
 @pytest.fixture()
 def agents_and_path(tmp_path):
-    """The shipped agent, and a copy of it whose meta says its bursts end by L'/L."""
-    ratio = tmp_path / "ratio_agent"
-    shutil.copytree(SCRATCH_AGENT_DIR, ratio)
-    meta = json.loads((ratio / "meta.json").read_text(encoding="utf-8"))
-    meta.setdefault("make_kwargs", {})["limits"] = {**meta["make_kwargs"].get("limits", {}), "burst_end": "ratio"}
-    (ratio / "meta.json").write_text(json.dumps(meta), encoding="utf-8")
+    """Two copies of the shipped agent, whose metas say their bursts end by time and by L'/L."""
+    copies = []
+    for end in ("time", "ratio"):
+        agent = tmp_path / f"{end}_agent"
+        shutil.copytree(SCRATCH_AGENT_DIR, agent)
+        meta = json.loads((agent / "meta.json").read_text(encoding="utf-8"))
+        meta.setdefault("make_kwargs", {})["limits"] = {**meta["make_kwargs"].get("limits", {}), "burst_end": end}
+        (agent / "meta.json").write_text(json.dumps(meta), encoding="utf-8")
+        copies.append(agent)
     path = tmp_path / "one_turn.json"
     save_path(path_from_waypoints([[0.12, 0.0, 0.0], [0.12, 0.15, 0.0]], name="one_turn", reach_radius_m=0.015), path)
-    return SCRATCH_AGENT_DIR, ratio, path
+    return copies[0], copies[1], path
 
 
 def test_the_agents_own_burst_end_is_flown(agents_and_path, monkeypatch):
-    shipped, ratio, path = agents_and_path
+    timed, ratio, path = agents_and_path
     script = _script()
     made = []
     real_make = gymnasium.make
@@ -50,7 +53,7 @@ def test_the_agents_own_burst_end_is_flown(agents_and_path, monkeypatch):
     monkeypatch.setattr(gymnasium, "make", make)  # the script imports gymnasium in fly()
     task = {"path": str(path), "env": "FlagellumBurst-surrogate-v0", "preset": "faithful", "randomize": 0.1,
             "seed": 3}
-    for agent in (shipped, ratio):
+    for agent in (timed, ratio):
         row = script.fly({**task, "agent": str(agent)})
         assert row["error"] is None and row["decisions"] >= 1
     assert made == ["time", "ratio"]
