@@ -1,8 +1,8 @@
 """A from-scratch agent (``flagellum train`` with ``task.design: burst``) on fixed paths, in a ``FlagellumBurst-*`` env.
 
 The agent's deterministic action (stable-baselines3 PPO or SAC, as its ``meta.json`` says, with the ``BurstLimits`` it
-was trained with; observations normalised by its ``vecnormalize.pkl``) flies each path once in ``--env`` (``FlagellumBurst-v0``: the rod at ``--preset``; or
-``FlagellumBurst-surrogate-v0``), with the seeds of ``flagellum evaluate``: every path at ``--seed0`` for the
+was trained with; observations normalised by its ``vecnormalize.pkl``) flies each path once in ``--env``
+(``FlagellumBurst-v0``: the rod at ``--preset``; or ``FlagellumBurst-surrogate-v0``), with the seeds of ``flagellum evaluate``: every path at ``--seed0`` for the
 nominal swimmer, the k-th path (in file-name order) at ``--seed0 + k`` with ``--randomize F`` (E, mu and b by F,
 the helix by 0.4 F, as ``flagellum evaluate --randomize F``), so the swimmers are those the planners met there.
 Per path: success, waypoints, the mean cross-track error, simulated time and bursts; prints a table, writes JSON.
@@ -46,18 +46,17 @@ def fly(task: dict) -> dict:
         f = task["randomize"]
         env_kwargs["randomize"] = {"youngs_modulus": f, "viscosity": f, "head_radius": f, "geometry": 0.4 * f,
                                    "obs_noise_std": 0.0}
-    agent_meta = json.loads((Path(task["agent"]) / "meta.json").read_text(encoding="utf-8"))
+    agent = Path(task["agent"])
+    agent_meta = json.loads((agent / "meta.json").read_text(encoding="utf-8"))
     # the agent's own action design (its BurstLimits: t_c_max, cruises, how a burst ends), as the pilot flies it
     make_kwargs = {"env_kwargs": env_kwargs, "paths": [path],
                    "limits": agent_meta.get("make_kwargs", {}).get("limits")}
     if task["env"] == "FlagellumBurst-v0":
         make_kwargs["preset"] = task["preset"]
-    agent = Path(task["agent"])
     venv = VecNormalize.load(str(agent / "vecnormalize.pkl"),
                              DummyVecEnv([lambda: gym.make(task["env"], **make_kwargs)]))
     venv.training, venv.norm_reward = False, False
-    meta_file = agent / "meta.json"
-    run = json.loads(meta_file.read_text(encoding="utf-8")).get("run", {}) if meta_file.is_file() else {}
+    run = agent_meta.get("run", {})
     model = algorithm_class(run.get("algorithm", "ppo")).load(str(agent / "model.zip"), env=venv, device="cpu")
     t0, c0 = time.perf_counter(), time.process_time()
     venv.seed(task["seed"])
