@@ -145,13 +145,51 @@ def write_report(rows: list[dict[str, Any]], json_path: Path, md_path: Path | No
         pareto_plot(rows, png_path)
 
 
-def quick_markdown(rows: list[dict[str, Any]], wall_s: float, missing: list[str]) -> str:
-    """The report of ``flagellum bench --quick``: speed by phase and errors against ``reference``, one row per preset."""
+QUICK_ERROR_KEYS = ("swim_per_turn", "theta", "phi", "lratio_end_of_burst")
+#: where a zero error (``reference`` against itself) is drawn on the log axis
+ERROR_FLOOR = 1e-5
+
+
+def quick_pareto_plot(rows: list[dict[str, Any]], path: Path) -> None:
+    """The Pareto figure of ``flagellum bench --quick``: each preset's largest relative error against ``reference``
+    (swim per turn, θ, φ, L'/L) against its CPU cost per simulated second, in the 150 rpm burst (left) and cruising
+    at 10 rpm (right), log-log, one point per preset. ``reference`` (error 0 by definition) sits on the floor."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6))
+    panels = ((axes[0], "burst_real_time_factor_cpu", "CPU s per simulated s, 150 rpm burst"),
+              (axes[1], "real_time_factor_cpu", "CPU s per simulated s, steady 10 rpm"))
+    for ax, rtf_key, xlabel in panels:
+        for k, r in enumerate(rows):
+            errs = [r["errors"][e] for e in QUICK_ERROR_KEYS if e in r["errors"]]
+            if not r.get(rtf_key) or not errs:
+                continue
+            cost, err = 1.0 / r[rtf_key], max(max(errs), ERROR_FLOOR)
+            ax.scatter(cost, err, s=80, color=f"C{k}", zorder=3)
+            ax.annotate(r["config"], (cost, err), textcoords="offset points", xytext=(6, 6), fontsize=9)
+        ax.axhline(ERROR_FLOOR, color="grey", lw=0.6, ls=":")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel("largest relative error vs reference")
+        ax.grid(True, which="both", alpha=0.3)
+    fig.suptitle("flagellum bench --quick: error against cost, one point per preset (dotted: reference's 0)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def quick_markdown(rows: list[dict[str, Any]], wall_s: float, missing: list[str], figure: str | None = None) -> str:
+    """The report of ``flagellum bench --quick``: speed by phase and errors against ``reference``, one row per preset;
+    ``figure``: the file name of its Pareto figure (``quick_pareto_plot``) beside it, shown under the table."""
     import os
     import platform
 
     load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
-    err_keys = ("swim_per_turn", "theta", "phi", "lratio_end_of_burst")
+    err_keys = QUICK_ERROR_KEYS
     lines = ["# flagellum bench --quick", "",
              f"{platform.node()}, {os.cpu_count()} cores, load average {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} "
              f"at the end; {wall_s:.0f} s in all. Real-time factor = simulated s per CPU s (`time.process_time`; "
@@ -177,6 +215,8 @@ def quick_markdown(rows: list[dict[str, Any]], wall_s: float, missing: list[str]
                      f"{_fmt(r.get('env_steps_per_s_random'))} | "
                      + " | ".join(f"{100 * r['errors'][k]:.2f} %" if k in r["errors"] else "—" for k in err_keys)
                      + " |")
+    if figure:
+        lines += ["", f"![Error against CPU cost, one point per preset]({figure})"]
     lines += ["", "Values:", "", "| preset | swim per turn (mm) | θ (deg) | φ (deg) | L'/L end of burst | episode |",
               "|---|---|---|---|---|---|"]
     for r in rows:

@@ -174,4 +174,6 @@ def test_bench_runs_its_tasks_on_a_dask_cluster_with_scheduler(tmp_path, monkeyp
     assert row["errors"]["theta"] == 0.0 and row["episode_wall_s"] == 9.0  # the stubs equal reference's
     assert row["env_steps_per_s_random"] == 4.0
     assert next(r for r in rows if r["config"] == "reference")["episode_wall_s"] is None  # not run for reference
-    assert "faithful" in (tmp_path / "quick.md").read_text()
+    md = (tmp_path / "quick.md").read_text()
+    assert "faithful" in md and "](quick.png)" in md  # the Pareto figure, written beside it
+    assert (tmp_path / "quick.png").stat().st_size > 10_000

@@ -81,7 +81,7 @@ def _run_quick(out: Path, results: Path, workers, scheduler, progress: bool, t0:
     import json
 
     from flagellum_bench.fidelity import quick_configs, quick_rows, quick_tasks, run_fidelity
-    from flagellum_bench.report import quick_markdown
+    from flagellum_bench.report import quick_markdown, quick_pareto_plot
     from batch.store import SweepError
 
     configs = quick_configs()
@@ -93,12 +93,14 @@ def _run_quick(out: Path, results: Path, workers, scheduler, progress: bool, t0:
     rows = quick_rows(done, configs)
     out.write_text(json.dumps(rows, indent=1) + "\n")
     missing = [f"{c.name}: {m}" for c, m in tasks if (c.name, m) not in done]
-    out.with_suffix(".md").write_text(quick_markdown(rows, time.perf_counter() - t0, missing))
+    quick_pareto_plot(rows, out.with_suffix(".png"))
+    out.with_suffix(".md").write_text(quick_markdown(rows, time.perf_counter() - t0, missing,
+                                                     figure=out.with_suffix(".png").name))
     for r in rows:
         print(f"{r['config']:10s} " + "  ".join(f"{k} {_fmt(r[k])}" for k in
                                                 ("real_time_factor", "burst_real_time_factor", "episode_wall_s"))
               + "  errors " + ", ".join(f"{k} {100 * v:.2f} %" for k, v in r["errors"].items()))
-    print(f"wrote {out}, {out.with_suffix('.md')}")
+    print(f"wrote {out}, {out.with_suffix('.md')}, {out.with_suffix('.png')}")
     return 0
 
 
