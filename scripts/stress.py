@@ -110,7 +110,11 @@ def write_md(recs: list[dict], path: Path, command: str) -> None:
                      + (" / ".join(f"{g:.2f}" for g in r["min_gaps_mm"]) if r.get("min_gaps_mm") else "—")
                      + f" | {r['wall_s']:.1f} | {(r.get('message') or '').replace('|', '/')[:160]} |")
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join(lines) + "\n")
+    # the page's "Every tier" section (scripts/stress_tiers.py) is kept as it is
+    text = path.read_text() if path.exists() else ""
+    marker = "<!-- every-tier -->"
+    tiers = "\n" + text[text.index(marker):] if marker in text else ""
+    path.write_text("\n".join(lines) + "\n" + tiers)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -59,3 +59,20 @@ def test_section_replaced_in_place(stress, tmp_path):
     text = md.read_text()
     assert text.count(stress.MARKERS[0]) == 1 and "before" in text
     assert "| faithful | 0 rpm | error |" in text and "| faithful | 0 rpm | ok |" not in text
+
+
+def test_numerics_table_keeps_the_tier_section(stress, tmp_path):
+    """scripts/stress.py rewrites its own table and keeps the "Every tier" section below it."""
+    spec = importlib.util.spec_from_file_location("stress", SCRIPT.with_name("stress.py"))
+    numerics = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(numerics)
+    md = tmp_path / "stability.md"
+    rec = {"tier": "faithful", "corner": "0 rpm", "outcome": "ok", "sim_time_s": 1.0, "halvings": 0,
+           "end_to_end": 1.0, "edge_ratio": [0.99, 1.01], "cpu_s": 1.0}
+    stress.write_section(md, [rec], "cmd")
+    numerics.write_md([{"corner": "omega 150 rpm", "outcome": "ok", "sim_time_s": 2.0, "halvings": 0,
+                        "newton_per_step": 3.0, "end_to_end": 1.0, "min_gaps_mm": [1.0, 2.0], "wall_s": 1.0}],
+                      md, "python scripts/stress.py")
+    text = md.read_text()
+    assert text.startswith("# Stability at the extremes") and "| omega 150 rpm | ok |" in text
+    assert text.count(stress.MARKERS[0]) == 1 and "| faithful | 0 rpm | ok |" in text
