@@ -43,7 +43,7 @@ CORNERS: list[tuple[str, dict]] = [
     ("mu / 100, h 50 ms", {"viscosity": 0.027, "dt": 0.05}),
     ("RFT, h 50 ms, 300 rpm", {"hydro_model": "rft", "dt": 0.05, "omega_rpm": 300}),
     ("RFT, N 400, h 0.1 ms", {"hydro_model": "rft", "n_nodes": 400, "dt": 1e-4}),
-    ("fixed head, 300 rpm", {"head_rotation": "fixed", "omega_rpm": 300}),
+    ("torque-free head, 300 rpm", {"head_rotation": "torque_free", "omega_rpm": 300}),
 ]
 
 
@@ -147,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
             fh.flush()
             done[r["corner"]] = r
             print(f"{r['corner']:28s} {r['outcome']:6s} {(r.get('message') or '')[:90]}", flush=True)
-    write_md(list(done.values()), Path(args.md), "python scripts/stress.py " + " ".join(argv or []))
+    write_md([done[n] for n, _ in CORNERS if n in done], Path(args.md), "python scripts/stress.py " + " ".join(argv or []))
     return 0
 
 
