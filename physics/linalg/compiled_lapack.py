@@ -142,7 +142,7 @@ def _numpy_dot(x: np.ndarray, y: np.ndarray) -> float:
 
 
 @njit(cache=True)
-def _numba_matvec(A: np.ndarray, x: np.ndarray) -> np.ndarray:
+def numba_matvec(A: np.ndarray, x: np.ndarray) -> np.ndarray:
     """A @ x (m,) as Numba computes it (SciPy's dgemv), for a NumPy without its bundled OpenBLAS."""
     if A.shape[0] == 0 or A.shape[1] == 0:
         return np.zeros(A.shape[0])
@@ -150,11 +150,11 @@ def _numba_matvec(A: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def _numba_dot(x: np.ndarray, y: np.ndarray) -> float:
+def numba_dot(x: np.ndarray, y: np.ndarray) -> float:
     """x @ y as Numba computes it (SciPy's ddot), for a NumPy without its bundled OpenBLAS."""
     return np.dot(x, y) if x.shape[0] else 0.0
 
 
 #: A @ x and x @ y in compiled code: NumPy's own where ``NUMPY_BLAS`` (bit for bit), else Numba's
-numpy_matvec = _numpy_matvec if NUMPY_BLAS else _numba_matvec
-numpy_dot = _numpy_dot if NUMPY_BLAS else _numba_dot
+numpy_matvec = _numpy_matvec if NUMPY_BLAS else numba_matvec
+numpy_dot = _numpy_dot if NUMPY_BLAS else numba_dot

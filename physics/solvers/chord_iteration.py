@@ -460,7 +460,7 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
             raise StepFailed("residual", "non-finite (NaN/inf) force residual")
         elif code == HYDRO_FAILED:
             raise StepFailed("hydrodynamic mobility", f"LSBT mobility solve failed (potrs info {int(value)})")
-        elif code == LINEAR_FAILED and banded:  # the messages of BandedNewtonSolver.increment (solve_banded's)
+        elif code == LINEAR_FAILED and banded:  # scipy.linalg.solve_banded's messages
             why = ("singular matrix" if value > 0
                    else f"illegal value in {-int(value)}-th argument of internal gbsv/gtsv")
             raise StepFailed("Jacobian", f"banded Newton system is singular ({why})")

@@ -1,6 +1,7 @@
 """The compiled banded Newton iteration of the RFT model (``chord_iteration.chord_loop`` with the banded increment)
 against its Python reference (tests/physics/chord_reference.py: ``scipy.linalg.solve_banded`` on the banded Jacobian),
-bit for bit; and the compiled LAPACK dgbsv against ``scipy.linalg.solve_banded``."""
+bit for bit; the compiled LAPACK dgbsv against ``scipy.linalg.solve_banded``; and Numba's products (the chord loop's
+where NumPy has no bundled OpenBLAS) against NumPy's."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from scipy.linalg import solve_banded
 
 from physics import Simulator, advance, configure
 from physics.errors import StepFailed
-from physics.linalg.compiled_lapack import gbsv
+from physics.linalg.compiled_lapack import gbsv, numba_dot, numba_matvec
 from physics.params import RPM_TO_RAD_S
 from physics.solvers.chord_iteration import chord_solve
 from tests.physics.chord_reference import PythonChordSimulator, chord_python
@@ -33,6 +34,18 @@ def test_compiled_gbsv_is_solve_banded_bit_for_bit(n):
         assert np.array_equal(ab, ab0) and np.array_equal(b, b0)  # inputs untouched
     x, info = gbsv(np.zeros((21, n)), 10, 10, np.ones(n))
     assert info == 1  # solve_banded: LinAlgError("singular matrix")
+
+
+def test_numbas_products_are_numpys_up_to_rounding():
+    """``compiled_lapack``'s fallback products (no bundled OpenBLAS): C- and F-ordered matrices, a transpose, empty
+    shapes."""
+    rng = np.random.default_rng(5)
+    for m, n in ((363, 363), (363, 3), (3, 363), (1, 7), (0, 3), (3, 0)):
+        A = rng.normal(size=(m, n))
+        x, y = rng.normal(size=n), rng.normal(size=m)
+        for M, v in ((A, x), (np.asfortranarray(A), x), (A.T, y)):
+            np.testing.assert_allclose(numba_matvec(M, v), M @ v, rtol=1e-12, atol=1e-12 * (v.size + 1))
+        assert numba_dot(x, x) == pytest.approx(x @ x, rel=1e-13, abs=0.0)
 
 
 def _rft(overrides: dict, n_nodes: int = 40, simulator: type = Simulator) -> Simulator:
