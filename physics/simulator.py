@@ -13,12 +13,11 @@ the presets ``faithful`` and ``fast`` use BDF3), with error-controlled steps ins
 local drag) evaluated at the predicted geometry. The nonlinear system is solved by Newton-type
 iterations on the full residual, so a converged step solves eqn (6) up to the resistance's geometry
 lag. With RFT every step is a Newton iteration on the exact banded Jacobian; with LSBT two regimes
-(``step_solvers``): while the resistance is reused through a rigid rotation (steady
-swimming), the chord iteration on the reused dense factorisation; both run as one compiled call per step attempt
-(``chord_iteration``); when the LSBT resistance is rebuilt (the shape has changed: buckling, relaxation) and ``newton_krylov`` is on,
-Newton-Krylov in the mobility form (``newton_krylov``: GMRES with a banded preconditioner, no dense
-factorisation). A failing fixed step
-is halved up to ``max_substeps`` times, a failing adaptive step retried at a quarter, before a
+(``step_solvers``): while the resistance is reused through a rigid rotation (steady swimming), the chord iteration
+on the reused dense factorisation; both run as one compiled call per step attempt (``chord_iteration``); when the
+LSBT resistance is rebuilt (the shape has changed: buckling, relaxation) and ``newton_krylov`` is on, Newton-Krylov
+in the mobility form (``newton_krylov``: GMRES with a banded preconditioner, no dense factorisation). A failing
+fixed step is halved up to ``max_substeps`` times, a failing adaptive step retried at a quarter, before a
 ``SimulationError`` names the step, time and quantity.
 
 Contact (``physics.forces.contact``, on unless ``numerics.contact`` is false): head-rod and rod-rod

@@ -385,9 +385,10 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
     """The chord iteration of a step from the predictor q (ndof,) at the effective step h (s), compiled
     (``chord_loop``), Python entering only at a stall or when the resistance forms its inverse (LSBT). Returns
     (q, r, grad, f, (t, d1, ref_twist)) at convergence (with ``single_iteration``: the solve's q, the rest at the
-    predictor); raises ``StepFailed``. ``sim``: the stepped object; it gives its ``system`` (``step_context.SystemDescription``), the
-    step (``step_context(h)``), its solver (``step_solvers``: dense chord or banded Newton, ``banded`` tells),
-    contraction rate and counters, and keeps the contact state the loop returns."""
+    predictor); raises ``StepFailed``. ``sim``: the stepped object; it gives its ``system``
+    (``step_context.SystemDescription``), the step (``step_context(h)``), its solver (``step_solvers``: dense chord
+    or banded Newton, ``banded`` tells), contraction rate and counters, and keeps the contact state the loop
+    returns."""
     system = sim.system
     nm, p = system.numerics, system.params
     solver = sim.solver
