@@ -27,7 +27,7 @@ import numpy as np
 
 from agents.turn_geometry import angle_between, azimuth, turn_angles, unit, wrap_angle
 from agents.turn_measurement import DEFAULT_SHAPE_NODES, TurnResult, phase_node_index
-from physics.params import RPM_TO_RAD_S, NumericsConfig, SwimmerParams
+from physics.params import REMOVED_PARAMETERS, RPM_TO_RAD_S, NumericsConfig, SwimmerParams, removed_message
 
 TURN_MAP_FORMAT = "flagellum-turn-map"
 TURN_MAP_VERSION = 1
@@ -236,6 +236,10 @@ class TurnMap:
         if doc.get("version") != TURN_MAP_VERSION:
             raise ValueError(f"turn map {str(path)!r} has version {doc.get('version')!r}; this code reads version "
                              f"{TURN_MAP_VERSION}: calibrate again with 'flagellum calibrate-turns'")
+        removed = [k for k in doc.get("numerics") or () if k in REMOVED_PARAMETERS]
+        if removed:
+            raise ValueError(f"turn map {str(path)!r} names a removed parameter: {removed_message(removed[0])} (or "
+                             "calibrate again with 'flagellum calibrate-turns')")
         try:
             points = tuple(TurnResult(**{**p, "offset_m": tuple(p["offset_m"])}) for p in doc["points"])
             return cls(params=SwimmerParams(**doc["params"]), numerics=NumericsConfig(**doc["numerics"]),

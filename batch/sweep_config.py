@@ -34,7 +34,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Union
 
-from physics.params import NumericsConfig, SwimmerParams, apply_overrides, parameter_table
+from physics.params import (REMOVED_PARAMETERS, NumericsConfig, SwimmerParams, apply_overrides, parameter_table,
+                            removed_message)
 from physics.presets import apply_preset, check_preset
 from physics.run import DEFAULT_NODE_RECORD_INTERVAL_S, DEFAULT_RECORD_INTERVAL_S, validate_run_arguments
 from physics.schedule import MAX_RPM, MotorSchedule
@@ -286,6 +287,8 @@ def _as_number(where: str, value: Any, allowed: str) -> int | float:
 def _check_name(where: str, name: Any) -> str:
     if name == SPEED or name in _FIELDS:
         return name
+    if name in REMOVED_PARAMETERS:
+        raise SweepConfigError(f"{where}: {removed_message(name)}")
     raise SweepConfigError(f"{where}: unknown parameter {name!r}; allowed: {', '.join(parameter_names())} "
                            "(see 'flagellum params')")
 

@@ -162,7 +162,6 @@ class NumericsConfig:
                              "chord iteration on the reused factorisation (lsbt only)")
     single_iteration: bool = _f(False, "-", "take exactly one Newton iteration per step (linearly implicit "
                                 "Euler): fastest, first-order accurate, no convergence check")
-    anderson_depth: int = _f(4, "-", "Anderson acceleration depth of the Newton/chord iteration (0 = off)", 0, 20)
     hydro_model: str = _f("lsbt", "-", "flagellum hydrodynamics: lsbt (nonlocal, eqn 8, dense) or rft "
                           "(local resistive-force theory, O(N), banded)", choices=("lsbt", "rft"))
     head_model: str = _f("higdon", "-", "head hydrodynamics: higdon (flow coupling with the flagellum, "
@@ -192,7 +191,7 @@ class NumericsConfig:
                                   "physics/hydro/lsbt.py)", 0.0, 10.0)
 
     def __post_init__(self) -> None:
-        for name in ("newton_max_iter", "hydro_refresh_max_steps", "max_substeps", "anderson_depth"):
+        for name in ("newton_max_iter", "hydro_refresh_max_steps", "max_substeps"):
             v = getattr(self, name)
             if isinstance(v, float) and v.is_integer():
                 object.__setattr__(self, name, int(v))
@@ -202,6 +201,26 @@ class NumericsConfig:
 
     def replace(self, **changes: Any) -> "NumericsConfig":
         return dataclasses.replace(self, **changes)
+
+
+#: Parameters that were removed, with why: naming one anywhere (overrides, ``--set``, sweeps, turn maps) raises a
+#: one-line ValueError (``removed_message``) instead of the generic unknown-parameter one.
+REMOVED_PARAMETERS = {
+    "anderson_depth": "Anderson mixing of the chord iteration cost more CPU than it saved; the chord and Newton "
+                      "iterations run compiled without it (docs/time_integration.md)",
+}
+
+
+def removed_message(name: str) -> str:
+    """What the removed parameter ``name`` was and why it went (``REMOVED_PARAMETERS``), on one line."""
+    return f"parameter {name!r} was removed ({REMOVED_PARAMETERS[name]}); drop it"
+
+
+def refuse_removed(names: Any) -> None:
+    """ValueError (``removed_message``) for the first of ``names`` (parameter names) that was removed."""
+    for name in names:
+        if name in REMOVED_PARAMETERS:
+            raise ValueError(removed_message(name))
 
 
 def check_combination(params: SwimmerParams, numerics: NumericsConfig) -> None:
@@ -247,6 +266,7 @@ def apply_overrides(params: SwimmerParams, numerics: NumericsConfig,
     n_names = {f.name: f for f in dataclasses.fields(NumericsConfig)}
     p_changes: dict[str, Any] = {}
     n_changes: dict[str, Any] = {}
+    refuse_removed(overrides)
     for name, raw in overrides.items():
         if name in p_names:
             target, fld = p_changes, p_names[name]

@@ -1,8 +1,7 @@
 """Named speed/accuracy presets, selectable everywhere (CLI ``--preset``, API, environment).
 
 ``paper`` is the paper's discretisation (N = 122, edges 2 delta, LSBT + Higdon head) and scheme
-(implicit Euler, eqn 6) at the paper's h = 1 ms, Newton tolerance 1e-6 (the chord iteration compiled, without
-Anderson mixing), with the resistance
+(implicit Euler, eqn 6) at the paper's h = 1 ms, Newton tolerance 1e-6, with the resistance
 refreshed whenever the shape has changed by more than 0.03 r0 (first order in h: 2 % off the
 converged turn angle, docs/bench_quick.md); its steps with a rebuilt resistance are solved by
 Newton-Krylov (the same solution to the Newton tolerance, 1.4x faster in a burst).
@@ -34,25 +33,22 @@ import dataclasses
 from collections.abc import Mapping
 from typing import Any
 
-from physics.params import NumericsConfig, SwimmerParams, apply_overrides, check_combination
+from physics.params import NumericsConfig, SwimmerParams, apply_overrides, check_combination, refuse_removed
 
 #: The preset of every command, the environment and the agents unless told otherwise.
 DEFAULT_PRESET = "faithful"
 
-#: the error-controlled presets: Newton-Krylov where the shape changes, the plain chord iteration elsewhere (Anderson
-#: mixing cost more than it saved there: steady 10 rpm 38x -> 53x real time, same iteration count)
+#: the error-controlled presets: Newton-Krylov where the shape changes, the chord iteration elsewhere
 _ADAPTIVE = {"dt": 0.1, "jacobian_refresh": "resistance", "hydro_model": "lsbt", "head_model": "higdon",
-             "newton_krylov": True, "anderson_depth": 0}
+             "newton_krylov": True}
 
 PRESETS: dict[str, dict[str, dict[str, Any]]] = {
     "reference": {"params": {"n_nodes": 122},
                   "numerics": {**_ADAPTIVE, "integrator": "bdf2", "step_tol": 1e-7, "hydro_refresh_tol": 0.003,
                                "newton_tol": 1e-8}},
-    # paper: the chord iteration without Anderson mixing runs compiled (chord_iteration.chord_loop): 1.25x steady,
-    # 1.18x burst, the end state of a 1.5 s burst 2.7e-10 m from the mixed iteration's
     "paper": {"params": {"n_nodes": 122},
               "numerics": {"dt": 1e-3, "hydro_model": "lsbt", "head_model": "higdon",
-                           "hydro_refresh_tol": 0.03, "newton_tol": 1e-6, "newton_krylov": True, "anderson_depth": 0}},
+                           "hydro_refresh_tol": 0.03, "newton_tol": 1e-6, "newton_krylov": True}},
     "faithful": {"params": {"n_nodes": 122},
                  "numerics": {**_ADAPTIVE, "integrator": "bdf3", "step_tol": 1e-4, "hydro_refresh_tol": 0.03,
                               "newton_tol": 1e-5}},
@@ -120,6 +116,7 @@ def configure(preset: str | None = None,
     typed = {k: v for k, v in overrides.items() if not isinstance(v, str)}
     p_names = {f.name for f in dataclasses.fields(SwimmerParams)}
     n_names = {f.name for f in dataclasses.fields(NumericsConfig)}
+    refuse_removed(typed)
     unknown = sorted(set(typed) - p_names - n_names)
     if unknown:
         raise ValueError(f"unknown parameter {unknown[0]!r}; known parameters: {', '.join(sorted(p_names | n_names))}")

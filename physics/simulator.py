@@ -13,13 +13,11 @@ the presets ``faithful`` and ``fast`` use BDF3), with error-controlled steps ins
 local drag) evaluated at the predicted geometry. The nonlinear system is solved by Newton-type
 iterations on the full residual, so a converged step solves eqn (6) up to the resistance's geometry
 lag. With RFT every step is a Newton iteration on the exact banded Jacobian; with LSBT two regimes
-(``step_solvers``): while the resistance is reused through a rigid rotation (steady
-swimming), the chord iteration on the reused dense factorisation; both run as one compiled call per step attempt
-(``chord_iteration``; ``_chord_python`` is their Python reference and the path of Anderson mixing and single
-iterations); when the LSBT resistance is rebuilt (the shape has changed: buckling, relaxation) and ``newton_krylov`` is on,
-Newton-Krylov in the mobility form (``newton_krylov``: GMRES with a banded preconditioner, no dense
-factorisation). A failing fixed step
-is halved up to ``max_substeps`` times, a failing adaptive step retried at a quarter, before a
+(``step_solvers``): while the resistance is reused through a rigid rotation (steady swimming), the chord iteration
+on the reused dense factorisation; both run as one compiled call per step attempt (``chord_iteration``); when the
+LSBT resistance is rebuilt (the shape has changed: buckling, relaxation) and ``newton_krylov`` is on, Newton-Krylov
+in the mobility form (``newton_krylov``: GMRES with a banded preconditioner, no dense factorisation). A failing
+fixed step is halved up to ``max_substeps`` times, a failing adaptive step retried at a quarter, before a
 ``SimulationError`` names the step, time and quantity.
 
 Contact (``physics.forces.contact``, on unless ``numerics.contact`` is false): head-rod and rod-rod
@@ -49,7 +47,6 @@ from __future__ import annotations
 
 import math
 import numbers
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,14 +54,12 @@ import numpy as np
 from physics.elastic import rest_from_configuration, rod_frames
 from physics.errors import SimulationError, StepFailed
 from physics.model.geometry import edge_stretch_extremes, initial_nodes, layout_for, nodes_of, pack_q
-from physics.solvers.anderson import AndersonMixing
 from physics.model.body_frame import transported_body_frame
-from physics.solvers.chord_iteration import chord_solve, compiled_chord_applies
+from physics.solvers.chord_iteration import chord_solve
 from physics.forces.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS, ContactModel, ContactParams, ContactState
 from physics.forces.force_terms import scene_for
 from physics.hydro.higdon_head import head_spin_map
-from physics.hydro.hydrodynamics import HydroError
-from physics.solvers.implicit_residual import block_max_abs, forces_converged
+from physics.solvers.implicit_residual import block_max_abs
 from physics.solvers.krylov_span import SPAN_AFTER_ACCEPT, SPAN_DONE, krylov_span_applies, run_krylov_span
 from physics.params import NumericsConfig, SwimmerParams, check_combination
 from physics.forces.step_context import StepContext, SystemDescription
@@ -91,11 +86,7 @@ class StepStats:
     substeps: int = 0  # accepted integration steps (= steps with fixed steps and no halving)
     rejected_steps: int = 0  # adaptive steps retried smaller (error too large or Newton failure)
     order_reductions: int = 0  # times the order was held at 2 after its steps collapsed (``time_integrator``)
-    # wall seconds spent in each part of the step; the first three only on the Python paths (the compiled chord
-    # and Newton-Krylov iterations are not split into parts)
-    time_elastic: float = 0.0  # frames + elastic and contact gradients
-    time_hydro: float = 0.0  # applying the resistance (LSBT solves / matvecs)
-    time_linear_solve: float = 0.0  # chord-iteration back-substitutions
+    # wall seconds spent in the refreshes (the compiled chord and Newton-Krylov iterations are not split into parts)
     time_resistance_refresh: float = 0.0  # LSBT mobility + Cholesky
     time_jacobian_refresh: float = 0.0  # elastic Hessian, dense R, LU
 
@@ -145,9 +136,9 @@ class Simulator:
 
     * while the LSBT resistance is reused through a rigid rotation (steady swimming): the chord iteration on
       the reused dense LU of M/h^2 + K + P^T R P / h, rotated with the swimmer, compiled end to end
-      (``chord_iteration``; ``_chord_python`` is its Python reference and the path of Anderson mixing);
+      (``chord_iteration``);
     * with RFT (``hydro_model="rft"``): Newton on the exact banded Jacobian, refactorised at every iteration,
-      compiled end to end by the same loop (``chord_iteration``, bit-identical to ``_chord_python``);
+      compiled end to end by the same loop (``chord_iteration``);
     * when the resistance is rebuilt (the shape changed non-rigidly by more than ``hydro_refresh_tol`` r0:
       buckling, relaxation) and ``newton_krylov`` is on: Newton-Krylov in the mobility form, the flagellum's
       forces unknowns beside q, GMRES with a banded preconditioner, no dense factorisation (``newton_krylov``);
@@ -184,8 +175,8 @@ class Simulator:
         self.prescribed = np.array([], dtype=np.int64) if self.head_spins else np.array([3])
         self._twist = np.arange(3, self.layout.ndof, 4)
         self._free_twist = np.setdiff1d(self._twist, self.prescribed)
-        # Anderson mixing compares increments in units of r0 for positions, radians for twists
-        self._anderson_weights = np.where(np.arange(self.layout.ndof) % 4 == 3, 1.0, 1.0 / p.rod_radius)
+        # the error norm's weights: positions in units of r0, twists in radians
+        self._weights = np.where(np.arange(self.layout.ndof) % 4 == 3, 1.0, 1.0 / p.rod_radius)
         self.rest_arrays = (self.rest.l_bar, self.rest.l_vor, self.rest.kappa_bar, self.rest.twist_bar,
                              self.rest.EA, self.rest.EI, self.rest.GJ)
         # state
@@ -221,16 +212,13 @@ class Simulator:
         self.system = SystemDescription(
             params=p, numerics=self.numerics, mass=self.mass, vdofs=self.vdofs, prescribed=self.prescribed,
             head_spins=self.head_spins, pos=self._pos, twist=self._twist, free_twist=self._free_twist,
-            weights=self._anderson_weights, rest=self.rest_arrays, f_floor=self._f_floor,
+            weights=self._weights, rest=self.rest_arrays, f_floor=self._f_floor,
             contact_model=self.contact.model if self.contact is not None else None)
         #: the force terms of eqn (6) this configuration needs (``physics.forces.force_terms``)
         self.scene = scene_for(self.system)
         #: the step's solver (``step_solvers``): the chord iteration's caches, the resistance, Newton-Krylov's step
         solver = DenseChordSolver if self.numerics.hydro_model == "lsbt" else BandedNewtonSolver
         self.solver = solver(self.system, self, self.scene.term("hydrodynamics"))
-        #: chord steps (LSBT, steady) and banded Newton steps (RFT) by the compiled iteration where it applies
-        #: (``chord_iteration.compiled_chord_applies``; False: always the Python reference ``_chord_python``)
-        self.compiled_chord = True
         #: runs of Newton-Krylov steps in one compiled call where it applies (False: always the Python step)
         self.compiled_span = True
         self._initial_nodes = nodes_of(q0)
@@ -387,11 +375,6 @@ class Simulator:
 
     nodes_at = staticmethod(nodes_of)
 
-    def correction_size(self, z: np.ndarray) -> float:
-        """The weighted max norm of a correction of q (ndof,): positions in r0, twists in rad (the error
-        estimate's units, ``time_integrator.error_norm``)."""
-        return float(np.max(np.abs(z) * self._anderson_weights))
-
     def step_context(self, h: float) -> StepContext:
         """The step being taken as the force terms see it (``physics.forces.force_terms``), at the effective step h (s):
         the scheme's base values, the frames and configuration of the step's start, the current contact state and
@@ -400,30 +383,6 @@ class Simulator:
         return StepContext(b.q_hat, b.v_hat, h, self.omega, (self.d1, self.tangent, self.ref_twist), self.q,
                            self.step_count == 0, self.contact_state(self.q)[1] if self.contact is not None else None,
                            self.solver.resistance())
-
-    def _residual(self, q: np.ndarray, h: float):
-        """The residual of eqn (6) at q (ndof,) through the scene's force terms: (r, grad of the elastic and contact
-        energies, hydrodynamic generalised force f, inertia term (all (ndof,), N / N m), frames (t, d1, ref_twist)
-        at q). Keeps the contact state; h is the effective step h_e (s)."""
-        try:
-            r, forces, byproducts, seconds = self.scene.evaluate(q, self.step_context(h))
-        except HydroError as exc:
-            raise StepFailed("hydrodynamic mobility", str(exc)) from None
-        grad = forces["elastic"]
-        stats = self.stats
-        if self.contact is not None:
-            grad = grad + forces["contact"]  # the fused kernels' grad, bit for bit (zero on the twists)
-            cstate, e_c, nodes_c, _ = byproducts["contact"]
-            self.keep_contact_state(cstate, e_c, nodes_c.shape[0])
-            stats.time_elastic += seconds["contact"]
-        stats.time_elastic += seconds["elastic"]
-        stats.time_hydro += seconds["hydrodynamics"]
-        t, d1, d2, rt, m1, m2 = byproducts["elastic"]
-        return r, grad, -forces["hydrodynamics"], forces["inertia"], (t, d1, rt)
-
-    def _converged(self, r, grad, f, inertia) -> bool:
-        return forces_converged(r, grad, f, inertia, self._pos, self._free_twist, self.numerics.newton_tol,
-                                self._f_floor, self.params.rod_radius)
 
     def _euler_base(self, h: float) -> StepBase:
         """Implicit Euler from the current state, started from the constant-acceleration predictor of the
@@ -454,56 +413,14 @@ class Simulator:
             forces = (extrapolate(self.adaptive.force_points, self.time + base.h) if self.adaptive.force_points
                       else self.node_forces)  # the last forces where no accepted point since the restart
             return self.solver.mobility.solve(q, -forces[first:].ravel(), h)
-        if self.compiled_chord and compiled_chord_applies(self):
-            return chord_solve(self, q, h)  # the iteration below, compiled (bit-identical; LSBT chord or RFT banded)
-        return self._chord_python(q, h)
+        return self._chord_step(q, h)
 
-    def _chord_python(self, q: np.ndarray, h: float):
-        """The chord iteration of a step from the predictor q (ndof,) at the effective step h (s), in Python: the
-        reference of the compiled ``chord_iteration.chord_solve`` (for both solvers: the dense chord one of LSBT and
-        the banded Newton one of RFT) and the path of the configurations it does not take (Anderson mixing, a single
-        iteration; LSBT without NumPy's bundled OpenBLAS). Returns (q, r, grad, f, (t, d1,
-        ref_twist)) at convergence; raises ``StepFailed``."""
-        nm, p = self.numerics, self.params
-        hist = [math.inf, math.inf]
-        accel = AndersonMixing(self._anderson_weights, self.numerics.anderson_depth)
-        step_scale = max(block_max_abs(q - self.q, self._pos), 1e-6 * p.rod_radius)
-        rate = self.contraction if nm.step_tol > 0.0 else None
-        if rate is not None:
-            rate.start()
-        for it in range(nm.newton_max_iter * 2):
-            r, grad, f, inertia, frames = self._residual(q, h)
-            self.stats.newton_iterations += 1
-            if not np.all(np.isfinite(r)):
-                raise StepFailed("residual", "non-finite (NaN/inf) force residual")
-            if self._converged(r, grad, f, inertia):
-                return q, r, grad, f, frames
-            norm = float(np.abs(r).max())
-            # stalled: a refactorisation costs ~20 iterations, so only after many iterations or
-            # when two iterations together reduce the residual by less than 2x
-            if it >= nm.newton_max_iter or (it >= 8 and norm > 0.5 * hist[-2]):
-                if not self.solver.on_stall(q, h) and it >= nm.newton_max_iter:
-                    break
-            hist.append(norm)
-            t0 = time.perf_counter()
-            z = self.solver.increment(r, q, h)
-            self.stats.time_linear_solve += time.perf_counter() - t0
-            q_plain = q - z
-            if nm.single_iteration:  # linearly implicit Euler: one solve from the predictor
-                return q_plain, r, grad, f, frames
-            q = accel.update(q, q_plain, -z)
-            # increment criterion: the iteration contracts, so an increment far below the step's
-            # own displacement (and the twist resolution) means the residual is at tolerance
-            dz = block_max_abs(z, self._pos)
-            if (it >= 1 and dz <= max(nm.newton_tol * step_scale, 1e-10 * p.rod_radius)
-                    and block_max_abs(z, self._twist) <= max(nm.newton_tol, 1e-10)):
-                return q, r, grad, f, frames
-            if rate is not None and rate.converged(self.correction_size(z) / nm.step_tol):
-                r, grad, f, inertia, frames = self._residual(q, h)  # the forces at the accepted iterate
-                self.stats.newton_iterations += 1
-                return q, r, grad, f, frames
-        raise StepFailed("Newton", f"Newton did not converge after {it + 1} iterations "
-                                   f"(max force residual {np.abs(r).max():.3e})")
+    def _chord_step(self, q: np.ndarray, h: float):
+        """The chord iteration of a step from the predictor q (ndof,) at the effective step h (s), compiled
+        (``chord_iteration.chord_solve``: LSBT's dense chord iteration or RFT's banded Newton one; one solve from
+        the predictor with ``single_iteration``). Returns (q, r, grad, f, (t, d1, ref_twist)); raises
+        ``StepFailed``. Its Python reference, bit for bit: tests/physics/chord_reference.py."""
+        return chord_solve(self, q, h)
 
     def _base_for(self, h: float) -> StepBase:
         if self.adaptive.restart:
@@ -554,7 +471,7 @@ class Simulator:
             try:
                 q, r, grad, f, (t, d1, rt) = self._try_step(base)
                 self._check_state(q, t)
-                err = error_norm(q, base, self._anderson_weights, nm.step_tol)
+                err = error_norm(q, base, self._weights, nm.step_tol)
             except StepFailed as exc:
                 self._reject(h / 4.0, exc.quantity, str(exc))
                 continue

@@ -1,7 +1,7 @@
 """Calibration study of the `reduced` tier (issue 48, item 2): local resistive-force theory (RFT) against `faithful`.
 
-The swimmer of every case is `faithful`'s numerics (BDF3, step_tol 1e-4, Newton 1e-5, contact on, Anderson
-mixing off, default head b = 1.2 cm held against rotation) with, for the RFT cases, ``hydro_model=rft``
+The swimmer of every case is `faithful`'s numerics (BDF3, step_tol 1e-4, Newton 1e-5, contact on,
+default head b = 1.2 cm held against rotation) with, for the RFT cases, ``hydro_model=rft``
 (physics/hydro/rft.py: f_j = -ell_j [zeta_perp (I - t t) + zeta_par t t] u_j with Lighthill's (1976)
 coefficients, the head a plain Stokes sphere 6 pi mu b, 8 pi mu b^3: no flow coupling) on N nodes and the
 factors ``rft_scale_perp``, ``rft_scale_par`` on (zeta_perp, zeta_par).

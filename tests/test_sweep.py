@@ -110,6 +110,8 @@ BAD_CONFIGS = [
     ({"sweep": {"omega_rpm": [10]}, "fixed": {"nodes": 30}}, ["fixed", "'nodes'", "n_nodes"]),
     ({"sweep": {"omega_rpm": [10, 10.0]}}, ["points 0 and 1", "same run"]),
     ({"sweep": {"omega_rpm": [10]}, "save_trajectories": "yes"}, ["save_trajectories", "'yes'", "true or false"]),
+    ({"sweep": {"omega_rpm": [10]}, "fixed": {"anderson_depth": 0}}, ["fixed", "'anderson_depth' was removed",
+                                                                      "cost more CPU than it saved"]),
     ({"sweep": {"omega_rpm": [10]}, "fixed": {"rod_radius": 0.01}}, ["fixed.rod_radius", "helix_radius"]),
     ({"sweep": {"omega_rpm": [10], "rod_radius": [0.005], "helix_radius": [0.004]}},
      ["point 0", "rod_radius=0.005", "helix_radius=0.004", "smaller"]),

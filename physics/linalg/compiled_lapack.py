@@ -11,7 +11,8 @@ routines, not look-alikes:
 * ``numpy_matvec`` / ``numpy_dot``: ``A @ x`` and ``x @ y`` as NumPy computes them for float64 arrays: its own
   (bundled) OpenBLAS ``cblas_dgemv`` / ``cblas_ddot``, with the storage order and transposition NumPy's matmul
   chooses for a C- or F-contiguous matrix. Found only where NumPy ships scipy-openblas (the PyPI wheels):
-  ``NUMPY_BLAS`` tells; where it is False the compiled chord iteration is not used (its Python reference runs).
+  ``NUMPY_BLAS`` tells; where it is False they are Numba's products (SciPy's BLAS: the same up to rounding) and
+  the compiled Newton-Krylov span is not used (its Python step runs).
 
 The symbols are registered with LLVM by name (``llvmlite.binding.add_symbol``) at import, so the kernels that
 call them can be cached (``cache=True``): an address is never frozen into the cache.
@@ -114,7 +115,7 @@ def gbsv(ab: np.ndarray, kl: int, ku: int, b: np.ndarray) -> tuple[np.ndarray, i
 
 
 @njit(cache=True)
-def numpy_matvec(A: np.ndarray, x: np.ndarray) -> np.ndarray:
+def _numpy_matvec(A: np.ndarray, x: np.ndarray) -> np.ndarray:
     """A @ x (m,) for A (m, n) C- or F-contiguous and x (n,) contiguous, float64, as NumPy computes it (its
     cblas_dgemv: a C-contiguous A as the transpose of a column-major (n, m), an F-contiguous one as column-major
     (m, n)). Caller's contract: contiguous arrays (checked)."""
@@ -135,6 +136,25 @@ def numpy_matvec(A: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def numpy_dot(x: np.ndarray, y: np.ndarray) -> float:
+def _numpy_dot(x: np.ndarray, y: np.ndarray) -> float:
     """x @ y for contiguous float64 vectors (n,), as NumPy computes it (its cblas_ddot)."""
     return _np_ddot(x.shape[0], x.ctypes, 1, y.ctypes, 1)
+
+
+@njit(cache=True)
+def numba_matvec(A: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """A @ x (m,) as Numba computes it (SciPy's dgemv), for a NumPy without its bundled OpenBLAS."""
+    if A.shape[0] == 0 or A.shape[1] == 0:
+        return np.zeros(A.shape[0])
+    return A @ x
+
+
+@njit(cache=True)
+def numba_dot(x: np.ndarray, y: np.ndarray) -> float:
+    """x @ y as Numba computes it (SciPy's ddot), for a NumPy without its bundled OpenBLAS."""
+    return np.dot(x, y) if x.shape[0] else 0.0
+
+
+#: A @ x and x @ y in compiled code: NumPy's own where ``NUMPY_BLAS`` (bit for bit), else Numba's
+numpy_matvec = _numpy_matvec if NUMPY_BLAS else numba_matvec
+numpy_dot = _numpy_dot if NUMPY_BLAS else numba_dot

@@ -2,18 +2,19 @@
 iteration and the banded Newton iteration of RFT, one loop.
 
 Each step solves the implicit residual of eqn (6) (Huang & Jawed 2020; ``implicit_residual``) by
-q <- q - J^{-1} r(q). ``Simulator._chord_python`` is that iteration written in Python, one kernel call per piece;
-it stays the reference. ``chord_loop`` is the same iteration in one compiled call, with the same operations in the
-same order, so its iterates are bit-identical. Two solvers plug into it (``step_solvers``), chosen at compile time
-by the type of its ``hydro`` and ``lin`` arguments (``hydro_force`` and ``newton_increment``: one compiled variant
-of the loop per solver, no placeholders):
+q <- q - J^{-1} r(q) (with ``single_iteration``: one such solve from the predictor). ``chord_loop`` is that
+iteration in one compiled call; its Python reference, one kernel call per piece with the same operations in the same
+order, is tests/physics/chord_reference.py (bit-identical iterates). Two solvers plug into it (``step_solvers``),
+chosen at compile time by the type of its ``hydro`` and ``lin`` arguments (``hydro_force`` and ``newton_increment``:
+one compiled variant of the loop per solver, no placeholders):
 
 * LSBT (``DenseChordSolver``; ``ChordHydro``, ``ChordLinear``): while the hydrodynamic resistance is reused through
   a rigid rotation (steady swimming), the chord iteration on the reused dense LU of J = M/h^2 + K + P^T R P / h,
   its node blocks rotated by the best-fit rotation Qj (``rigid_alignment``). The hydrodynamic force -R V in the
   resistance's reference frame (``resistance_apply``, the arithmetic of ``ResistanceOperator.apply``: NumPy's own
   dgemv / ddot and SciPy's dpotrs, ``compiled_lapack``); the increment: LAPACK dgetrs on the kept LU
-  (``compiled_lapack.getrs``) between the rotations by Qj.
+  (``compiled_lapack.getrs``) between the rotations by Qj. Where NumPy has no bundled OpenBLAS the products are
+  Numba's (``compiled_lapack.NUMPY_BLAS``): the same up to rounding.
 * RFT (``BandedNewtonSolver``; ``LocalDrag``, ``implicit_residual.BandedNewtonTerms``): local drag, so R is
   block-diagonal (``rft.local_drag_apply``) and the exact Jacobian at every iterate is banded
   (``implicit_residual.banded_newton_matrix``: elastic Hessian of eqns (5a)-(5c), M/h^2, RFT blocks / h, the contact
@@ -25,11 +26,10 @@ Common to both: the residual (frames, elastic and contact forces with the contac
 (``forces_converged``), the stall test, the increment criterion, CVODE's contraction-rate test
 (``time_integrator.ContractionRate``).
 
-Python acts only where the Python iteration does something other than arithmetic (LSBT only): a stall (the
+Python acts only where the iteration does something other than arithmetic (LSBT only): a stall (the
 Jacobian is refactorised, ``DenseChordSolver.on_stall``) and the moment the resistance operator forms its explicit
 inverse (``ResistanceOperator.inverse``, after ``_INVERSE_AFTER_SOLVES`` Cholesky solves); the loop returns there
-and ``chord_solve`` resumes it where it stopped (``phase``). Anderson mixing (``anderson_depth`` > 0) and a single
-iteration per step keep the Python iteration, and so does LSBT on a NumPy without its bundled OpenBLAS.
+and ``chord_solve`` resumes it where it stopped (``phase``).
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ from numba import njit, types
 from numba.extending import overload
 
 from physics.elastic import BANDWIDTH
-from physics.linalg.compiled_lapack import NUMPY_BLAS, gbsv, getrs, numpy_dot, numpy_matvec, potrs_upper
+from physics.linalg.compiled_lapack import gbsv, getrs, numpy_dot, numpy_matvec, potrs_upper
 from physics.errors import StepFailed
 from physics.hydro.hydrodynamics import _INVERSE_AFTER_SOLVES, HydroError
 from physics.hydro.rft import local_drag_apply
@@ -120,7 +120,8 @@ class ChordLinear(NamedTuple):
 
 class ChordTols(NamedTuple):
     """The iteration's tolerances (``NumericsConfig``): newton_tol, newton_max_iter, step_tol, the force floor f_floor
-    (N), r0 (m) and the step's own displacement (m, the increment criterion's scale)."""
+    (N), r0 (m), the step's own displacement (m, the increment criterion's scale) and ``single_iteration`` (one
+    solve from the predictor: the linearly implicit step)."""
 
     newton_tol: float
     max_iter: int
@@ -128,6 +129,7 @@ class ChordTols(NamedTuple):
     f_floor: float
     r0: float
     step_scale: float
+    single: bool
 
 
 class RateState(NamedTuple):
@@ -233,11 +235,11 @@ def _hydro_force(hydro, V, use_inv):
 def newton_increment(lin: Any, r: np.ndarray, q: np.ndarray, frames: tuple, rest: tuple, prescribed: np.ndarray,
                      nodes_c: np.ndarray, blocks_c: np.ndarray) -> tuple[np.ndarray, int]:
     """The correction z = J^{-1} r (ndof,) of the iterate q (ndof,) with residual r (ndof,), and a LAPACK info. For
-    ``ChordLinear`` (LSBT): dgetrs on the kept LU between the rotations by Qj (``DenseChordSolver.increment``); for
-    ``BandedNewtonTerms`` (RFT): the exact banded Jacobian at q (``banded_newton_matrix`` with the frames
-    (t, d1, d2, ref_twist, m1, m2) of q, the rest arrays, the Dirichlet DOFs and the active contacts nodes_c (A, 4),
-    blocks_c (A, 12, 12) N/m at q) solved by dgbsv (``BandedNewtonSolver.increment``). Compiled code only: Numba
-    picks the implementation by the type of ``lin`` (``numba.extending.overload``)."""
+    ``ChordLinear`` (LSBT): dgetrs on the kept LU between the rotations by Qj; for ``BandedNewtonTerms`` (RFT): the
+    exact banded Jacobian at q (``banded_newton_matrix`` with the frames (t, d1, d2, ref_twist, m1, m2) of q, the
+    rest arrays, the Dirichlet DOFs and the active contacts nodes_c (A, 4), blocks_c (A, 12, 12) N/m at q) solved by
+    dgbsv (``scipy.linalg.solve_banded``'s). Compiled code only: Numba picks the implementation by the type of
+    ``lin`` (``numba.extending.overload``)."""
     raise NotImplementedError("newton_increment is called from compiled code only (chord_loop)")
 
 
@@ -262,7 +264,8 @@ def _newton_increment(lin, r, q, frames, rest, prescribed, nodes_c, blocks_c):
 def chord_residual(q: np.ndarray, h: float, q_start: np.ndarray, frames_old: tuple, rest: tuple, base: SchemeBase,
                    system: StepSystem, hydro: Any, use_inv: bool, contact_on: bool, model: tuple, cstate: tuple,
                    first_step: bool):
-    """``Simulator._residual`` of a chord step: (r, grad, f, inertia (ndof,) N / N m, frames, contact state,
+    """The residual of eqn (6) at the iterate of a chord step (the scene's, ``force_terms``, fused): (r, grad, f,
+    inertia (ndof,) N / N m, frames, contact state,
     contact energy J, active contacts' nodes (A, 4) and Hessian blocks (A, 12, 12) N/m, LAPACK info of the
     resistance). ``hydro``: ``ChordHydro`` or ``LocalDrag``; other arguments as in ``chord_loop``."""
     grad, fr, cstate, e_c, nodes_c, blocks_c = internal_forces_at(q, frames_old, rest, contact_on, model, cstate,
@@ -279,7 +282,7 @@ def chord_loop(q: np.ndarray, h: float, it: int, phase: int, hist: ResidualHisto
                q_start: np.ndarray, frames_old: tuple, rest: tuple, base: SchemeBase, system: StepSystem,
                hydro: Any, inverse_state: InverseState, contact_on: bool, model: tuple, cstate: tuple,
                first_step: bool, lin: Any, tols: ChordTols, rate: RateState):
-    """The chord iteration of one step (``Simulator._chord_python``), compiled, from iteration ``it`` at ``phase``
+    """The chord iteration of one step (module doc), compiled, from iteration ``it`` at ``phase``
     (AT_RESIDUAL, or after a return: AT_INCREMENT with ``carried`` = (r, grad, f, frames, contact energy,
     count) of the iterate, AT_FINAL_RESIDUAL).
 
@@ -354,6 +357,10 @@ def chord_loop(q: np.ndarray, h: float, it: int, phase: int, hist: ResidualHisto
                     Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
                     solves, float(info))
         q = q - z
+        if tols.single:  # linearly implicit: the forces are those of the predictor
+            return (CONVERGED, q, it, phase, ResidualHistory(h1, h2),
+                    Carried(r, grad, f, fr, e_c, count), cstate, RateState(rho, prev, age), applies, evaluated,
+                    solves, 0.0)
         # increment criterion: the iteration contracts, so an increment far below the step's own displacement
         # (and the twist resolution) means the residual is at tolerance
         dz = block_max_abs(z, pos)
@@ -374,26 +381,14 @@ def chord_loop(q: np.ndarray, h: float, it: int, phase: int, hist: ResidualHisto
             solves, np.abs(r).max())
 
 
-def compiled_chord_applies(sim: Any) -> bool:
-    """Whether ``chord_solve`` can take this step: no Anderson mixing, more than one iteration per step, and either
-    the banded RFT solver with its step begun, or the dense chord solver with a factorised Jacobian and NumPy's own
-    BLAS reachable from compiled code (the RFT step calls no BLAS: only SciPy's dgbsv)."""
-    nm = sim.numerics
-    solver = sim.solver
-    if nm.anderson_depth != 0 or nm.single_iteration:
-        return False
-    if getattr(solver, "banded", False):
-        return solver.local is not None
-    return NUMPY_BLAS and getattr(solver, "lu", None) is not None and getattr(solver, "hyd", None) is not None
-
-
 def chord_solve(sim: Any, q: np.ndarray, h: float):
     """The chord iteration of a step from the predictor q (ndof,) at the effective step h (s), compiled
     (``chord_loop``), Python entering only at a stall or when the resistance forms its inverse (LSBT). Returns
-    (q, r, grad, f, (t, d1, ref_twist)) as ``Simulator._chord_python`` does, bit for bit; raises ``StepFailed``
-    where it does. ``sim``: the stepped object; it gives its ``system`` (``step_context.SystemDescription``), the
-    step (``step_context(h)``), its solver (``step_solvers``: dense chord or banded Newton, ``banded`` tells),
-    contraction rate and counters, and keeps the contact state the loop returns."""
+    (q, r, grad, f, (t, d1, ref_twist)) at convergence (with ``single_iteration``: the solve's q, the rest at the
+    predictor); raises ``StepFailed``. ``sim``: the stepped object; it gives its ``system``
+    (``step_context.SystemDescription``), the step (``step_context(h)``), its solver (``step_solvers``: dense chord
+    or banded Newton, ``banded`` tells), contraction rate and counters, and keeps the contact state the loop
+    returns."""
     system = sim.system
     nm, p = system.numerics, system.params
     solver = sim.solver
@@ -415,7 +410,7 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
     arrays = step_system(system, ctx.omega)
     frames_old = ctx.frames
     tols = ChordTols(newton_tol=nm.newton_tol, max_iter=nm.newton_max_iter, step_tol=nm.step_tol,
-                     f_floor=system.f_floor, r0=p.rod_radius, step_scale=step_scale)
+                     f_floor=system.f_floor, r0=p.rod_radius, step_scale=step_scale, single=nm.single_iteration)
     if banded:  # RFT: the step's drag and Jacobian terms, fixed through the step (no return to Python midway)
         local = solver.local
         hydro = LocalDrag(blocks=local.blocks, first=local.first, drag_t=local.drag_t, drag_r=local.drag_r,
@@ -466,7 +461,7 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
             raise StepFailed("residual", "non-finite (NaN/inf) force residual")
         elif code == HYDRO_FAILED:
             raise StepFailed("hydrodynamic mobility", f"LSBT mobility solve failed (potrs info {int(value)})")
-        elif code == LINEAR_FAILED and banded:  # the messages of BandedNewtonSolver.increment (solve_banded's)
+        elif code == LINEAR_FAILED and banded:  # scipy.linalg.solve_banded's messages
             why = ("singular matrix" if value > 0
                    else f"illegal value in {-int(value)}-th argument of internal gbsv/gtsv")
             raise StepFailed("Jacobian", f"banded Newton system is singular ({why})")

@@ -9,14 +9,11 @@ A scene pays only for what it uses:
   since the last factorisation cost as much as a new one (``LU_REFRESH_BUDGET``). In between both are reused
   through the best-fit rigid rotation of the configuration (exact for a rigid motion, see
   ``rigid_alignment``), which makes a steadily rotating flagellum cheap. The chord iteration on them runs
-  compiled (``chord_iteration.chord_solve``); ``resistance`` (for the scene's hydrodynamic term), ``increment``
-  and ``on_stall`` are the pieces of its Python reference (``Simulator._chord_python``), and ``on_stall`` is
-  also where the compiled loop hands a stall back.
+  compiled (``chord_iteration.chord_solve``), which hands a stall back to ``on_stall``.
 * ``BandedNewtonSolver`` (hydro_model="rft"): local drag, so R is block-diagonal, the Jacobian
   stays banded (half-bandwidth 10) and each Newton iteration is an O(N) banded solve with the
   exact Jacobian (``implicit_residual.banded_newton_matrix``). No dense matrix anywhere. The iteration runs
-  compiled (``chord_iteration.chord_solve``, the same loop as the dense chord iteration, with LAPACK dgbsv);
-  ``increment`` is the piece of its Python reference (``Simulator._chord_python``).
+  compiled (``chord_iteration.chord_solve``, the same loop as the dense chord iteration, with LAPACK dgbsv).
 
 Both evaluate the resistance at the predicted geometry q_k + h v_k (linearly implicit in the
 velocity, lagged in the geometry within a step), built by the scene's hydrodynamic term
@@ -33,17 +30,16 @@ import time
 from typing import Any, Protocol
 
 import numpy as np
-from scipy.linalg import lapack, lu_factor, solve_banded
+from scipy.linalg import lu_factor
 
 from physics.forces.contact import ContactState, add_blocks_to_dense
-from physics.elastic import BANDWIDTH, elastic_hessian_banded_kernel
+from physics.elastic import elastic_hessian_banded_kernel
 from physics.forces.force_terms import Hydrodynamics, LocalResistance
 from physics.model.geometry import nodes_of
 from physics.hydro.hydrodynamics import HydroError, ResistanceOperator
 from physics.errors import StepFailed
 from physics.solvers.newton_krylov import KrylovFailed, MobilityStep
-from physics.solvers.implicit_residual import (BandedNewtonTerms, assemble_dense_jacobian, banded_newton_matrix,
-                                              rotate_dense_blocks, rotate_node_blocks)
+from physics.solvers.implicit_residual import BandedNewtonTerms, assemble_dense_jacobian, rotate_dense_blocks
 from physics.hydro.rft import rft_coefficients
 from physics.model.rigid_alignment import best_fit_rotation
 from physics.forces.step_context import StepContext, StepResistance, SystemDescription, active_contacts, frames_at
@@ -236,14 +232,6 @@ class DenseChordSolver:
         """The resistance of this step: the kept LSBT operator, rotated by Qh to the step's orientation."""
         return StepResistance(self.hyd, self.Qh)
 
-    def increment(self, r: np.ndarray, q: np.ndarray, h: float) -> np.ndarray:
-        Q = self.Qj
-        # LAPACK getrs directly: what lu_solve calls, without its wrapper (~5 % of a step)
-        x, info = lapack.dgetrs(self.lu[0], self.lu[1], rotate_node_blocks(r, Q, True))
-        if info != 0:
-            raise StepFailed("Jacobian", f"LU back-substitution failed (getrs info {info})")
-        return rotate_node_blocks(x, Q, False)
-
     def on_stall(self, q: np.ndarray, h: float) -> bool:
         """Refactorise the Jacobian at q (keeping this step's resistance); False if it was fresh."""
         if self.jac_fresh:
@@ -263,8 +251,7 @@ def _contact_signature(nodes: np.ndarray) -> frozenset:
 
 class BandedNewtonSolver:
     """Local RFT + Stokes head: block-diagonal resistance, exact banded Newton (O(N) per iteration). The compiled
-    chord iteration (``chord_iteration.chord_solve``) takes its steps (``resistance`` and ``newton_terms``); the
-    Python one (``Simulator._chord_python``, Anderson mixing and single iterations) calls ``increment``."""
+    chord iteration (``chord_iteration.chord_solve``) takes its steps (``resistance`` and ``newton_terms``)."""
 
     krylov = False  # every step is a banded direct solve
     banded = True  # the chord iteration's increment is a banded Newton solve (``chord_iteration``)
@@ -301,22 +288,6 @@ class BandedNewtonSolver:
                                            jac_fresh=True)
             self.terms_h = h
         return self.terms
-
-    def increment(self, r: np.ndarray, q: np.ndarray, h: float) -> np.ndarray:
-        """The Newton correction J(q)^{-1} r (ndof,) for the residual r (ndof,) at q, effective step h (s): the
-        exact banded Jacobian (``implicit_residual.banded_newton_matrix``) solved by ``scipy.linalg.solve_banded``."""
-        system, ctx = self.system, self.state.step_context(h)
-        nodes_c, blocks_c = active_contacts(q, ctx, system)  # none without contact
-        ab = banded_newton_matrix(q, frames_at(q, ctx), system.rest, self.newton_terms(h), nodes_c, blocks_c,
-                                  system.prescribed)
-        self.state.stats.jacobian_factorisations += 1
-        try:
-            return solve_banded((BANDWIDTH, BANDWIDTH), ab, r, check_finite=False)
-        except (np.linalg.LinAlgError, ValueError) as exc:
-            raise StepFailed("Jacobian", f"banded Newton system is singular ({exc})") from None
-
-    def on_stall(self, q: np.ndarray, h: float) -> bool:
-        return False  # the Jacobian is exact at every iteration
 
     def end_step(self) -> None:
         pass

@@ -99,6 +99,11 @@ def test_save_load_round_trip_and_version_check(tmp_path):
     (tmp_path / "x.json").write_text("{}")
     with pytest.raises(ValueError, match="not a turn map"):
         TurnMap.load(tmp_path / "x.json")
+    doc["version"] = m.to_dict()["version"]
+    doc["numerics"]["anderson_depth"] = 0  # a map calibrated when the parameter existed
+    f.write_text(json.dumps(doc))
+    with pytest.raises(ValueError, match="names a removed parameter: parameter 'anderson_depth' was removed"):
+        TurnMap.load(f)
 
 
 def test_map_refuses_other_parameters_naming_them():

@@ -61,6 +61,18 @@ def test_retired_presets_are_refused_on_one_line_naming_the_replacement(name, wh
         configure("turbo")
 
 
+def test_removed_parameters_are_refused_on_one_line_saying_why():
+    """``anderson_depth`` (Anderson mixing) was removed: every way of naming it gets the same one-line reason."""
+    why = ("parameter 'anderson_depth' was removed (Anderson mixing of the chord iteration cost more CPU than it "
+           "saved; the chord and Newton iterations run compiled without it (docs/time_integration.md)); drop it")
+    for call in (lambda: configure("faithful", {"anderson_depth": 0}), lambda: configure(None, {"anderson_depth": "4"}),
+                 lambda: apply_overrides(SwimmerParams(), NumericsConfig(), {"anderson_depth": "0"})):
+        with pytest.raises(ValueError) as err:
+            call()
+        assert str(err.value) == why
+    assert "anderson_depth" not in {f.name for f in dataclasses.fields(NumericsConfig)}
+
+
 @pytest.fixture(scope="module")
 def small():
     return configure("faithful", {"n_nodes": 25})

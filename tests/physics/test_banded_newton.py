@@ -1,6 +1,7 @@
 """The compiled banded Newton iteration of the RFT model (``chord_iteration.chord_loop`` with the banded increment)
-against the Python iteration it replaces (``Simulator._chord_python`` with ``BandedNewtonSolver.increment``), bit for
-bit; and the compiled LAPACK dgbsv against ``scipy.linalg.solve_banded``."""
+against its Python reference (tests/physics/chord_reference.py: ``scipy.linalg.solve_banded`` on the banded Jacobian),
+bit for bit; the compiled LAPACK dgbsv against ``scipy.linalg.solve_banded``; and Numba's products (the chord loop's
+where NumPy has no bundled OpenBLAS) against NumPy's."""
 
 from __future__ import annotations
 
@@ -13,9 +14,10 @@ from scipy.linalg import solve_banded
 
 from physics import Simulator, advance, configure
 from physics.errors import StepFailed
-from physics.linalg.compiled_lapack import gbsv
+from physics.linalg.compiled_lapack import gbsv, numba_dot, numba_matvec
 from physics.params import RPM_TO_RAD_S
-from physics.solvers.chord_iteration import chord_solve, compiled_chord_applies
+from physics.solvers.chord_iteration import chord_solve
+from tests.physics.chord_reference import PythonChordSimulator, chord_python
 
 
 @pytest.mark.parametrize("n", [11, 40, 159, 487])
@@ -34,10 +36,23 @@ def test_compiled_gbsv_is_solve_banded_bit_for_bit(n):
     assert info == 1  # solve_banded: LinAlgError("singular matrix")
 
 
-def _rft(overrides: dict, n_nodes: int = 40) -> Simulator:
-    """An RFT swimmer on ``faithful``'s numerics (adaptive BDF3, Newton tolerance 1e-5, no Anderson mixing)."""
+def test_numbas_products_are_numpys_up_to_rounding():
+    """``compiled_lapack``'s fallback products (no bundled OpenBLAS): C- and F-ordered matrices, a transpose, empty
+    shapes."""
+    rng = np.random.default_rng(5)
+    for m, n in ((363, 363), (363, 3), (3, 363), (1, 7), (0, 3), (3, 0)):
+        A = rng.normal(size=(m, n))
+        x, y = rng.normal(size=n), rng.normal(size=m)
+        for M, v in ((A, x), (np.asfortranarray(A), x), (A.T, y)):
+            np.testing.assert_allclose(numba_matvec(M, v), M @ v, rtol=1e-12, atol=1e-12 * (v.size + 1))
+        assert numba_dot(x, x) == pytest.approx(x @ x, rel=1e-13, abs=0.0)
+
+
+def _rft(overrides: dict, n_nodes: int = 40, simulator: type = Simulator) -> Simulator:
+    """An RFT swimmer on ``faithful``'s numerics (adaptive BDF3, Newton tolerance 1e-5), on the compiled iteration
+    (``Simulator``) or the Python one (``PythonChordSimulator``)."""
     p, n = configure("faithful", {"hydro_model": "rft", "n_nodes": n_nodes, **overrides})
-    return Simulator(p, n)
+    return simulator(p, n)
 
 
 #: (overrides, burst rpm, burst seconds): each burst goes through buckling (L'/L well below 1 at its end)
@@ -48,14 +63,15 @@ RUNS = {
     "no head, contact": ({"head_radius": 0.0}, 300, 5.0),
     "no head, no contact": ({"head_radius": 0.0, "contact": False}, 300, 5.0),
     "implicit Euler, fixed 2 ms steps": ({"integrator": "euler", "step_tol": 0.0, "dt": 2e-3}, 150, 6.0),
+    "single iteration, fixed 2 ms steps": ({"integrator": "euler", "step_tol": 0.0, "dt": 2e-3,
+                                            "single_iteration": True}, 150, 6.0),
 }
 
 
 def _run(overrides: dict, rpm: float, seconds: float, compiled: bool):
     """0.5 s at 10 rpm from rest, then ``seconds`` at ``rpm``: the configuration after every dt, the active contacts
     after every dt, the counters and the trajectory's hash."""
-    sim = _rft(overrides)
-    sim.compiled_chord = compiled
+    sim = _rft(overrides, simulator=Simulator if compiled else PythonChordSimulator)
     qs, contacts = [], []
     for speed, span in ((10, 0.5), (rpm, seconds)):
         sim.set_motor_speed(speed * RPM_TO_RAD_S)
@@ -72,7 +88,7 @@ def _run(overrides: dict, rpm: float, seconds: float, compiled: bool):
 @pytest.mark.parametrize("name", list(RUNS))
 def test_rft_runs_with_the_compiled_banded_newton_iteration_are_the_python_runs_bit_for_bit(name):
     """Whole runs (N = 40: 0.5 s at 10 rpm, then a burst through buckling) with the compiled iteration and with the
-    Python one (``compiled_chord = False``): the same configuration after every dt (np.array_equal), the same
+    Python one (``PythonChordSimulator``): the same configuration after every dt (np.array_equal), the same
     counters (residuals, banded solves, steps, rejections, halvings), the same contacts."""
     overrides, rpm, seconds = RUNS[name]
     q1, c1, n1, h1 = _run(overrides, rpm, seconds, compiled=True)
@@ -102,13 +118,13 @@ def _from_the_same_setup(sim: Simulator, q: np.ndarray, h: float):
     saved = ({k: getattr(sim, k) for k in _STATE if hasattr(sim, k)}, dataclasses.replace(sim.stats),
              (sim.contraction.rho, sim.contraction.prev, sim.contraction.age))
     out = []
-    for fn in (sim._chord_python, lambda q, h: chord_solve(sim, q, h)):
+    for fn in (chord_python, chord_solve):
         for k, v in saved[0].items():
             setattr(sim, k, v)
         sim.stats = dataclasses.replace(saved[1])
         sim.contraction.rho, sim.contraction.prev, sim.contraction.age = saved[2]
         try:
-            res = fn(q.copy(), h)
+            res = fn(sim, q.copy(), h)
         except StepFailed as exc:
             res = exc
         out.append((res, dataclasses.replace(sim.stats), (sim.contraction.rho, sim.contraction.prev,
@@ -129,7 +145,6 @@ def test_a_step_is_the_python_iteration_bit_for_bit(max_iter, tol, h, fails):
     nm = dataclasses.replace(sim.numerics, newton_max_iter=max_iter, newton_tol=tol)
     sim.numerics, sim.system = nm, dataclasses.replace(sim.system, numerics=nm)  # what the compiled loop reads
     q, h = _open_step(sim, h)
-    assert compiled_chord_applies(sim)
     (ref, s_ref, r_ref, c_ref), (got, s_got, r_got, c_got) = _from_the_same_setup(sim, q, h)
     assert isinstance(ref, StepFailed) == fails
     if fails:
@@ -142,15 +157,3 @@ def test_a_step_is_the_python_iteration_bit_for_bit(max_iter, tol, h, fails):
     assert (s_got.newton_iterations, s_got.jacobian_factorisations) == (s_ref.newton_iterations,
                                                                          s_ref.jacobian_factorisations)
     assert s_ref.newton_iterations >= 2 and r_got == r_ref and c_got == c_ref
-
-
-def test_the_compiled_iteration_takes_rft_steps_without_anderson_mixing_or_single_iterations():
-    assert compiled_chord_applies(_with_step(_rft({})))
-    assert not compiled_chord_applies(_with_step(_rft({"anderson_depth": 4})))
-    assert not compiled_chord_applies(_with_step(_rft({"single_iteration": True})))
-
-
-def _with_step(sim: Simulator) -> Simulator:
-    sim.set_motor_speed(10 * RPM_TO_RAD_S)
-    _open_step(sim, 1e-3)
-    return sim

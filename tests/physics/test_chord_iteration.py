@@ -1,5 +1,5 @@
-"""The compiled chord iteration (physics/solvers/chord_iteration.py) against the Python iteration it replaces
-(``Simulator._chord_python``), bit for bit, from the same step set-up: a steady step on the kept inverse, a step
+"""The compiled chord iteration (physics/solvers/chord_iteration.py) against its Python reference
+(tests/physics/chord_reference.py), bit for bit, from the same step set-up: a steady step on the kept inverse, a step
 whose resistance forms its inverse inside the iteration, a stall (refactorisation, then resumed), a stall that
 ends in failure, and a buckled step with contact; and the BLAS / LAPACK calls of compiled code against NumPy's
 and SciPy's."""
@@ -14,12 +14,14 @@ import scipy.linalg
 from scipy.linalg import lapack
 
 from physics import Simulator, advance, configure
-from physics.solvers.chord_iteration import chord_solve, compiled_chord_applies
+from physics.solvers.chord_iteration import chord_solve
 from physics.linalg.compiled_lapack import NUMPY_BLAS, getrs, numpy_dot, numpy_matvec, potrs_upper
 from physics.errors import StepFailed
 from physics.params import RPM_TO_RAD_S
+from tests.physics.chord_reference import PythonChordSimulator, chord_python
 
-pytestmark = pytest.mark.skipif(not NUMPY_BLAS, reason="NumPy without its bundled OpenBLAS: the Python iteration runs")
+pytestmark = pytest.mark.skipif(not NUMPY_BLAS, reason="NumPy without its bundled OpenBLAS: Numba's products, not "
+                                "NumPy's (the same up to rounding)")
 
 _EYE = np.eye(3)
 
@@ -53,7 +55,7 @@ def _open_chord_step(sim: Simulator, h: float, fresh: bool = False):
     if fresh or solver.krylov:
         solver._refresh_jacobian(q, base.h_eff, keep_resistance=False)
         solver.krylov, solver.jac_fresh, solver.Qh, solver.Qj = False, True, _EYE, _EYE
-    assert compiled_chord_applies(sim)
+    assert solver.lu is not None and solver.hyd is not None  # a chord step
     return q, base.h_eff
 
 
@@ -90,7 +92,7 @@ def _run(fn, *args):
 def _both(sim: Simulator, q: np.ndarray, h: float):
     """(Python result, compiled result, Python state after, compiled state after) from the same set-up."""
     snap = _snapshot(sim)
-    ref = _run(sim._chord_python, q.copy(), h)
+    ref = _run(chord_python, sim, q.copy(), h)
     after_ref = _snapshot(sim)
     _restore(sim, snap)
     got = _run(chord_solve, sim, q.copy(), h)
@@ -205,10 +207,9 @@ def test_runs_with_the_compiled_chord_iteration_are_the_python_runs_bit_for_bit(
     resistance's inverse formed inside steps) with the compiled iteration and with the Python one: the same
     configuration after every dt, the same counters."""
     runs = []
-    for compiled in (True, False):
+    for simulator in (Simulator, PythonChordSimulator):
         p, n = configure("faithful", {"n_nodes": 24, **overrides})
-        sim = Simulator(p, n)
-        sim.compiled_chord = compiled
+        sim = simulator(p, n)
         qs = []
         for rpm, seconds in ((10, 1.0), (150, 0.3), (10, 0.5)):
             sim.set_motor_speed(rpm * RPM_TO_RAD_S)
@@ -218,4 +219,29 @@ def test_runs_with_the_compiled_chord_iteration_are_the_python_runs_bit_for_bit(
         runs.append((np.array(qs), sim.stats.newton_iterations, sim.stats.substeps, sim.stats.krylov_steps))
     (q1, *c1), (q2, *c2) = runs
     assert c1 == c2 and c1[1] > c1[2]  # chord steps were taken (not every step by Newton-Krylov)
+    assert np.array_equal(q1, q2)
+
+
+@pytest.mark.parametrize("preset, overrides", [("paper", {}), ("faithful", {"head_rotation": "torque_free"}),
+                                               ("paper", {"head_radius": 0.0})],
+                         ids=["paper", "faithful, torque-free head", "paper, no head"])
+def test_single_iteration_runs_are_the_python_runs_bit_for_bit(preset, overrides):
+    """``single_iteration`` (one solve from the predictor on a Jacobian factorised at it, every step): whole runs
+    (N = 24, 0.3 s at 10 rpm, 0.1 s at 150 rpm) with the compiled iteration and with the Python one: the same
+    configuration after every dt, the same counters."""
+    runs = []
+    for simulator in (Simulator, PythonChordSimulator):
+        p, n = configure(preset, {"n_nodes": 24, "single_iteration": True, **overrides})
+        sim = simulator(p, n)
+        qs = []
+        for rpm, seconds in ((10, 0.3), (150, 0.1)):
+            sim.set_motor_speed(rpm * RPM_TO_RAD_S)
+            for _ in range(int(round(seconds / n.dt))):
+                sim.step()
+                qs.append(sim.q.copy())
+        s = sim.stats
+        runs.append((np.array(qs), s.newton_iterations, s.substeps, s.jacobian_factorisations, s.krylov_steps))
+    (q1, *c1), (q2, *c2) = runs
+    assert c1 == c2 and c1[3] == 0  # no Newton-Krylov
+    assert c1[0] == c1[1] or n.step_tol > 0.0  # one residual per step (adaptive: per attempt)
     assert np.array_equal(q1, q2)

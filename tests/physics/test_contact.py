@@ -135,17 +135,18 @@ def test_straight_swimmer_has_no_contact_work():
 
 class _Pulled:
     """A simulator whose node i is pulled towards node j by a force of magnitude F (N), and j
-    towards i: presses the rod onto the head (j = 0) or onto itself."""
+    towards i: presses the rod onto the head (j = 0) or onto itself. Its steps run the Python chord iteration
+    (``chord_reference``), whose residual takes the extra force."""
 
     @staticmethod
     def make(i: int, j: int, force: float, contact: bool):
         from physics.model.geometry import nodes_of
         from physics.params import NumericsConfig, SwimmerParams
-        from physics.simulator import Simulator
+        from tests.physics.chord_reference import PythonChordSimulator
 
-        class Pulled(Simulator):
-            def _residual(self, q, h):
-                r, grad, f, inertia, frames = super()._residual(q, h)
+        class Pulled(PythonChordSimulator):
+            def residual(self, q, h):
+                r, grad, f, inertia, frames = super().residual(q, h)
                 x = nodes_of(q)
                 d = x[j] - x[i]
                 u = force * d / np.linalg.norm(d)

@@ -16,6 +16,7 @@ from physics.solvers.implicit_residual import (assemble_residual, generalised_ve
 from physics.solvers.newton_krylov import head_flow_apply
 from physics.params import RPM_TO_RAD_S
 from physics.forces.step_context import compiled_contact_args
+from tests.physics.chord_reference import increment, scene_residual
 
 CASES = {
     # name: (overrides, rpm, seconds); N = 40 nodes, the faithful preset (BDF3, Newton-Krylov where the shape changes)
@@ -139,7 +140,8 @@ def _fused_residual(sim: Simulator, q: np.ndarray, ctx):
 def test_scene_residual_is_the_fused_kernels_residual_bit_for_bit(name):
     """The scene's sum (elastic, contact, inertia, hydrodynamics, left to right) against the fused kernels at the
     predictor, at an iterate off it, and at a configuration moved out of the contact broad phase's boxes (both redo
-    the broad phase the same way); ``Simulator._residual`` (the Python chord iteration's residual) is the scene's."""
+    the broad phase the same way); ``chord_reference.scene_residual`` (the Python chord iteration's residual) is the
+    scene's."""
     sim = _sim(name)
     q_pred, ctx = _open_step(sim)
     shift = np.zeros(q_pred.size)
@@ -161,7 +163,7 @@ def test_scene_residual_is_the_fused_kernels_residual_bit_for_bit(name):
     moved = ev.byproducts["contact"][0] if "contact" in ev.forces else None
     if moved is not None:
         assert moved[0] is not ctx.contact[0]  # the last configuration did redo the broad phase
-    rs, grads, fs, inertias, _ = sim._residual(q_pred, ctx.h)
+    rs, grads, fs, inertias, _ = scene_residual(sim, q_pred, ctx.h)
     r, grad, f, inertia, *_ = _fused_residual(sim, q_pred, sim.step_context(ctx.h))
     assert np.array_equal(rs, r) and np.array_equal(grads, grad) and np.array_equal(fs, f)
 
@@ -219,7 +221,7 @@ def test_scene_jacobian_action_is_the_rft_banded_newton_matrix(name):
     q, ctx = _open_step(sim)
     for seed in (8, 9):
         v = _direction(sim, seed)
-        back = sim.solver.increment(sim.scene.jacobian_action(q, ctx, v), q, ctx.h)
+        back = increment(sim, sim.scene.jacobian_action(q, ctx, v), q, ctx.h)
         assert np.abs(back - v).max() <= 1e-9 * np.abs(v).max()
 
 
