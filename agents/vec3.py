@@ -1,0 +1,47 @@
+"""3-vector arithmetic for compiled kernels, rounded as NumPy rounds it, so that a kernel gives the very floats of
+the NumPy expressions it replaces.
+
+- ``dot3(a, b)``: ``a @ b`` of two float64 3-vectors. NumPy hands this to BLAS, whose ddot (OpenBLAS) accumulates
+  with fused multiply-adds: fma(a2, b2, fma(a1, b1, a0 b0)).
+- ``rowdot3(a, b)``: ``np.einsum("ij,ij->i", a, b)`` of one row pair, (a0 b0 + a2 b2) + a1 b1 (its pairwise lanes).
+- ``rownorm3(v)``: ``np.linalg.norm(v, axis=1)`` of one row, sqrt((v0^2 + v1^2) + v2^2).
+
+tests/agents/test_vec3.py checks each against NumPy on random vectors.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, types
+from numba.extending import intrinsic
+
+
+@intrinsic
+def fma(typingctx, a, b, c):
+    """a b + c rounded once (float64; LLVM's llvm.fma)."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):
+        return builder.fma(*args)
+
+    return sig, codegen
+
+
+@njit(cache=True)
+def dot3(a: np.ndarray, b: np.ndarray) -> float:
+    """``a @ b`` of two float64 3-vectors, rounded as NumPy's BLAS ddot rounds it."""
+    return fma(a[2], b[2], fma(a[1], b[1], a[0] * b[0]))
+
+
+@njit(cache=True)
+def rowdot3(a0: float, a1: float, a2: float, b0: float, b1: float, b2: float) -> float:
+    """One row of ``np.einsum("ij,ij->i", a, b)`` for 3 columns, rounded as NumPy rounds it."""
+    return (a0 * b0 + a2 * b2) + a1 * b1
+
+
+@njit(cache=True)
+def rownorm3(v0: float, v1: float, v2: float) -> float:
+    """One row of ``np.linalg.norm(v, axis=1)`` for 3 columns, rounded as NumPy rounds it."""
+    return math.sqrt((v0 * v0 + v1 * v1) + v2 * v2)
