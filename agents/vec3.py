@@ -1,7 +1,7 @@
 """3-vector arithmetic for compiled kernels, rounded as NumPy rounds it, so that a kernel gives the very floats of
 the NumPy expressions it replaces.
 
-- ``dot3(a, b)``: ``a @ b`` of two float64 3-vectors. NumPy hands this to BLAS, whose ddot (OpenBLAS) accumulates
+- ``dot3(a, b)`` (``dot3s`` on components): ``a @ b`` of two float64 3-vectors. NumPy hands this to BLAS, whose ddot (OpenBLAS) accumulates
   with fused multiply-adds: fma(a2, b2, fma(a1, b1, a0 b0)).
 - ``rowdot3(a, b)``: ``np.einsum("ij,ij->i", a, b)`` of one row pair, (a0 b0 + a2 b2) + a1 b1 (its pairwise lanes).
 - ``rownorm3(v)``: ``np.linalg.norm(v, axis=1)`` of one row, sqrt((v0^2 + v1^2) + v2^2).
@@ -30,9 +30,15 @@ def fma(typingctx, a, b, c):
 
 
 @njit(cache=True)
+def dot3s(a0: float, a1: float, a2: float, b0: float, b1: float, b2: float) -> float:
+    """``a @ b`` of two 3-vectors given by their components, rounded as NumPy's BLAS ddot rounds it."""
+    return fma(a2, b2, fma(a1, b1, a0 * b0))
+
+
+@njit(cache=True)
 def dot3(a: np.ndarray, b: np.ndarray) -> float:
     """``a @ b`` of two float64 3-vectors, rounded as NumPy's BLAS ddot rounds it."""
-    return fma(a[2], b[2], fma(a[1], b[1], a[0] * b[0]))
+    return dot3s(a[0], a[1], a[2], b[0], b[1], b[2])
 
 
 @njit(cache=True)

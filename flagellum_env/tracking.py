@@ -52,6 +52,13 @@ class PathTracker:
             reached += 1
         return reached
 
+    def mark_reached(self, count: int) -> None:
+        """Count the next ``count`` waypoints as reached: for a caller that applied ``update``'s test itself
+        (``agents.surrogate_legs``, along a leg)."""
+        if count < 0 or self.index + count > self.path.n_waypoints:
+            raise ValueError(f"count={count!r} must be in [0, {self.path.n_waypoints - self.index}] (waypoints left)")
+        self.index += count
+
     def _segment(self) -> int:
         return min(self.index, self.path.n_waypoints - 1)
 
