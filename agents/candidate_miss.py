@@ -12,11 +12,12 @@ The formulas are the planner's (docs/planner.md; Huang & Jawed 2020, Sec. 3, the
     h_ij = cos(theta_i) d + sin(theta_i) (cos(beta_j + psi_i) e1 + sin(beta_j + psi_i) e2),
 
 and misses the target by the distance of the target from the ray after_ij + s h_ij (s >= 0), or, with the target
-behind (along <= 0), by its distance plus ``behind_penalty`` (``_line_miss``). In the frame (d, e1, e2) neither the
+behind (along <= 0), by its distance plus ``behind_penalty`` (``line_miss``, one line each). In the frame (d, e1, e2) neither the
 end's offset nor the heading depends on d (d x e_ref = cos(beta) e2 - sin(beta) e1), so ``candidate_frames``
-tabulates them once per candidate set and each plan only rotates the target into that frame. Numba: the NumPy
-version of the same formulas (``turn_ends``, ``_line_miss``) costs ~0.4 ms per plan, which the turn-level surrogate
-(``FlagellumTurn-surrogate-v0``) cannot afford; tests/agents/test_surrogate_env.py checks that the two agree.
+tabulates them once per candidate set and each plan only rotates the target into that frame. Numba: the world-frame
+form (``agents.turn_planner.candidate_misses``: ``turn_ends`` and the lines' misses) costs ~0.4 ms per plan, which the
+turn-level surrogate (``FlagellumTurn-surrogate-v0``) cannot afford; tests/agents/test_surrogate_env.py checks that the
+two agree.
 """
 
 from __future__ import annotations
@@ -25,6 +26,8 @@ import math
 
 import numpy as np
 from numba import njit
+
+from agents.vec3 import dot3, rowdot3, rownorm3
 
 
 @njit(cache=True)
@@ -65,11 +68,31 @@ def candidate_miss(frames: np.ndarray, q0: float, q1: float, q2: float, behind_p
     return out
 
 
+@njit(cache=True)
 def local_target(head: np.ndarray, d: np.ndarray, e1: np.ndarray, e2: np.ndarray, target: np.ndarray
                  ) -> tuple[float, float, float]:
-    """The target minus the head in the frame (d, e1, e2), m."""
+    """The target minus the head in the frame (d, e1, e2), m; all (3,) float64."""
     q = target - head
-    return float(q @ d), float(q @ e1), float(q @ e2)
+    return dot3(q, d), dot3(q, e1), dot3(q, e2)
+
+
+@njit(cache=True)
+def line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray, behind_penalty: float) -> np.ndarray:
+    """How far the straight lines starts[i] + s directions[i] (s >= 0) pass from ``target``, (k,) m: the target's
+    distance from the line, or, with the target behind the start, its distance plus ``behind_penalty`` (m). starts,
+    directions (k, 3), target (3,), float64; rounded as the NumPy expression with ``einsum`` and ``norm`` rounds it
+    (``agents.vec3``)."""
+    k = starts.shape[0]
+    out = np.empty(k)
+    for i in range(k):
+        r0, r1, r2 = target[0] - starts[i, 0], target[1] - starts[i, 1], target[2] - starts[i, 2]
+        d0, d1, d2 = directions[i, 0], directions[i, 1], directions[i, 2]
+        along = rowdot3(r0, r1, r2, d0, d1, d2)
+        if along > 0.0:
+            out[i] = rownorm3(r0 - along * d0, r1 - along * d1, r2 - along * d2)
+        else:
+            out[i] = rownorm3(r0, r1, r2) + behind_penalty
+    return out
 
 
 @njit(cache=True)

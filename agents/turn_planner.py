@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from agents.candidate_miss import candidate_frames, candidate_miss, local_target
+from agents.candidate_miss import candidate_frames, candidate_miss, line_miss, local_target
 from agents.turn_geometry import angle_between, azimuth, perpendicular_basis, unit, wrap_angle
 from agents.turn_map import TurnMap, leading_within
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M
@@ -510,7 +510,7 @@ def candidate_misses(head: np.ndarray, d: np.ndarray, theta: np.ndarray, psi: np
                      beta: np.ndarray, target: np.ndarray, line_miss) -> tuple[np.ndarray, np.ndarray]:
     """(miss (T, B) m, turn ends (T, B, 3) m) of the candidate turns: theta, psi (T,) rad and ``offset`` (T, 3) m
     of the map's turns flown at the burst phases ``beta`` (B,) rad about the heading ``d``, scored by
-    ``line_miss(starts, directions, target)`` (NumPy; ``agents.candidate_miss`` compiles it for ``_line_miss``)."""
+    ``line_miss(starts, directions, target)`` (the world-frame form of ``agents.candidate_miss.candidate_miss``)."""
     e1, e2 = perpendicular_basis(d)
     az = beta[None, :] + psi[:, None]                                        # (T, B)
     across = (np.cos(az)[..., None] * e1 + np.sin(az)[..., None] * e2)       # (T, B, 3)
@@ -541,11 +541,11 @@ def pick_turn(miss: np.ndarray, miss_straight: float, config: PlannerConfig,
     w, imp = config.line_weight, config.improvement_m
     if w > 0.0 and line is not None:
         score, straight = miss + w * line[0], miss_straight + w * line[1]
-        i, j = np.unravel_index(int(np.argmin(score)), score.shape)
+        i, j = divmod(int(np.argmin(score)), score.shape[1])  # np.unravel_index's, cheaper
         if miss[i, j] > miss_straight - imp and score[i, j] > straight - imp:
             return None
         return int(i), int(j), float(score[i, j]), float(straight)
-    i, j = np.unravel_index(int(np.argmin(miss)), miss.shape)
+    i, j = divmod(int(np.argmin(miss)), miss.shape[1])
     if miss[i, j] > miss_straight - imp:
         return None
     return int(i), int(j), float(miss[i, j]), float(miss_straight)
@@ -580,8 +580,7 @@ def graded_line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndar
 def _line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray,
                behind_penalty: float = BEHIND_PENALTY_M) -> np.ndarray:
     """How far the straight lines start + s direction (s >= 0) pass from ``target``, (k,) m; a target
-    behind a start counts its distance plus ``behind_penalty`` (m)."""
-    rel = target - starts
-    along = np.einsum("ij,ij->i", rel, directions)
-    lateral = np.linalg.norm(rel - along[:, None] * directions, axis=1)
-    return np.where(along > 0.0, lateral, np.linalg.norm(rel, axis=1) + behind_penalty)
+    behind a start counts its distance plus ``behind_penalty`` (m). starts, directions (k, 3); compiled
+    (``agents.candidate_miss.line_miss``)."""
+    return line_miss(np.asarray(starts, dtype=np.float64), np.asarray(directions, dtype=np.float64),
+                     np.asarray(target, dtype=np.float64), float(behind_penalty))
