@@ -27,7 +27,7 @@ import math
 import numpy as np
 from numba import njit
 
-from agents.vec3 import dot3, rowdot3, rownorm3
+from physics.linalg.vec3 import dot3, rowdot3, rownorm3
 
 
 @njit(cache=True)
@@ -81,7 +81,7 @@ def line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray, be
     """How far the straight lines starts[i] + s directions[i] (s >= 0) pass from ``target``, (k,) m: the target's
     distance from the line, or, with the target behind the start, its distance plus ``behind_penalty`` (m). starts,
     directions (k, 3), target (3,), float64; rounded as the NumPy expression with ``einsum`` and ``norm`` rounds it
-    (``agents.vec3``)."""
+    (``physics.linalg.vec3``)."""
     k = starts.shape[0]
     out = np.empty(k)
     for i in range(k):

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from agents.vec3 import dot3s
 from flagellum_env.tracking import PathTracker
+from physics.linalg.vec3 import dot3s
 
 #: 3-point Gauss-Legendre nodes on [0, 1] and weights.
 _GAUSS_X = (0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6))

@@ -21,12 +21,12 @@ import math
 import numpy as np
 from numba import njit
 
-from agents.vec3 import dot3, fma
+from physics.linalg.vec3 import dot3, fma
 
 
 @njit(cache=True)
 def norm3(v: np.ndarray) -> float:
-    """|v| of a float64 3-vector, m or unitless: sqrt(v @ v) as NumPy rounds it (``agents.vec3.dot3``)."""
+    """|v| of a float64 3-vector, m or unitless: sqrt(v @ v) as NumPy rounds it (``physics.linalg.vec3.dot3``)."""
     return math.sqrt(dot3(v, v))
 
 
@@ -43,7 +43,7 @@ def unit(v: np.ndarray) -> np.ndarray:
 def unit_basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``perpendicular_basis`` of a unit axis a (3,), compiled (no check)."""
     h0, h2 = (0.0, 1.0) if abs(a[2]) < 0.9 else (1.0, 0.0)  # the helper, z or x
-    p = fma(a[2], h2, fma(a[1], 0.0, a[0] * h0))  # helper @ a (agents.vec3.dot3's rounding)
+    p = fma(a[2], h2, fma(a[1], 0.0, a[0] * h0))  # helper @ a (physics.linalg.vec3.dot3's rounding)
     v = np.array([h0 - p * a[0], 0.0 - p * a[1], h2 - p * a[2]])
     e1 = v / norm3(v)
     a0, a1, a2 = a[0], a[1], a[2]
