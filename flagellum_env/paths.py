@@ -14,6 +14,7 @@ Path file (JSON)::
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
@@ -23,7 +24,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numba import njit
 
+from physics.linalg.vec3 import dot3s
 from physics.validation import require_finite
 
 #: Side of the paper's square path, m.
@@ -61,17 +64,22 @@ class WaypointPath:
     def n_waypoints(self) -> int:
         return int(self.waypoints.shape[0])
 
-    @property
+    # The summaries below are computed once per path (a frozen path never changes; read-only arrays).
+    @functools.cached_property
     def vertices(self) -> np.ndarray:
-        """The origin followed by the waypoints, (k + 1, 3), m."""
-        return np.vstack([np.zeros((1, 3)), self.waypoints])
+        """The origin followed by the waypoints, (k + 1, 3), m (read-only)."""
+        out = np.vstack([np.zeros((1, 3)), self.waypoints])
+        out.setflags(write=False)
+        return out
 
-    @property
+    @functools.cached_property
     def segment_lengths(self) -> np.ndarray:
-        """Length of each segment (origin -> w0, w0 -> w1, ...), (k,), m."""
-        return np.linalg.norm(np.diff(self.vertices, axis=0), axis=1)
+        """Length of each segment (origin -> w0, w0 -> w1, ...), (k,), m (read-only)."""
+        out = np.linalg.norm(np.diff(self.vertices, axis=0), axis=1)
+        out.setflags(write=False)
+        return out
 
-    @property
+    @functools.cached_property
     def length_m(self) -> float:
         """Total length of the polyline from the origin, m."""
         return float(self.segment_lengths.sum())
@@ -160,7 +168,7 @@ def random_path(rng: np.random.Generator, config: RandomPathConfig | None = None
     cfg = config or RandomPathConfig()
     lo, hi = cfg.segment_length_m
     max_turn = math.radians(cfg.max_turn_deg)
-    heading = np.array([1.0, 0.0, 0.0])
+    h0, h1, h2 = 1.0, 0.0, 0.0  # the heading
     point = np.zeros(3)
     pts = []
     n = cfg.n_waypoints
@@ -172,13 +180,10 @@ def random_path(rng: np.random.Generator, config: RandomPathConfig | None = None
             angle = float(rng.uniform(math.radians(cfg.min_turn_deg), max_turn)) * (1.0 if rng.random() < 0.5 else -1.0)
         else:
             angle = float(rng.uniform(-max_turn, max_turn))
-        if cfg.planar:
-            axis = np.array([0.0, 0.0, 1.0])
-        else:
-            axis = _random_perpendicular(rng, heading)
-        heading = _rotate(heading, axis, angle)
-        heading /= np.linalg.norm(heading)
-        point = point + length * heading
+        # about +z, or about an axis perpendicular to the heading at a uniformly drawn angle
+        phi = 0.0 if cfg.planar else float(rng.uniform(0.0, 2.0 * math.pi))
+        h0, h1, h2 = _turned_heading(h0, h1, h2, cfg.planar, phi, angle)
+        point = point + length * np.array([h0, h1, h2])
         pts.append(point)
     reach = None if cfg.reach_radius_m is None else float(rng.uniform(*cfg.reach_radius_m))
     return WaypointPath(name="random", waypoints=np.array(pts), reach_radius_m=reach)
@@ -239,6 +244,25 @@ def _validated_waypoints(raw: Any, source: str) -> np.ndarray:
         raise ValueError(f"{source}: waypoints must be a list of [x, y, z] (metres), got {type(raw).__name__}")
     if not items:
         raise ValueError(f"{source}: waypoints is empty; give at least one [x, y, z] (metres)")
+    if (isinstance(raw, np.ndarray) and raw.dtype == np.float64 and raw.ndim == 2 and raw.shape[1] == 3
+            and bool(np.all(np.abs(raw) <= MAX_COORDINATE_M))):
+        pts = raw.copy()  # numbers, finite and within reach: what the loop below checks, at once
+    else:
+        pts = _checked_points(items, source)
+    vertices = np.vstack([np.zeros((1, 3)), pts])
+    lengths = np.linalg.norm(np.diff(vertices, axis=0), axis=1)
+    short = np.flatnonzero(lengths < MIN_SEGMENT_M)
+    if short.size:
+        i = int(short[0])
+        start = "the start (origin)" if i == 0 else f"waypoint {i - 1}"
+        raise ValueError(f"{source}: zero-length segment from {start} to waypoint {i} "
+                         f"({pts[i].tolist()}); consecutive points must differ by at least {MIN_SEGMENT_M} m")
+    return pts
+
+
+def _checked_points(items: list, source: str) -> np.ndarray:
+    """(k, 3) float64 of the waypoints ``items``; ValueError naming the first that is not three finite numbers
+    within reach."""
     pts = np.empty((len(items), 3))
     for i, w in enumerate(items):
         if isinstance(w, (str, bytes)) or not hasattr(w, "__len__") or len(w) != 3:
@@ -252,14 +276,6 @@ def _validated_waypoints(raw: Any, source: str) -> np.ndarray:
                 raise ValueError(f"{source}: waypoint {i} = {_short(w)} has a coordinate {c!r} m out of reach; "
                                  f"allowed: coordinates within +-{MAX_COORDINATE_M:g} m of the start")
             pts[i, k] = float(c)
-    vertices = np.vstack([np.zeros((1, 3)), pts])
-    lengths = np.linalg.norm(np.diff(vertices, axis=0), axis=1)
-    short = np.flatnonzero(lengths < MIN_SEGMENT_M)
-    if short.size:
-        i = int(short[0])
-        start = "the start (origin)" if i == 0 else f"waypoint {i - 1}"
-        raise ValueError(f"{source}: zero-length segment from {start} to waypoint {i} "
-                         f"({pts[i].tolist()}); consecutive points must differ by at least {MIN_SEGMENT_M} m")
     return pts
 
 
@@ -274,27 +290,30 @@ def _short(w: Any) -> str:
     return s if len(s) <= 60 else s[:57] + "..."
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a x b of two 3-vectors: np.cross's products and differences (the same values) without its overhead."""
-    a0, a1, a2 = float(a[0]), float(a[1]), float(a[2])
-    b0, b1, b2 = float(b[0]), float(b[1]), float(b[2])
-    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
-
-
-def _rotate(u: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
-    """Rodrigues rotation of u about the unit vector axis by angle (rad)."""
+@njit(cache=True)
+def _turned_heading(h0: float, h1: float, h2: float, planar: bool, phi: float, angle: float
+                    ) -> tuple[float, float, float]:
+    """The unit heading h turned by ``angle`` (rad, Rodrigues) about +z if ``planar``, else about the unit vector
+    perpendicular to h at angle ``phi`` (rad) from e1 = h x helper / |h x helper| towards h x e1 (helper +z, or +y
+    with h near +-z); rounded as the NumPy expressions (``physics.linalg.vec3``)."""
+    if planar:
+        x0, x1, x2 = 0.0, 0.0, 1.0
+    else:
+        g0, g1, g2 = (0.0, 0.0, 1.0) if abs(h2) < 0.9 else (0.0, 1.0, 0.0)
+        a0, a1, a2 = h1 * g2 - h2 * g1, h2 * g0 - h0 * g2, h0 * g1 - h1 * g0  # h x helper
+        n = math.sqrt(dot3s(a0, a1, a2, a0, a1, a2))
+        a0, a1, a2 = a0 / n, a1 / n, a2 / n
+        b0, b1, b2 = h1 * a2 - h2 * a1, h2 * a0 - h0 * a2, h0 * a1 - h1 * a0  # h x e1
+        cp, sp = math.cos(phi), math.sin(phi)
+        x0, x1, x2 = cp * a0 + sp * b0, cp * a1 + sp * b1, cp * a2 + sp * b2
     c, s = math.cos(angle), math.sin(angle)
-    return u * c + _cross(axis, u) * s + axis * float(axis @ u) * (1.0 - c)
-
-
-def _random_perpendicular(rng: np.random.Generator, heading: np.ndarray) -> np.ndarray:
-    """A unit vector perpendicular to ``heading``, uniform in angle."""
-    helper = np.array([0.0, 0.0, 1.0]) if abs(heading[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = _cross(heading, helper)
-    e1 /= np.linalg.norm(e1)
-    e2 = _cross(heading, e1)
-    phi = float(rng.uniform(0.0, 2.0 * math.pi))
-    return math.cos(phi) * e1 + math.sin(phi) * e2
+    k0, k1, k2 = x1 * h2 - x2 * h1, x2 * h0 - x0 * h2, x0 * h1 - x1 * h0  # axis x h
+    p = dot3s(x0, x1, x2, h0, h1, h2)
+    r0 = h0 * c + k0 * s + x0 * p * (1.0 - c)
+    r1 = h1 * c + k1 * s + x1 * p * (1.0 - c)
+    r2 = h2 * c + k2 * s + x2 * p * (1.0 - c)
+    n = math.sqrt(dot3s(r0, r1, r2, r0, r1, r2))
+    return r0 / n, r1 / n, r2 / n
 
 
 __all__ = ["PAPER_SQUARE_SIDE_M", "RandomPathConfig", "WaypointPath", "load_path", "path_from_dict",
