@@ -47,16 +47,16 @@ the clock removes ~70 % of a swimmer's timing error (the map time turned as: 0.0
 
 from __future__ import annotations
 
-import bisect
 import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from agents.online_turn_map import RatioClock
 from agents.surrogate_calibration import SurrogateCalibration
-from agents.turn_geometry import perpendicular_basis, wrap_angle
+from agents.turn_geometry import norm3, unit_basis, wrap_angle
 from agents.turn_map import TurnMap
 from physics.params import SwimmerParams
 
@@ -124,39 +124,71 @@ class TurnMapTable:
         #: every channel stacked, (K, P, 8): theta, cos psi, sin psi, offset (3), relax, L'/L, read at once
         self.channels = np.concatenate([np.stack([theta, np.cos(psi), np.sin(psi)], axis=-1), offset,
                                         np.stack([relax, ratio], axis=-1)], axis=-1)
-        self._t_list, self._ph_list = [float(x) for x in tcs], [float(x) for x in self.phases]
         #: the map's L'/L against burst length (bursts ended by L'/L)
         self.clock = RatioClock(turn_map)
 
-    def weights(self, t_map: float, beta: float) -> tuple[int, int, float, int, int, float, float, bool]:
-        """(k0, k1, w_t, j0, j1, w_b, theta_scale, in_range): the grid corners and weights of (t_map s, beta rad);
-        theta_scale < 1 below the shortest burst (theta -> 0 at t_c = 0)."""
-        t = self._t_list
-        in_range = 0.0 <= t_map <= t[-1] + 1e-9
-        scale = 1.0
-        if t_map <= t[0]:
-            k0 = k1 = 0
-            w_t = 0.0
-            scale = max(t_map, 0.0) / t[0]
-        elif t_map >= t[-1]:
-            k0 = k1 = len(t) - 1
-            w_t = 0.0
-        else:
-            k1 = bisect.bisect_right(t, t_map)
-            k0 = k1 - 1
-            w_t = (t_map - t[k0]) / (t[k1] - t[k0])
-        ph, n, two_pi = self._ph_list, len(self._ph_list), 2.0 * math.pi
-        b = beta % two_pi
-        j1 = bisect.bisect_right(ph, b) % n
-        j0 = (j1 - 1) % n
-        span = (ph[j1] - ph[j0]) % two_pi or two_pi
-        w_b = ((b - ph[j0]) % two_pi) / span
-        return k0, k1, w_t, j0, j1, w_b, scale, in_range
+    def read(self, t_map: float, beta: float) -> tuple[float, float, float, float, float, float, float, float,
+                                                       float, bool]:
+        """(theta rad, cos psi, sin psi, offset (3) m, relax s, L'/L, theta_scale, in_range): every channel read
+        bilinearly at (``t_map`` s, ``beta`` rad) (``read_map``)."""
+        return read_map(self.t_c, self.phases, self.channels, t_map, beta)
 
-    def read(self, table: np.ndarray, k0: int, k1: int, w_t: float, j0: int, j1: int, w_b: float):
-        """Bilinear read of ``table`` (K, P, ...) at the corners and weights of ``weights``."""
-        return ((1.0 - w_t) * ((1.0 - w_b) * table[k0, j0] + w_b * table[k0, j1])
-                + w_t * ((1.0 - w_b) * table[k1, j0] + w_b * table[k1, j1]))
+
+@njit(cache=True)
+def read_map(t: np.ndarray, ph: np.ndarray, channels: np.ndarray, t_map: float, beta: float
+             ) -> tuple[float, float, float, float, float, float, float, float, float, bool]:
+    """``channels`` (K, P, 8) read bilinearly at the map time ``t_map`` (s) between the burst lengths ``t`` (K,) s and
+    periodically at ``beta`` (rad) between the phases ``ph`` (P,) rad increasing in [0, 2 pi); then theta_scale (< 1
+    below the shortest burst: theta -> 0 at t_c = 0; the shortest burst's values) and in_range (within the burst
+    lengths; beyond them the longest burst's values)."""
+    n_t, n = t.shape[0], ph.shape[0]
+    in_range = 0.0 <= t_map <= t[n_t - 1] + 1e-9
+    scale = 1.0
+    if t_map <= t[0]:
+        k0 = k1 = 0
+        w_t = 0.0
+        scale = max(t_map, 0.0) / t[0]
+    elif t_map >= t[n_t - 1]:
+        k0 = k1 = n_t - 1
+        w_t = 0.0
+    else:
+        k1 = np.searchsorted(t, t_map, side="right")
+        k0 = k1 - 1
+        w_t = (t_map - t[k0]) / (t[k1] - t[k0])
+    two_pi = 2.0 * math.pi
+    b = beta % two_pi
+    j1 = np.searchsorted(ph, b, side="right") % n
+    j0 = (j1 - 1) % n
+    span = (ph[j1] - ph[j0]) % two_pi
+    if span == 0.0:
+        span = two_pi
+    w_b = ((b - ph[j0]) % two_pi) / span
+    v = np.empty(8)
+    for c in range(8):
+        v[c] = ((1.0 - w_t) * ((1.0 - w_b) * channels[k0, j0, c] + w_b * channels[k0, j1, c])
+                + w_t * ((1.0 - w_b) * channels[k1, j0, c] + w_b * channels[k1, j1, c]))
+    return v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], scale, in_range
+
+
+@njit(cache=True)
+def turned(d: np.ndarray, theta: float, psi: float, beta: float, ref: float, o0: float, o1: float, o2: float
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """(the new unit heading, the head's displacement m), both (3,), of a turn by ``theta`` (rad) towards azimuth
+    beta + psi (rad) about the unit heading ``d`` (3,) and the map's displacement (o0, o1, o2) m along d, e_ref
+    (azimuth ``ref``, rad) and d x e_ref (module docstring; ``perpendicular_basis(d)`` = (e1, e2))."""
+    e1, e2 = unit_basis(d / norm3(d))
+    d0, d1, d2 = d[0], d[1], d[2]
+    a0, a1, a2 = e1[0], e1[1], e1[2]
+    b0, b1, b2 = e2[0], e2[1], e2[2]
+    ca, sa = math.cos(beta + psi), math.sin(beta + psi)
+    ct, st = math.cos(theta), math.sin(theta)
+    h0, h1, h2 = ct * d0 + st * (ca * a0 + sa * b0), ct * d1 + st * (ca * a1 + sa * b1), ct * d2 + st * (ca * a2 + sa * b2)
+    hn = math.sqrt(h0 * h0 + h1 * h1 + h2 * h2)
+    cb, sb = math.cos(ref), math.sin(ref)
+    r0, r1, r2 = cb * a0 + sb * b0, cb * a1 + sb * b1, cb * a2 + sb * b2   # e_ref
+    p0, p1, p2 = d1 * r2 - d2 * r1, d2 * r0 - d0 * r2, d0 * r1 - d1 * r0   # d x e_ref
+    disp = np.array([o0 * d0 + o1 * r0 + o2 * p0, o0 * d1 + o1 * r1 + o2 * p1, o0 * d2 + o1 * r2 + o2 * p2])
+    return np.array([h0 / hn, h1 / hn, h2 / hn]), disp
 
 
 class SurrogateSwimmer:
@@ -212,27 +244,13 @@ class SurrogateSwimmer:
     def turn(self, d: np.ndarray, t_c: float, beta: float, burst_end: str = "time") -> SurrogateTurn:
         """The outcome of a burst of ``t_c`` s ended by ``burst_end`` (``burst_times``) at the reference
         direction's azimuth ``beta`` (rad) about the unit heading ``d`` (3,)."""
-        tab = self.table
         t_map = self.burst_times(t_c, burst_end)[1]
-        k0, k1, w_t, j0, j1, w_b, scale, in_range = tab.weights(t_map, beta)
-        th, pc, ps, o0, o1, o2, relax, ratio = tab.read(tab.channels, k0, k1, w_t, j0, j1, w_b).tolist()
+        th, pc, ps, o0, o1, o2, relax, ratio, scale, in_range = self.table.read(t_map, beta)
         theta, psi = scale * th, math.atan2(ps, pc)
         ref = beta   # the azimuth of e_ref, the displacement's lateral frame
         if self.direction_bias_rad != 0.0 or self.turn_scale != 1.0:
             theta = min(max(self.turn_scale * theta, 0.0), math.pi)
             psi = wrap_angle(psi + self.direction_bias_rad)
             ref = beta + self.direction_bias_rad
-        relax *= self.tau_ratio
-        e1, e2 = perpendicular_basis(d)
-        d0, d1, d2 = d.tolist()
-        a0, a1, a2 = e1.tolist()
-        b0, b1, b2 = e2.tolist()
-        ca, sa = math.cos(beta + psi), math.sin(beta + psi)
-        ct, st = math.cos(theta), math.sin(theta)
-        h = [ct * d0 + st * (ca * a0 + sa * b0), ct * d1 + st * (ca * a1 + sa * b1), ct * d2 + st * (ca * a2 + sa * b2)]
-        hn = math.sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2])
-        cb, sb = math.cos(ref), math.sin(ref)
-        r0, r1, r2 = cb * a0 + sb * b0, cb * a1 + sb * b1, cb * a2 + sb * b2   # e_ref
-        p0, p1, p2 = d1 * r2 - d2 * r1, d2 * r0 - d0 * r2, d0 * r1 - d1 * r0   # d x e_ref
-        disp = np.array([o0 * d0 + o1 * r0 + o2 * p0, o0 * d1 + o1 * r1 + o2 * p1, o0 * d2 + o1 * r2 + o2 * p2])
-        return SurrogateTurn(np.array(h) / hn, disp, theta, psi, relax, ratio, float(t_map), bool(in_range))
+        heading, disp = turned(np.asarray(d, dtype=np.float64), theta, psi, beta, ref, o0, o1, o2)
+        return SurrogateTurn(heading, disp, theta, psi, relax * self.tau_ratio, ratio, float(t_map), bool(in_range))
