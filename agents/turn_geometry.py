@@ -74,6 +74,7 @@ def azimuth(v: np.ndarray, axis: np.ndarray) -> float:
     return out
 
 
+@njit(cache=True)
 def wrap_angle(a: float) -> float:
     """a wrapped to (-pi, pi] (rad)."""
     return math.pi - (math.pi - a) % (2.0 * math.pi)
