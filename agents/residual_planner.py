@@ -163,14 +163,15 @@ def corrected_plan(plan: dict, action: np.ndarray, turn_map: TurnMap, limits: Re
     map's prediction of the corrected turn: ``predicted_theta_deg`` (the rising branch, held at
     its maximum beyond it) and ``predicted_azimuth`` (rad, of the new heading about the old one in
     ``perpendicular_basis(heading)``, as the planner predicts it: phase + psi)."""
-    a = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
-    if a.size != 2 or not np.all(np.isfinite(a)):
+    a = np.asarray(action, dtype=np.float64).reshape(-1)
+    a0, a1 = (min(max(x, -1.0), 1.0) for x in a.tolist()) if a.size == 2 else (math.nan, math.nan)  # np.clip's
+    if not (math.isfinite(a0) and math.isfinite(a1)):
         raise ValueError(f"residual action={action!r} must be two finite numbers in [-1, 1]")
-    t_c = plan["t_c"] * (1.0 + a[0] * limits.max_dtc_fraction)
-    phase = wrap_angle(plan["burst_phase"] + math.radians(a[1] * limits.max_dphase_deg))
+    t_c = plan["t_c"] * (1.0 + a0 * limits.max_dtc_fraction)
+    phase = wrap_angle(plan["burst_phase"] + math.radians(a1 * limits.max_dphase_deg))
     t_branch, theta_branch = turn_map.rising_branch()
     out = dict(plan)
-    out.update(t_c=float(t_c), burst_phase=phase, residual=[float(a[0]), float(a[1])],
+    out.update(t_c=float(t_c), burst_phase=phase, residual=[a0, a1],
                planned_t_c=float(plan["t_c"]), planned_theta_deg=float(plan["theta_deg"]),
                predicted_theta_deg=float(np.interp(t_c, t_branch, theta_branch)),
                predicted_azimuth=wrap_angle(phase + math.radians(turn_map.psi_for(t_c))))

@@ -172,7 +172,7 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         reward, end = self._pending
         self._pending = (0.0, None)
         if end is None:
-            a = np.clip(a, -1.0, 1.0)
+            a = a.clip(-1.0, 1.0)
             end = self._turn(corrected_plan(self._plan, a, self.turn_map, self.limits))
             if end is None:
                 end = self._advance()

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from agents.candidate_miss import candidate_frames, candidate_miss, line_miss, local_target
-from agents.turn_geometry import angle_between, azimuth, perpendicular_basis, unit, wrap_angle
+from agents.turn_geometry import angle_between, azimuth, norm3, perpendicular_basis, unit, wrap_angle
 from agents.turn_map import TurnMap, leading_within
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M
 from physics.validation import require_finite
@@ -382,7 +382,7 @@ class RulePlanner:
         """Keep ``ep.segment`` the (start, target) of the path segment being followed (start frame, m)."""
         if ep.segment is None:
             ep.segment = (np.zeros(3), target.copy())  # the path starts at the head's start
-        elif float(np.linalg.norm(target - ep.segment[1])) > 1e-3:
+        elif norm3(target - ep.segment[1]) > 1e-3:
             ep.segment = (ep.segment[1].copy(), target.copy())  # the target switched: the old one starts the segment
 
     def _continue_burst(self, ep: PlannerEpisode, obs: np.ndarray) -> bool:
