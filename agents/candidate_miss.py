@@ -27,6 +27,7 @@ import math
 import numpy as np
 from numba import njit
 
+from agents.turn_geometry import angle_of, norm3, unit_basis
 from physics.linalg.vec3 import dot3, rowdot3, rownorm3
 
 
@@ -93,6 +94,37 @@ def line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray, be
         else:
             out[i] = rownorm3(r0, r1, r2) + behind_penalty
     return out
+
+
+@njit(cache=True)
+def turn_wanted(miss0: float, d: np.ndarray, rel: np.ndarray, hit_miss_m: float, min_turn_deg: float) -> int:
+    """The rule planner's gate (``RulePlanner._miss_if_off_course``): 1 if a turn is wanted, 0 if not (swimming on
+    misses the target by ``miss0`` m, below ``hit_miss_m``, or the target ``rel`` (3,) m from the head lies less than
+    ``min_turn_deg`` off the heading ``d`` (3,)), -1 if d or rel is zero or not finite (no angle)."""
+    if miss0 < hit_miss_m:
+        return 0
+    angle = angle_of(d, rel)
+    if math.isnan(angle):
+        return -1
+    return 0 if math.degrees(angle) < min_turn_deg else 1
+
+
+@njit(cache=True)
+def paper_rule_misses(head: np.ndarray, d: np.ndarray, target: np.ndarray, frames: np.ndarray,
+                      behind_penalty: float, hit_miss_m: float, min_turn_deg: float
+                      ) -> tuple[int, float, np.ndarray]:
+    """(``turn_wanted``, swimming on's miss m, each candidate's miss (T, B) m, empty unless a turn is wanted) of the
+    rule planner with the paper's miss (``line_miss``, ``candidate_miss``): head, d (unit heading), target (3,)
+    m; ``frames`` from ``candidate_frames``."""
+    starts, directions = np.empty((1, 3)), np.empty((1, 3))
+    starts[0], directions[0] = head, d
+    miss0 = line_miss(starts, directions, target, behind_penalty)[0]
+    wanted = turn_wanted(miss0, d, target - head, hit_miss_m, min_turn_deg)
+    if wanted <= 0:
+        return wanted, miss0, np.empty((0, 0))
+    e1, e2 = unit_basis(d / norm3(d))  # perpendicular_basis(d)
+    q0, q1, q2 = local_target(head, d, e1, e2, target)
+    return wanted, miss0, candidate_miss(frames, q0, q1, q2, behind_penalty)
 
 
 @njit(cache=True)

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from agents.candidate_miss import candidate_frames, candidate_miss, line_miss, local_target
+from agents.candidate_miss import candidate_frames, line_miss, paper_rule_misses, turn_wanted
 from agents.turn_geometry import angle_between, azimuth, norm3, perpendicular_basis, unit, wrap_angle
 from agents.turn_map import TurnMap, leading_within
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M
@@ -426,20 +426,24 @@ class RulePlanner:
         turn's end from the segment's line, and a turn is made if it improves the miss or the score.
         """
         cfg = self.config
-        miss0 = self._miss_if_off_course(head, d, target, line_miss)
-        if miss0 is None:
-            return None
         t_c, theta, psi, off = self._candidate_turns(ep)
         beta = self._burst_phases
         segment = ep.segment if ep is not None else None
         with_line = cfg.line_weight > 0.0 and segment is not None
         if line_miss is RulePlanner._line_miss:
-            # the paper's miss, compiled (agents.candidate_miss: the same formulas as below)
-            e1, e2 = perpendicular_basis(d)
-            miss = candidate_miss(self.candidate_frames(theta, psi, off, beta), *local_target(head, d, e1, e2, target),
-                                  BEHIND_PENALTY_M)
+            # the paper's miss, compiled (agents.candidate_miss.paper_rule_misses: the same formulas as below)
+            wanted, miss0, miss = paper_rule_misses(
+                head, d, target, self.candidate_frames(theta, psi, off, beta), BEHIND_PENALTY_M,
+                cfg.hit_fraction * self.reach_radius_m, cfg.min_turn_deg)
+            if wanted < 0:
+                angle_between(d, target - head)  # raises: the heading or the target's direction is zero
+            if wanted <= 0:
+                return None
             after = turn_ends(head, d, off, beta) if with_line else None
         else:
+            miss0 = self._miss_if_off_course(head, d, target, line_miss)
+            if miss0 is None:
+                return None
             miss, after = candidate_misses(head, d, theta, psi, off, beta, target, line_miss)
         line = None  # the line term only where it counts (PlannerConfig.line_weight > 0)
         if with_line:
@@ -461,11 +465,10 @@ class RulePlanner:
         ``min_turn_deg`` off the heading (re-checked every step)."""
         cfg = self.config
         miss0 = float((line_miss or self._line_miss)(head[None, :], d[None, :], target)[0])
-        if miss0 < cfg.hit_fraction * self.reach_radius_m:
-            return None
-        if math.degrees(angle_between(d, target - head)) < cfg.min_turn_deg:
-            return None
-        return miss0
+        wanted = turn_wanted(miss0, d, target - head, cfg.hit_fraction * self.reach_radius_m, cfg.min_turn_deg)
+        if wanted < 0:
+            angle_between(d, target - head)  # raises: the heading or the target's direction is zero
+        return miss0 if wanted > 0 else None
 
     @staticmethod
     def _line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray) -> np.ndarray:
