@@ -58,15 +58,19 @@ def candidate_miss(frames: np.ndarray, q0: float, q1: float, q2: float, behind_p
     out = np.empty((n_t, n_b))
     for i in range(n_t):
         for j in range(n_b):
-            f = frames[i, j]
-            r0, r1, r2 = q0 - f[0], q1 - f[1], q2 - f[2]
-            along = r0 * f[3] + r1 * f[4] + r2 * f[5]
-            if along > 0.0:
-                l0, l1, l2 = r0 - along * f[3], r1 - along * f[4], r2 - along * f[5]
-                out[i, j] = math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
-            else:
-                out[i, j] = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2) + behind_penalty
+            out[i, j] = _miss(frames[i, j], q0, q1, q2, behind_penalty)
     return out
+
+
+@njit(cache=True)
+def _miss(f: np.ndarray, q0: float, q1: float, q2: float, behind_penalty: float) -> float:
+    """One candidate's miss (m): ``f`` (6,) its row of ``candidate_frames``, (q0, q1, q2) the target (``candidate_miss``)."""
+    r0, r1, r2 = q0 - f[0], q1 - f[1], q2 - f[2]
+    along = r0 * f[3] + r1 * f[4] + r2 * f[5]
+    if along > 0.0:
+        l0, l1, l2 = r0 - along * f[3], r1 - along * f[4], r2 - along * f[5]
+        return math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
+    return math.sqrt(r0 * r0 + r1 * r1 + r2 * r2) + behind_penalty
 
 
 @njit(cache=True)
@@ -209,6 +213,19 @@ def first_improving_sample(frames: np.ndarray, q0: float, q1: float, q2: float, 
             straight = math.sqrt(q1 * q1 + q2 * q2)
         else:
             straight = math.sqrt(m0 * m0 + q1 * q1 + q2 * q2) + behind_penalty
-        if candidate_miss(frames, m0, q1, q2, behind_penalty).min() <= straight - improvement:
+        if _any_miss_at_most(frames, m0, q1, q2, behind_penalty, straight - improvement):
             return k
     return -1
+
+
+@njit(cache=True)
+def _any_miss_at_most(frames: np.ndarray, q0: float, q1: float, q2: float, behind_penalty: float,
+                      bound: float) -> bool:
+    """Whether some candidate's miss (``candidate_miss``, the same arguments) is at most ``bound`` (m): its
+    minimum's test, stopping at the first candidate that passes."""
+    n_t, n_b = frames.shape[0], frames.shape[1]
+    for i in range(n_t):
+        for j in range(n_b):
+            if _miss(frames[i, j], q0, q1, q2, behind_penalty) <= bound:
+                return True
+    return False

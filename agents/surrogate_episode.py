@@ -80,7 +80,7 @@ class SurrogateEpisode:
                              self._acc_reached, off_path=self._off_path)
         self._progress = progress
         self._acc_energy, self._acc_cross, self._acc_reached = 0.0, 0.0, 0
-        return float(sum(terms[t] for t in TERMS))
+        return float(sum([terms[t] for t in TERMS]))
 
     # --- a burst ----------------------------------------------------------------------------------
     def hover_to_phase(self, beta: float) -> tuple[bool, bool] | None:

@@ -482,12 +482,11 @@ class RulePlanner:
     def candidate_frames(self, theta: np.ndarray, psi: np.ndarray, off: np.ndarray, beta: np.ndarray) -> np.ndarray:
         """``agents.candidate_miss.candidate_frames`` of these candidates, (T, B, 6), remembered for the last set
         (the rule planner's are the same every plan)."""
-        key = (theta, psi, off, beta)
         cached = getattr(self, "_frames", None)
-        if cached is None or any(a is not b for a, b in zip(cached[0], key)):
-            cached = (key, candidate_frames(theta, psi, off, beta))
+        if cached is None or not (cached[0] is theta and cached[1] is psi and cached[2] is off and cached[3] is beta):
+            cached = (theta, psi, off, beta, candidate_frames(theta, psi, off, beta))
             self._frames = cached
-        return cached[1]
+        return cached[4]
 
     @functools.cached_property
     def _burst_phases(self) -> np.ndarray:

@@ -60,11 +60,11 @@ class WaypointPath:
             r = require_finite(f"path {self.name!r}: reach_radius_m", self.reach_radius_m, 0.0, lo_open=True, unit="m")
             object.__setattr__(self, "reach_radius_m", r)
 
-    @property
+    # The summaries below are computed once per path (a frozen path never changes; read-only arrays).
+    @functools.cached_property
     def n_waypoints(self) -> int:
         return int(self.waypoints.shape[0])
 
-    # The summaries below are computed once per path (a frozen path never changes; read-only arrays).
     @functools.cached_property
     def vertices(self) -> np.ndarray:
         """The origin followed by the waypoints, (k + 1, 3), m (read-only)."""
