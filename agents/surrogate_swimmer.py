@@ -208,8 +208,9 @@ class SurrogateSwimmer:
                 raise ValueError(f"swimmer with {field} = {getattr(params, field):.4g} ({f:.3g} x the map's) is "
                                  f"outside the surrogate's calibrated range [{lo}, {hi}] x the map's")
             self.time_factor *= f ** calibration.burst_time_exponents[name]
-        others = [f.name for f in dataclasses.fields(SwimmerParams) if f.name not in (*FACTOR_FIELDS.values(),
-                  "shear_modulus") and getattr(params, f.name) != getattr(turn_map.params, f.name)]
+        others = [] if params is turn_map.params else [  # the map's own swimmer differs in nothing
+            f.name for f in dataclasses.fields(SwimmerParams) if f.name not in (*FACTOR_FIELDS.values(),
+            "shear_modulus") and getattr(params, f.name) != getattr(turn_map.params, f.name)]
         if others:
             raise ValueError(f"swimmer differs from the map's in {others}; the surrogate is calibrated for "
                              f"{sorted(FACTOR_FIELDS)} only")

@@ -53,31 +53,29 @@ class WaypointPath:
     reach_radius_m: float | None = None
 
     def __post_init__(self) -> None:
-        pts = _validated_waypoints(self.waypoints, source=f"path {self.name!r}")
-        pts.setflags(write=False)
-        object.__setattr__(self, "waypoints", pts)
+        pts, vertices, lengths = _validated_waypoints(self.waypoints, source=f"path {self.name!r}")
+        for name, value in (("waypoints", pts), ("_vertices", vertices), ("_segment_lengths", lengths)):
+            value.setflags(write=False)
+            object.__setattr__(self, name, value)
         if self.reach_radius_m is not None:
             r = require_finite(f"path {self.name!r}: reach_radius_m", self.reach_radius_m, 0.0, lo_open=True, unit="m")
             object.__setattr__(self, "reach_radius_m", r)
 
-    # The summaries below are computed once per path (a frozen path never changes; read-only arrays).
+    # The summaries below are computed once per path, by the validation or on first use (a frozen path never
+    # changes; read-only arrays).
     @functools.cached_property
     def n_waypoints(self) -> int:
         return int(self.waypoints.shape[0])
 
-    @functools.cached_property
+    @property
     def vertices(self) -> np.ndarray:
         """The origin followed by the waypoints, (k + 1, 3), m (read-only)."""
-        out = np.vstack([np.zeros((1, 3)), self.waypoints])
-        out.setflags(write=False)
-        return out
+        return self._vertices
 
-    @functools.cached_property
+    @property
     def segment_lengths(self) -> np.ndarray:
         """Length of each segment (origin -> w0, w0 -> w1, ...), (k,), m (read-only)."""
-        out = np.linalg.norm(np.diff(self.vertices, axis=0), axis=1)
-        out.setflags(write=False)
-        return out
+        return self._segment_lengths
 
     @functools.cached_property
     def length_m(self) -> float:
@@ -168,8 +166,9 @@ def random_path(rng: np.random.Generator, config: RandomPathConfig | None = None
     cfg = config or RandomPathConfig()
     lo, hi = cfg.segment_length_m
     max_turn = math.radians(cfg.max_turn_deg)
+    min_turn = math.radians(cfg.min_turn_deg)
     h0, h1, h2 = 1.0, 0.0, 0.0  # the heading
-    point = np.zeros(3)
+    p0, p1, p2 = 0.0, 0.0, 0.0  # the point
     pts = []
     n = cfg.n_waypoints
     if isinstance(n, tuple):
@@ -177,14 +176,14 @@ def random_path(rng: np.random.Generator, config: RandomPathConfig | None = None
     for _ in range(n):
         length = float(rng.uniform(lo, hi))
         if cfg.min_turn_deg > 0.0:  # |angle| in [min, max], either sign
-            angle = float(rng.uniform(math.radians(cfg.min_turn_deg), max_turn)) * (1.0 if rng.random() < 0.5 else -1.0)
+            angle = float(rng.uniform(min_turn, max_turn)) * (1.0 if rng.random() < 0.5 else -1.0)
         else:
             angle = float(rng.uniform(-max_turn, max_turn))
         # about +z, or about an axis perpendicular to the heading at a uniformly drawn angle
         phi = 0.0 if cfg.planar else float(rng.uniform(0.0, 2.0 * math.pi))
         h0, h1, h2 = _turned_heading(h0, h1, h2, cfg.planar, phi, angle)
-        point = point + length * np.array([h0, h1, h2])
-        pts.append(point)
+        p0, p1, p2 = p0 + length * h0, p1 + length * h1, p2 + length * h2
+        pts.append((p0, p1, p2))
     reach = None if cfg.reach_radius_m is None else float(rng.uniform(*cfg.reach_radius_m))
     return WaypointPath(name="random", waypoints=np.array(pts), reach_radius_m=reach)
 
@@ -207,7 +206,7 @@ def path_from_dict(data: Any, source: str = "path", default_name: str = "path") 
     name = data.get("name", default_name)
     if not isinstance(name, str) or not name:
         raise ValueError(f"{source}: 'name' must be a non-empty string, got {name!r}")
-    pts = _validated_waypoints(data["waypoints"], source=source)
+    pts, _, _ = _validated_waypoints(data["waypoints"], source=source)
     radius = data.get("reach_radius_m")
     if radius is not None:
         radius = require_finite(f"{source}: reach_radius_m", radius, 0.0, lo_open=True, unit="m")
@@ -234,8 +233,9 @@ def save_path(path: WaypointPath, file: str | os.PathLike) -> None:
 
 
 # --- helpers ------------------------------------------------------------------------------
-def _validated_waypoints(raw: Any, source: str) -> np.ndarray:
-    """(k, 3) float64 copy of ``raw``; ValueError naming the bad waypoint."""
+def _validated_waypoints(raw: Any, source: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """((k, 3) float64 copy of ``raw``, the vertices (k + 1, 3) m and the segments' lengths (k,) m of the path
+    through them: ``WaypointPath.vertices``, ``segment_lengths``); ValueError naming the bad waypoint."""
     if isinstance(raw, np.ndarray):
         items = list(raw) if raw.ndim >= 1 else [raw]
     elif isinstance(raw, (list, tuple)):
@@ -257,7 +257,7 @@ def _validated_waypoints(raw: Any, source: str) -> np.ndarray:
         start = "the start (origin)" if i == 0 else f"waypoint {i - 1}"
         raise ValueError(f"{source}: zero-length segment from {start} to waypoint {i} "
                          f"({pts[i].tolist()}); consecutive points must differ by at least {MIN_SEGMENT_M} m")
-    return pts
+    return pts, vertices, lengths
 
 
 def _checked_points(items: list, source: str) -> np.ndarray:
