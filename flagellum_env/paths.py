@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from physics.linalg.vec3 import dot3s
+from physics.linalg.vec3 import dot3s, rownorm3
 from physics.validation import require_finite
 
 #: Side of the paper's square path, m.
@@ -236,28 +236,47 @@ def save_path(path: WaypointPath, file: str | os.PathLike) -> None:
 def _validated_waypoints(raw: Any, source: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """((k, 3) float64 copy of ``raw``, the vertices (k + 1, 3) m and the segments' lengths (k,) m of the path
     through them: ``WaypointPath.vertices``, ``segment_lengths``); ValueError naming the bad waypoint."""
-    if isinstance(raw, np.ndarray):
-        items = list(raw) if raw.ndim >= 1 else [raw]
-    elif isinstance(raw, (list, tuple)):
-        items = list(raw)
+    if (type(raw) is np.ndarray and raw.dtype == np.float64 and raw.ndim == 2 and raw.shape[0] > 0
+            and raw.shape[1] == 3 and _within_reach(raw)):
+        pts = raw.copy()  # numbers, finite and within reach: what _checked_points checks, at once
     else:
-        raise ValueError(f"{source}: waypoints must be a list of [x, y, z] (metres), got {type(raw).__name__}")
-    if not items:
-        raise ValueError(f"{source}: waypoints is empty; give at least one [x, y, z] (metres)")
-    if (isinstance(raw, np.ndarray) and raw.dtype == np.float64 and raw.ndim == 2 and raw.shape[1] == 3
-            and bool(np.all(np.abs(raw) <= MAX_COORDINATE_M))):
-        pts = raw.copy()  # numbers, finite and within reach: what the loop below checks, at once
-    else:
+        if isinstance(raw, np.ndarray):
+            items = list(raw) if raw.ndim >= 1 else [raw]
+        elif isinstance(raw, (list, tuple)):
+            items = list(raw)
+        else:
+            raise ValueError(f"{source}: waypoints must be a list of [x, y, z] (metres), got {type(raw).__name__}")
+        if not items:
+            raise ValueError(f"{source}: waypoints is empty; give at least one [x, y, z] (metres)")
         pts = _checked_points(items, source)
-    vertices = np.vstack([np.zeros((1, 3)), pts])
-    lengths = np.linalg.norm(np.diff(vertices, axis=0), axis=1)
-    short = np.flatnonzero(lengths < MIN_SEGMENT_M)
-    if short.size:
-        i = int(short[0])
+    vertices = np.empty((pts.shape[0] + 1, 3))
+    vertices[0], vertices[1:] = 0.0, pts
+    lengths = _segment_lengths(vertices)
+    if lengths.min() < MIN_SEGMENT_M:
+        i = int(np.flatnonzero(lengths < MIN_SEGMENT_M)[0])
         start = "the start (origin)" if i == 0 else f"waypoint {i - 1}"
         raise ValueError(f"{source}: zero-length segment from {start} to waypoint {i} "
                          f"({pts[i].tolist()}); consecutive points must differ by at least {MIN_SEGMENT_M} m")
     return pts, vertices, lengths
+
+
+@njit(cache=True)
+def _within_reach(pts: np.ndarray) -> bool:
+    """Whether every coordinate of ``pts`` (k, 3) is finite and within +-``MAX_COORDINATE_M`` m."""
+    for v in pts.ravel():
+        if not abs(v) <= MAX_COORDINATE_M:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _segment_lengths(vertices: np.ndarray) -> np.ndarray:
+    """|vertices[i + 1] - vertices[i]|, (k,) m, rounded as ``np.linalg.norm(np.diff(vertices, axis=0), axis=1)``."""
+    out = np.empty(vertices.shape[0] - 1)
+    for i in range(out.shape[0]):
+        out[i] = rownorm3(vertices[i + 1, 0] - vertices[i, 0], vertices[i + 1, 1] - vertices[i, 1],
+                          vertices[i + 1, 2] - vertices[i, 2])
+    return out
 
 
 def _checked_points(items: list, source: str) -> np.ndarray:
