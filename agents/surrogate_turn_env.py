@@ -56,6 +56,7 @@ from agents.turn_map import TurnMap
 from agents.turn_planner import BEHIND_PENALTY_M, PlannerEpisode, RulePlanner
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M, SteerConfig, draw_randomization, make_config
 from flagellum_env.tracking import PathTracker
+from physics.linalg.vec3 import dot3s
 from physics.presets import DEFAULT_PRESET, RETIRED_PRESETS, retired_preset_message
 from physics.validation import require_finite
 
@@ -172,11 +173,12 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         reward, end = self._pending
         self._pending = (0.0, None)
         if end is None:
-            a = a.clip(-1.0, 1.0)
-            end = self._turn(corrected_plan(self._plan, a, self.turn_map, self.limits))
+            plan = corrected_plan(self._plan, a, self.turn_map, self.limits)
+            a0, a1 = plan["residual"]  # the action clipped to [-1, 1]
+            end = self._turn(plan)
             if end is None:
                 end = self._advance()
-            reward += self.episode.reward() - self.action_cost * float(a @ a)
+            reward += self.episode.reward() - self.action_cost * dot3s(a0, a1, 0.0, a0, a1, 0.0)  # a @ a
         terminated, truncated = end if end is not None else (False, False)
         self._done = terminated or truncated
         return self._features(), float(reward), bool(terminated), bool(truncated), self._info()

@@ -21,13 +21,7 @@ import math
 import numpy as np
 from numba import njit
 
-from physics.linalg.vec3 import dot3, fma
-
-
-@njit(cache=True)
-def norm3(v: np.ndarray) -> float:
-    """|v| of a float64 3-vector, m or unitless: sqrt(v @ v) as NumPy rounds it (``physics.linalg.vec3.dot3``)."""
-    return math.sqrt(dot3(v, v))
+from physics.linalg.vec3 import dot3, fma, norm3
 
 
 def unit(v: np.ndarray) -> np.ndarray:

@@ -543,11 +543,11 @@ def pick_turn(miss: np.ndarray, miss_straight: float, config: PlannerConfig,
     w, imp = config.line_weight, config.improvement_m
     if w > 0.0 and line is not None:
         score, straight = miss + w * line[0], miss_straight + w * line[1]
-        i, j = divmod(int(np.argmin(score)), score.shape[1])  # np.unravel_index's, cheaper
+        i, j = divmod(int(score.argmin()), score.shape[1])  # np.unravel_index's, cheaper
         if miss[i, j] > miss_straight - imp and score[i, j] > straight - imp:
             return None
         return int(i), int(j), float(score[i, j]), float(straight)
-    i, j = divmod(int(np.argmin(miss)), miss.shape[1])
+    i, j = divmod(int(miss.argmin()), miss.shape[1])
     if miss[i, j] > miss_straight - imp:
         return None
     return int(i), int(j), float(miss[i, j]), float(miss_straight)

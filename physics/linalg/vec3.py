@@ -5,6 +5,7 @@ the NumPy expressions it replaces.
   with fused multiply-adds: fma(a2, b2, fma(a1, b1, a0 b0)).
 - ``rowdot3(a, b)``: ``np.einsum("ij,ij->i", a, b)`` of one row pair, (a0 b0 + a2 b2) + a1 b1 (its pairwise lanes).
 - ``rownorm3(v)``: ``np.linalg.norm(v, axis=1)`` of one row, sqrt((v0^2 + v1^2) + v2^2).
+- ``norm3(v)``: ``np.linalg.norm(v)`` (and ``math.sqrt(v @ v)``) of a 3-vector.
 
 tests/agents/test_vec3.py checks each against NumPy on random vectors.
 """
@@ -51,3 +52,20 @@ def rowdot3(a0: float, a1: float, a2: float, b0: float, b1: float, b2: float) ->
 def rownorm3(v0: float, v1: float, v2: float) -> float:
     """One row of ``np.linalg.norm(v, axis=1)`` for 3 columns, rounded as NumPy rounds it."""
     return math.sqrt((v0 * v0 + v1 * v1) + v2 * v2)
+
+
+@njit(cache=True)
+def norm3(v: np.ndarray) -> float:
+    """|v| of a float64 3-vector: sqrt(v @ v) as NumPy rounds it (``dot3``)."""
+    return math.sqrt(dot3(v, v))
+
+
+@njit(cache=True)
+def segment_projection(x: np.ndarray, a: np.ndarray, b: np.ndarray, length: float
+                       ) -> tuple[float, float, float, float]:
+    """(s, the closest point's 3 coordinates) of the point ``x`` on the segment from ``a`` to ``b`` of ``length``
+    (all (3,) float64, m): s the arc length of x's projection clipped to [0, length], the closest point a + s u with
+    u = (b - a) / length; rounded as the NumPy expressions."""
+    u0, u1, u2 = (b[0] - a[0]) / length, (b[1] - a[1]) / length, (b[2] - a[2]) / length
+    s = min(max(dot3s(x[0] - a[0], x[1] - a[1], x[2] - a[2], u0, u1, u2), 0.0), length)
+    return s, a[0] + s * u0, a[1] + s * u1, a[2] + s * u2
