@@ -169,11 +169,10 @@ def corrected_plan(plan: dict, action: np.ndarray, turn_map: TurnMap, limits: Re
         raise ValueError(f"residual action={action!r} must be two finite numbers in [-1, 1]")
     t_c = plan["t_c"] * (1.0 + a0 * limits.max_dtc_fraction)
     phase = wrap_angle(plan["burst_phase"] + math.radians(a1 * limits.max_dphase_deg))
-    t_branch, theta_branch = turn_map.rising_branch()
     out = dict(plan)
     out.update(t_c=float(t_c), burst_phase=phase, residual=[a0, a1],
                planned_t_c=float(plan["t_c"]), planned_theta_deg=float(plan["theta_deg"]),
-               predicted_theta_deg=float(np.interp(t_c, t_branch, theta_branch)),
+               predicted_theta_deg=turn_map.theta_for(t_c),
                predicted_azimuth=wrap_angle(phase + math.radians(turn_map.psi_for(t_c))))
     return out
 
