@@ -206,26 +206,80 @@ def first_improving_sample(frames: np.ndarray, q0: float, q1: float, q2: float, 
     """The first k in 1..n_max at which, with the head moved by k step_m along d, the best candidate's miss
     (``candidate_miss``) is at most swimming on's (the same ray miss from the moved head along d) less
     ``improvement`` (m); -1 if none. The sampled form of ``first_improving_distance`` for stretches along which
-    swimming on's miss changes (the target behind)."""
+    swimming on's miss changes (the target behind).
+
+    Only the candidates that can pass at some k are tried at every k (``_may_pass``: over the head's moves x in
+    [step_m, n_max step_m] a candidate's miss has a least value in closed form; one above the largest bound by more
+    than ``_BOUND_MARGIN_M``, far above rounding, cannot pass)."""
+    bound = np.empty(n_max)
+    largest = -math.inf
     for k in range(1, n_max + 1):
         m0 = q0 - k * step_m
         if m0 > 0.0:
             straight = math.sqrt(q1 * q1 + q2 * q2)
         else:
             straight = math.sqrt(m0 * m0 + q1 * q1 + q2 * q2) + behind_penalty
-        if _any_miss_at_most(frames, m0, q1, q2, behind_penalty, straight - improvement):
-            return k
+        bound[k - 1] = straight - improvement
+        largest = max(largest, bound[k - 1])
+    if not largest + _BOUND_MARGIN_M >= 0.0:
+        return -1  # a miss is never negative
+    n_t, n_b = frames.shape[0], frames.shape[1]
+    kept = np.empty(n_t * n_b, np.int64)  # flat indices of the candidates that may pass
+    n_kept = 0
+    for i in range(n_t):
+        for j in range(n_b):
+            if _may_pass(frames[i, j], q0, q1, q2, behind_penalty, step_m, n_max * step_m, largest + _BOUND_MARGIN_M):
+                kept[n_kept] = i * n_b + j
+                n_kept += 1
+    for k in range(1, n_max + 1):
+        m0 = q0 - k * step_m
+        for c in range(n_kept):
+            i, j = divmod(kept[c], n_b)
+            if _miss(frames[i, j], m0, q1, q2, behind_penalty) <= bound[k - 1]:
+                return k
     return -1
 
 
+#: How far (m) a candidate's least line distance must exceed the largest bound of ``first_improving_sample`` to be
+#: left out: rounding moves these distances by ~1e-16 m.
+_BOUND_MARGIN_M = 1e-9
+
+
 @njit(cache=True)
-def _any_miss_at_most(frames: np.ndarray, q0: float, q1: float, q2: float, behind_penalty: float,
-                      bound: float) -> bool:
-    """Whether some candidate's miss (``candidate_miss``, the same arguments) is at most ``bound`` (m): its
-    minimum's test, stopping at the first candidate that passes."""
-    n_t, n_b = frames.shape[0], frames.shape[1]
-    for i in range(n_t):
-        for j in range(n_b):
-            if _miss(frames[i, j], q0, q1, q2, behind_penalty) <= bound:
-                return True
-    return False
+def _may_pass(f: np.ndarray, q0: float, q1: float, q2: float, behind_penalty: float, lo: float, hi: float,
+              bound: float) -> bool:
+    """False if the candidate ``f``'s miss (``_miss``, its row of ``candidate_frames``) of the target (q0 - x, q1, q2)
+    exceeds ``bound`` (m, >= 0) for every move x in [lo, hi] m of the head along d. With r the target from the
+    candidate's end and h its heading, the target lies ahead (r.h - x h_d > 0) on an interval of x, where the miss
+    squared is the convex quadratic (1 - h_d^2) x^2 + 2 ((r.h) h_d - r_d) x + |r|^2 - (r.h)^2
+    (``first_improving_distance``), and behind on the rest, where it is |r - x d| + behind_penalty; each part's
+    least value lies at its vertex or an end of its interval (both widened by ``_BOUND_MARGIN_M``)."""
+    r0, r1, r2 = q0 - f[0], q1 - f[1], q2 - f[2]
+    rr = r0 * r0 + r1 * r1 + r2 * r2
+    rh = r0 * f[3] + r1 * f[4] + r2 * f[5]
+    dh = f[3]
+    slack = _BOUND_MARGIN_M
+    a_lo, a_hi, b_lo, b_hi = lo, hi, lo, hi  # where the target is ahead of the end (a) and behind it (b)
+    if dh > 1e-15:
+        a_hi, b_lo = min(hi, rh / dh + slack), max(lo, rh / dh - slack)
+    elif dh < -1e-15:
+        a_lo, b_hi = max(lo, rh / dh - slack), min(hi, rh / dh + slack)
+    elif rh <= 0.0:
+        a_hi = -math.inf
+    else:
+        b_hi = -math.inf
+    if a_lo <= a_hi and _least_quadratic(max(1.0 - dh * dh, 0.0), 2.0 * (rh * dh - r0), rr - rh * rh, a_lo,
+                                         a_hi) <= bound * bound:
+        return True
+    behind = bound - behind_penalty
+    return b_lo <= b_hi and behind >= 0.0 and _least_quadratic(1.0, -2.0 * r0, rr, b_lo, b_hi) <= behind * behind
+
+
+@njit(cache=True)
+def _least_quadratic(a: float, b: float, c: float, lo: float, hi: float) -> float:
+    """The least value of a x^2 + b x + c (a >= 0) over x in [lo, hi]: at the vertex or an end."""
+    least = min((a * lo + b) * lo + c, (a * hi + b) * hi + c)
+    if a > 0.0:
+        x = min(max(-b / (2.0 * a), lo), hi)
+        least = min(least, (a * x + b) * x + c)
+    return least
