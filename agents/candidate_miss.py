@@ -54,12 +54,18 @@ def candidate_frames(theta: np.ndarray, psi: np.ndarray, off: np.ndarray, beta: 
 def candidate_miss(frames: np.ndarray, q0: float, q1: float, q2: float, behind_penalty: float) -> np.ndarray:
     """Miss (m) of each candidate, (T, B): ``frames`` from ``candidate_frames``; (q0, q1, q2) the target minus the
     head in the frame (d, e1, e2), m."""
-    n_t, n_b = frames.shape[0], frames.shape[1]
-    out = np.empty((n_t, n_b))
-    for i in range(n_t):
-        for j in range(n_b):
-            out[i, j] = _miss(frames[i, j], q0, q1, q2, behind_penalty)
+    out = np.empty((frames.shape[0], frames.shape[1]))
+    _candidate_miss_into(frames, q0, q1, q2, behind_penalty, out)
     return out
+
+
+@njit(cache=True)
+def _candidate_miss_into(frames: np.ndarray, q0: float, q1: float, q2: float, behind_penalty: float,
+                         out: np.ndarray) -> None:
+    """``candidate_miss`` written to ``out`` (T, B)."""
+    for i in range(frames.shape[0]):
+        for j in range(frames.shape[1]):
+            out[i, j] = _miss(frames[i, j], q0, q1, q2, behind_penalty)
 
 
 @njit(cache=True)
@@ -115,20 +121,27 @@ def turn_wanted(miss0: float, d: np.ndarray, rel: np.ndarray, hit_miss_m: float,
 
 @njit(cache=True)
 def paper_rule_misses(head: np.ndarray, d: np.ndarray, target: np.ndarray, frames: np.ndarray,
-                      behind_penalty: float, hit_miss_m: float, min_turn_deg: float
-                      ) -> tuple[int, float, np.ndarray]:
-    """(``turn_wanted``, swimming on's miss m, each candidate's miss (T, B) m, empty unless a turn is wanted) of the
-    rule planner with the paper's miss (``line_miss``, ``candidate_miss``): head, d (unit heading), target (3,)
-    m; ``frames`` from ``candidate_frames``."""
+                      behind_penalty: float, hit_miss_m: float, min_turn_deg: float, out: np.ndarray
+                      ) -> tuple[int, float]:
+    """(``turn_wanted``, swimming on's miss m) of the rule planner with the paper's miss (``line_miss``), and, when a
+    turn is wanted, each candidate's miss (``candidate_miss``) written to ``out`` (T, B) m: head, d (unit heading),
+    target (3,) m; ``frames`` from ``candidate_frames``."""
     starts, directions = np.empty((1, 3)), np.empty((1, 3))
     starts[0], directions[0] = head, d
     miss0 = line_miss(starts, directions, target, behind_penalty)[0]
     wanted = turn_wanted(miss0, d, target - head, hit_miss_m, min_turn_deg)
-    if wanted <= 0:
-        return wanted, miss0, np.empty((0, 0))
-    e1, e2 = unit_basis(d / norm3(d))  # perpendicular_basis(d)
-    q0, q1, q2 = local_target(head, d, e1, e2, target)
-    return wanted, miss0, candidate_miss(frames, q0, q1, q2, behind_penalty)
+    if wanted > 0:
+        q0, q1, q2 = target_in_frame(head, d, target)
+        _candidate_miss_into(frames, q0, q1, q2, behind_penalty, out)
+    return wanted, miss0
+
+
+@njit(cache=True)
+def target_in_frame(head: np.ndarray, d: np.ndarray, target: np.ndarray) -> tuple[float, float, float]:
+    """The target minus the head in the frame (d, e1, e2) of the unit heading d, (e1, e2) = ``perpendicular_basis(d)``
+    (``local_target``), m; all (3,) float64."""
+    e1, e2 = unit_basis(d / norm3(d))
+    return local_target(head, d, e1, e2, target)
 
 
 @njit(cache=True)

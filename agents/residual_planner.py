@@ -98,10 +98,11 @@ def turn_features(plan: dict, targets: np.ndarray, reach_radius_m: float, end_to
     targets = np.asarray(targets, dtype=np.float64)
     had = previous is not None and "predicted_theta_deg" in previous
     d0 = np.asarray(previous["heading"], dtype=np.float64) if had else d
-    f, ok = feature_vector(plan["theta_deg"], plan["t_c"], plan["predicted_miss_m"], plan["miss_straight_m"], d,
-                           targets, reach_radius_m, end_to_end_ratio, time_left, n_turns, max_theta_deg, had, d0,
-                           previous["predicted_theta_deg"] if had else 1.0,
-                           previous["predicted_azimuth"] if had else 0.0)
+    f = np.empty(N_FEATURES, dtype=np.float32)
+    ok = feature_vector(plan["theta_deg"], plan["t_c"], plan["predicted_miss_m"], plan["miss_straight_m"], d, targets,
+                        reach_radius_m, end_to_end_ratio, time_left, n_turns, max_theta_deg, had, d0,
+                        previous["predicted_theta_deg"] if had else 1.0, previous["predicted_azimuth"] if had else 0.0,
+                        f)
     if not ok:  # a zero or non-finite direction: the ValueError of the geometry that cannot take it
         angle_between(d, targets[0]), angle_between(d0, d), azimuth(d, d0)
         if len(targets) > 1:
@@ -113,9 +114,9 @@ def turn_features(plan: dict, targets: np.ndarray, reach_radius_m: float, end_to
 def feature_vector(theta_deg: float, t_c: float, miss_m: float, miss_straight_m: float, d: np.ndarray,
                    targets: np.ndarray, reach_radius_m: float, end_to_end_ratio: float, time_left: float,
                    n_turns: int, max_theta_deg: float, had_previous: bool, d0: np.ndarray,
-                   previous_theta_deg: float, previous_azimuth: float) -> tuple[np.ndarray, bool]:
-    """``turn_features`` (its docstring) compiled: (the features, (N_FEATURES,) float32; False if a direction it
-    measures an angle of was zero or not finite). The plan's theta_deg (deg), t_c (s), miss_m and miss_straight_m
+                   previous_theta_deg: float, previous_azimuth: float, out: np.ndarray) -> bool:
+    """``turn_features`` (its docstring) compiled: the features written to ``out`` (N_FEATURES,) float32; False if a
+    direction it measures an angle of was zero or not finite. The plan's theta_deg (deg), t_c (s), miss_m and miss_straight_m
     (m), the heading ``d`` (3,) unit; ``targets`` (W, 3) m; the previous turn's heading ``d0`` (3,), its predicted
     theta (deg) and azimuth (rad), read if ``had_previous``."""
     to_target = targets[0]
@@ -145,17 +146,23 @@ def feature_vector(theta_deg: float, t_c: float, miss_m: float, miss_straight_m:
         ratio,
         az_err,
     ])
-    return bounded(f), ok
+    _bounded_into(f, out)
+    return ok
 
 
-@njit(cache=True)
 def bounded(f: np.ndarray) -> np.ndarray:
     """Features as the policy sees them: NaN -> 0, clipped to [-10, 10] (+-inf to +-10), float32; f (n,) float64."""
     out = np.empty(f.shape[0], dtype=np.float32)
+    _bounded_into(np.asarray(f, dtype=np.float64), out)
+    return out
+
+
+@njit(cache=True)
+def _bounded_into(f: np.ndarray, out: np.ndarray) -> None:
+    """``bounded``'s features written to ``out`` (n,) float32."""
     for i in range(f.shape[0]):
         x = f[i]
         out[i] = 0.0 if math.isnan(x) else min(max(x, -10.0), 10.0)
-    return out
 
 
 def corrected_plan(plan: dict, action: np.ndarray, turn_map: TurnMap, limits: ResidualLimits) -> dict:

@@ -172,8 +172,8 @@ def read_map(t: np.ndarray, ph: np.ndarray, channels: np.ndarray, t_map: float, 
 
 @njit(cache=True)
 def turned(d: np.ndarray, theta: float, psi: float, beta: float, ref: float, o0: float, o1: float, o2: float
-           ) -> tuple[np.ndarray, np.ndarray]:
-    """(the new unit heading, the head's displacement m), both (3,), of a turn by ``theta`` (rad) towards azimuth
+           ) -> tuple[float, float, float, float, float, float]:
+    """(the new unit heading, the head's displacement m), 3 components each, of a turn by ``theta`` (rad) towards azimuth
     beta + psi (rad) about the unit heading ``d`` (3,) and the map's displacement (o0, o1, o2) m along d, e_ref
     (azimuth ``ref``, rad) and d x e_ref (module docstring; ``perpendicular_basis(d)`` = (e1, e2))."""
     e1, e2 = unit_basis(d / norm3(d))
@@ -187,8 +187,8 @@ def turned(d: np.ndarray, theta: float, psi: float, beta: float, ref: float, o0:
     cb, sb = math.cos(ref), math.sin(ref)
     r0, r1, r2 = cb * a0 + sb * b0, cb * a1 + sb * b1, cb * a2 + sb * b2   # e_ref
     p0, p1, p2 = d1 * r2 - d2 * r1, d2 * r0 - d0 * r2, d0 * r1 - d1 * r0   # d x e_ref
-    disp = np.array([o0 * d0 + o1 * r0 + o2 * p0, o0 * d1 + o1 * r1 + o2 * p1, o0 * d2 + o1 * r2 + o2 * p2])
-    return np.array([h0 / hn, h1 / hn, h2 / hn]), disp
+    return (h0 / hn, h1 / hn, h2 / hn, o0 * d0 + o1 * r0 + o2 * p0, o0 * d1 + o1 * r1 + o2 * p1,
+            o0 * d2 + o1 * r2 + o2 * p2)
 
 
 class SurrogateSwimmer:
@@ -253,5 +253,5 @@ class SurrogateSwimmer:
             theta = min(max(self.turn_scale * theta, 0.0), math.pi)
             psi = wrap_angle(psi + self.direction_bias_rad)
             ref = beta + self.direction_bias_rad
-        heading, disp = turned(np.asarray(d, dtype=np.float64), theta, psi, beta, ref, o0, o1, o2)
-        return SurrogateTurn(heading, disp, theta, psi, relax * self.tau_ratio, ratio, float(t_map), bool(in_range))
+        h0, h1, h2, x0, x1, x2 = turned(np.asarray(d, dtype=np.float64), theta, psi, beta, ref, o0, o1, o2)
+        return SurrogateTurn(np.array([h0, h1, h2]), np.array([x0, x1, x2]), theta, psi, relax * self.tau_ratio, ratio, float(t_map), bool(in_range))

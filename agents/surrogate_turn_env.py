@@ -50,8 +50,7 @@ from agents.surrogate_swimmer import FACTOR_RANGE, SurrogateSwimmer, TurnMapTabl
 from agents.turn_decision_env import (DEFAULT_ACTION_COST, DEFAULT_RANDOM_PATH, TurnEpisodes, fixed_paths,
                                       load_turn_map, parse_turn_action, refuse_unknown_arguments, residual_limits,
                                       turn_env_kwargs)
-from agents.candidate_miss import first_improving_distance, first_improving_sample, local_target
-from agents.turn_geometry import perpendicular_basis
+from agents.candidate_miss import first_improving_distance, first_improving_sample, target_in_frame
 from agents.turn_map import TurnMap
 from agents.turn_planner import BEHIND_PENALTY_M, PlannerEpisode, RulePlanner
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M, SteerConfig, draw_randomization, make_config
@@ -240,9 +239,8 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         return self.planner.candidate_frames(theta, psi, off, self.planner._burst_phases)
 
     def _local(self, target: np.ndarray) -> tuple[float, float, float]:
-        run = self.episode
-        e1, e2 = perpendicular_basis(run.heading)
-        return local_target(run.head, run.heading, e1, e2, target)
+        """The target minus the head in the heading's frame (``agents.candidate_miss.target_in_frame``), m."""
+        return target_in_frame(self.episode.head, self.episode.heading, target)
 
     def _turn(self, plan: dict) -> tuple[bool, bool] | None:
         """Fly a decided turn (module docstring, 3.): hover, burst, relax; the plan is remembered as the

@@ -432,9 +432,10 @@ class RulePlanner:
         with_line = cfg.line_weight > 0.0 and segment is not None
         if line_miss is RulePlanner._line_miss:
             # the paper's miss, compiled (agents.candidate_miss.paper_rule_misses: the same formulas as below)
-            wanted, miss0, miss = paper_rule_misses(
-                head, d, target, self.candidate_frames(theta, psi, off, beta), BEHIND_PENALTY_M,
-                cfg.hit_fraction * self.reach_radius_m, cfg.min_turn_deg)
+            miss = np.empty((len(theta), len(beta)))
+            wanted, miss0 = paper_rule_misses(head, d, target, self.candidate_frames(theta, psi, off, beta),
+                                              BEHIND_PENALTY_M, cfg.hit_fraction * self.reach_radius_m,
+                                              cfg.min_turn_deg, miss)
             if wanted < 0:
                 angle_between(d, target - head)  # raises: the heading or the target's direction is zero
             if wanted <= 0:
