@@ -30,7 +30,7 @@ _GAUSS_X = (0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6))
 _GAUSS_W = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
 
 
-@dataclass
+@dataclass(slots=True)
 class LegResult:
     """What a leg did: ``end`` (3,) m where the head stopped, ``duration_s`` flown, ``reached`` waypoints,
     ``cross_integral`` (m s, int e dt), ``off_path`` / ``timed_out`` (why it stopped early, if so),
@@ -46,18 +46,16 @@ class LegResult:
 
 
 class SegmentFrames:
-    """The path's segments and waypoints as arrays for the compiled leg (``fly_leg``): segment i from
-    ``starts[i]`` (vertex i) along the unit ``directions[i]`` for ``lengths[i]`` m, each (N, 3) or (N,); the cross-track
+    """The path's segments and waypoints as one array for the compiled leg (``fly_leg``): row i of ``table`` (N, 10)
+    holds segment i's start (vertex i, m), its unit direction, its length (m) and waypoint i (m); the cross-track
     error of a point is its distance from the closest point of the current segment (``PathTracker.cross_track_error``'s
-    definition: projection clipped to the segment). ``waypoints`` (N, 3) m."""
+    definition: projection clipped to the segment)."""
 
     def __init__(self, tracker: PathTracker) -> None:
         vertices = tracker.path.vertices
         lengths = tracker.path.segment_lengths
-        self.starts = np.ascontiguousarray(vertices[:-1], dtype=np.float64)
-        self.directions = np.ascontiguousarray((vertices[1:] - vertices[:-1]) / lengths[:, None], dtype=np.float64)
-        self.lengths = np.ascontiguousarray(lengths, dtype=np.float64)
-        self.waypoints = np.ascontiguousarray(tracker.path.waypoints, dtype=np.float64)
+        self.table = np.concatenate([vertices[:-1], (vertices[1:] - vertices[:-1]) / lengths[:, None],
+                                     lengths[:, None], tracker.path.waypoints], axis=1)
 
 
 def fly_leg(tracker: PathTracker, frames: SegmentFrames, start: np.ndarray, end: np.ndarray, duration_s: float,
@@ -67,18 +65,18 @@ def fly_leg(tracker: PathTracker, frames: SegmentFrames, start: np.ndarray, end:
     ``frames``: ``SegmentFrames(tracker)``. Advances ``tracker``."""
     e0, e1, e2, flown, reached, cross, off_path, timed_out = _fly(
         start[0], start[1], start[2], end[0], end[1], end[2], duration_s, time_s, time_limit_s, off_path_m,
-        stop_at_waypoint, tracker.index, tracker.reach_radius_m, frames.waypoints, frames.starts, frames.directions,
-        frames.lengths)
-    tracker.mark_reached(reached)
+        stop_at_waypoint, tracker.index, tracker.reach_radius_m, frames.table)
+    if reached:
+        tracker.mark_reached(reached)
     return LegResult(np.array([e0, e1, e2]), flown, reached, cross, off_path, timed_out)
 
 
 @njit(cache=True)
-def _entry(a0: float, a1: float, a2: float, v0: float, v1: float, v2: float, w: np.ndarray, radius: float
-           ) -> tuple[float, float]:
+def _entry(a0: float, a1: float, a2: float, v0: float, v1: float, v2: float, w0: float, w1: float, w2: float,
+           radius: float) -> tuple[float, float]:
     """(s of the first entry into the sphere |x - w| <= radius along x = a + s v, s in [0, 1]; s of the closest
     approach, clipped), or (-1, -1) if the leg stays outside; m."""
-    q0, q1, q2 = a0 - w[0], a1 - w[1], a2 - w[2]
+    q0, q1, q2 = a0 - w0, a1 - w1, a2 - w2
     aa = v0 * v0 + v1 * v1 + v2 * v2
     bb = 2.0 * (q0 * v0 + q1 * v1 + q2 * v2)
     cc = q0 * q0 + q1 * q1 + q2 * q2 - radius * radius
@@ -96,26 +94,24 @@ def _entry(a0: float, a1: float, a2: float, v0: float, v1: float, v2: float, w: 
 
 
 @njit(cache=True)
-def _error(index: int, x0: float, x1: float, x2: float, starts: np.ndarray, directions: np.ndarray,
-           lengths: np.ndarray) -> float:
+def _error(index: int, x0: float, x1: float, x2: float, table: np.ndarray) -> float:
     """Cross-track error (m) of the point (x0, x1, x2) m while waypoint ``index`` is the target (``SegmentFrames``)."""
-    i = min(index, lengths.shape[0] - 1)
-    u0, u1, u2 = directions[i, 0], directions[i, 1], directions[i, 2]
-    r0, r1, r2 = x0 - starts[i, 0], x1 - starts[i, 1], x2 - starts[i, 2]
-    s = min(max(r0 * u0 + r1 * u1 + r2 * u2, 0.0), lengths[i])
+    row = table[min(index, table.shape[0] - 1)]
+    u0, u1, u2 = row[3], row[4], row[5]
+    r0, r1, r2 = x0 - row[0], x1 - row[1], x2 - row[2]
+    s = min(max(r0 * u0 + r1 * u1 + r2 * u2, 0.0), row[6])
     e0, e1, e2 = r0 - s * u0, r1 - s * u1, r2 - s * u2
     return math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
 
 
 @njit(cache=True)
 def _fly(a0: float, a1: float, a2: float, b0: float, b1: float, b2: float, duration_s: float, time_s: float,
-         time_limit_s: float, off_path_m: float, stop_at_waypoint: bool, index: int, reach: float,
-         waypoints: np.ndarray, starts: np.ndarray, directions: np.ndarray, lengths: np.ndarray
+         time_limit_s: float, off_path_m: float, stop_at_waypoint: bool, index: int, reach: float, table: np.ndarray
          ) -> tuple[float, float, float, float, int, float, bool, bool]:
     """``fly_leg``'s leg from the target ``index`` on: (end x, y, z m, duration flown s, waypoints reached,
     cross-track integral m s, off the path, timed out). A waypoint counts when the head is within ``reach`` m of it
     (``PathTracker.update``'s test, its distance rounded alike)."""
-    n_wp = waypoints.shape[0]
+    n_wp = table.shape[0]
     timed_out = False
     if duration_s > 0.0 and time_s + duration_s > time_limit_s:
         frac = max(time_limit_s - time_s, 0.0) / duration_s
@@ -129,7 +125,7 @@ def _fly(a0: float, a1: float, a2: float, b0: float, b1: float, b2: float, durat
         v0, v1, v2 = b0 - a0, b1 - a1, b2 - a2
         hit0, hit1 = -1.0, -1.0
         if index < n_wp and not grazed:
-            hit0, hit1 = _entry(a0, a1, a2, v0, v1, v2, waypoints[index], reach)
+            hit0, hit1 = _entry(a0, a1, a2, v0, v1, v2, table[index, 7], table[index, 8], table[index, 9], reach)
         hit = hit0 >= 0.0
         s = hit0 + 0.01 * (hit1 - hit0) if hit else 1.0  # just inside the sphere
         piece = left * s
@@ -139,7 +135,7 @@ def _fly(a0: float, a1: float, a2: float, b0: float, b1: float, b2: float, durat
             x = _GAUSS_X[g]
             xs = x * s
             x0, x1, x2 = a0 + xs * v0, a1 + xs * v1, a2 + xs * v2
-            e = _error(index, x0, x1, x2, starts, directions, lengths)
+            e = _error(index, x0, x1, x2, table)
             if e > off_path_m:
                 # ends here; the integral so far taken at this point's error (e > off_path_m ends the episode)
                 return x0, x1, x2, flown + piece * x, reached, cross + e * piece * x, True, False
@@ -152,8 +148,7 @@ def _fly(a0: float, a1: float, a2: float, b0: float, b1: float, b2: float, durat
             break
         n = 0
         while index < n_wp:
-            w = waypoints[index]
-            d0, d1, d2 = p0 - w[0], p1 - w[1], p2 - w[2]
+            d0, d1, d2 = p0 - table[index, 7], p1 - table[index, 8], p2 - table[index, 9]
             if math.sqrt(dot3s(d0, d1, d2, d0, d1, d2)) > reach:
                 break
             index += 1
@@ -163,5 +158,5 @@ def _fly(a0: float, a1: float, a2: float, b0: float, b1: float, b2: float, durat
         if index >= n_wp or (stop_at_waypoint and n > 0) or left <= 0.0:
             break
     done = index >= n_wp
-    off_path = not done and _error(index, p0, p1, p2, starts, directions, lengths) > off_path_m
+    off_path = not done and _error(index, p0, p1, p2, table) > off_path_m
     return p0, p1, p2, flown, reached, cross, off_path, timed_out and not done and not off_path and left <= 1e-12
