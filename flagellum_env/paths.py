@@ -14,7 +14,6 @@ Path file (JSON)::
 
 from __future__ import annotations
 
-import functools
 import json
 import math
 import os
@@ -57,15 +56,16 @@ class WaypointPath:
         for name, value in (("waypoints", pts), ("_vertices", vertices), ("_segment_lengths", lengths)):
             value.setflags(write=False)
             object.__setattr__(self, name, value)
+        object.__setattr__(self, "_length_m", float(lengths.sum()))
         if self.reach_radius_m is not None:
             r = require_finite(f"path {self.name!r}: reach_radius_m", self.reach_radius_m, 0.0, lo_open=True, unit="m")
             object.__setattr__(self, "reach_radius_m", r)
 
-    # The summaries below are computed once per path, by the validation or on first use (a frozen path never
-    # changes; read-only arrays).
-    @functools.cached_property
+    # The summaries below are computed once per path, by the validation (a frozen path never changes; read-only
+    # arrays).
+    @property
     def n_waypoints(self) -> int:
-        return int(self.waypoints.shape[0])
+        return self.waypoints.shape[0]
 
     @property
     def vertices(self) -> np.ndarray:
@@ -77,10 +77,10 @@ class WaypointPath:
         """Length of each segment (origin -> w0, w0 -> w1, ...), (k,), m (read-only)."""
         return self._segment_lengths
 
-    @functools.cached_property
+    @property
     def length_m(self) -> float:
         """Total length of the polyline from the origin, m."""
-        return float(self.segment_lengths.sum())
+        return self._length_m
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON form (see the module docstring)."""

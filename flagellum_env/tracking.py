@@ -90,8 +90,8 @@ class PathTracker:
 
     def targets(self, count: int) -> np.ndarray:
         """The next ``count`` waypoints from the current target on, the last repeated, (count, 3) m."""
-        idx = np.minimum(np.arange(self.index, self.index + count), self.path.n_waypoints - 1)
-        return self.path.waypoints[idx]
+        last = self._n_waypoints - 1
+        return self.path.waypoints[[min(k, last) for k in range(self.index, self.index + count)]]
 
 
 class BucklingMonitor:
