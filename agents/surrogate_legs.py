@@ -64,8 +64,8 @@ def fly_leg(tracker: PathTracker, frames: SegmentFrames, start: np.ndarray, end:
     (module docstring); ``stop_at_waypoint``: end the leg where a waypoint is reached (the planner re-plans then).
     ``frames``: ``SegmentFrames(tracker)``. Advances ``tracker``."""
     e0, e1, e2, flown, reached, cross, off_path, timed_out = _fly(
-        start[0], start[1], start[2], end[0], end[1], end[2], duration_s, time_s, time_limit_s, off_path_m,
-        stop_at_waypoint, tracker.index, tracker.reach_radius_m, frames.table)
+        start, end, duration_s, time_s, time_limit_s, off_path_m, stop_at_waypoint, tracker.index,
+        tracker.reach_radius_m, frames.table)
     if reached:
         tracker.mark_reached(reached)
     return LegResult(np.array([e0, e1, e2]), flown, reached, cross, off_path, timed_out)
@@ -105,12 +105,13 @@ def _error(index: int, x0: float, x1: float, x2: float, table: np.ndarray) -> fl
 
 
 @njit(cache=True)
-def _fly(a0: float, a1: float, a2: float, b0: float, b1: float, b2: float, duration_s: float, time_s: float,
-         time_limit_s: float, off_path_m: float, stop_at_waypoint: bool, index: int, reach: float, table: np.ndarray
+def _fly(start: np.ndarray, end: np.ndarray, duration_s: float, time_s: float, time_limit_s: float,
+         off_path_m: float, stop_at_waypoint: bool, index: int, reach: float, table: np.ndarray
          ) -> tuple[float, float, float, float, int, float, bool, bool]:
     """``fly_leg``'s leg from the target ``index`` on: (end x, y, z m, duration flown s, waypoints reached,
     cross-track integral m s, off the path, timed out). A waypoint counts when the head is within ``reach`` m of it
     (``PathTracker.update``'s test, its distance rounded alike)."""
+    a0, a1, a2, b0, b1, b2 = start[0], start[1], start[2], end[0], end[1], end[2]
     n_wp = table.shape[0]
     timed_out = False
     if duration_s > 0.0 and time_s + duration_s > time_limit_s:

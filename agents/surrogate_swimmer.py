@@ -49,7 +49,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -80,8 +80,7 @@ def burst_speed_exponent(slow: TurnMap, fast: TurnMap, thetas_deg=(10.0, 20.0, 3
     return np.array([math.log(slow.t_c_for(th) / fast.t_c_for(th)) / ratio for th in thetas_deg])
 
 
-@dataclass(frozen=True)
-class SurrogateTurn:
+class SurrogateTurn(NamedTuple):
     """One burst's outcome: ``heading`` (3,) unit, ``displacement`` (3,) m over the burst and ``relax_s``,
     ``theta_rad``, ``psi_rad``, ``relax_s`` (s, for this swimmer), ``end_ratio`` (L'/L at the burst's end),
     ``map_time_s`` (the map's burst length it was read at), ``in_range`` (within the map's burst lengths)."""
@@ -127,12 +126,6 @@ class TurnMapTable:
         #: the map's L'/L against burst length (bursts ended by L'/L)
         self.clock = RatioClock(turn_map)
 
-    def read(self, t_map: float, beta: float) -> tuple[float, float, float, float, float, float, float, float,
-                                                       float, bool]:
-        """(theta rad, cos psi, sin psi, offset (3) m, relax s, L'/L, theta_scale, in_range): every channel read
-        bilinearly at (``t_map`` s, ``beta`` rad) (``read_map``)."""
-        return read_map(self.t_c, self.phases, self.channels, t_map, beta)
-
 
 @njit(cache=True)
 def read_map(t: np.ndarray, ph: np.ndarray, channels: np.ndarray, t_map: float, beta: float
@@ -168,6 +161,25 @@ def read_map(t: np.ndarray, ph: np.ndarray, channels: np.ndarray, t_map: float, 
         v[c] = ((1.0 - w_t) * ((1.0 - w_b) * channels[k0, j0, c] + w_b * channels[k0, j1, c])
                 + w_t * ((1.0 - w_b) * channels[k1, j0, c] + w_b * channels[k1, j1, c]))
     return v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], scale, in_range
+
+
+@njit(cache=True)
+def turn_outcome(t: np.ndarray, ph: np.ndarray, channels: np.ndarray, t_map: float, beta: float, d: np.ndarray,
+                 direction_bias: float, turn_scale: float
+                 ) -> tuple[float, float, float, float, float, float, float, float, float, float, bool]:
+    """``SurrogateSwimmer.turn``'s outcome, compiled: (the new heading, 3 components; the displacement, 3, m; theta,
+    psi rad; the map's relaxation s; L'/L; in_range) of the map (``read_map``'s ``t``, ``ph``, ``channels``) read at
+    the map time ``t_map`` (s) and the azimuth ``beta`` (rad) about the unit heading ``d`` (3,), its direction moved
+    by ``direction_bias`` (rad) and its size scaled by ``turn_scale`` (``SurrogateSwimmer``)."""
+    th, pc, ps, o0, o1, o2, relax, ratio, scale, in_range = read_map(t, ph, channels, t_map, beta)
+    theta, psi = scale * th, math.atan2(ps, pc)
+    ref = beta   # the azimuth of e_ref, the displacement's lateral frame
+    if direction_bias != 0.0 or turn_scale != 1.0:
+        theta = min(max(turn_scale * theta, 0.0), math.pi)
+        psi = wrap_angle(psi + direction_bias)
+        ref = beta + direction_bias
+    h0, h1, h2, x0, x1, x2 = turned(d, theta, psi, beta, ref, o0, o1, o2)
+    return h0, h1, h2, x0, x1, x2, theta, psi, relax, ratio, in_range
 
 
 @njit(cache=True)
@@ -246,12 +258,9 @@ class SurrogateSwimmer:
         """The outcome of a burst of ``t_c`` s ended by ``burst_end`` (``burst_times``) at the reference
         direction's azimuth ``beta`` (rad) about the unit heading ``d`` (3,)."""
         t_map = self.burst_times(t_c, burst_end)[1]
-        th, pc, ps, o0, o1, o2, relax, ratio, scale, in_range = self.table.read(t_map, beta)
-        theta, psi = scale * th, math.atan2(ps, pc)
-        ref = beta   # the azimuth of e_ref, the displacement's lateral frame
-        if self.direction_bias_rad != 0.0 or self.turn_scale != 1.0:
-            theta = min(max(self.turn_scale * theta, 0.0), math.pi)
-            psi = wrap_angle(psi + self.direction_bias_rad)
-            ref = beta + self.direction_bias_rad
-        h0, h1, h2, x0, x1, x2 = turned(np.asarray(d, dtype=np.float64), theta, psi, beta, ref, o0, o1, o2)
-        return SurrogateTurn(np.array([h0, h1, h2]), np.array([x0, x1, x2]), theta, psi, relax * self.tau_ratio, ratio, float(t_map), bool(in_range))
+        tab = self.table
+        h0, h1, h2, x0, x1, x2, theta, psi, relax, ratio, in_range = turn_outcome(
+            tab.t_c, tab.phases, tab.channels, t_map, beta, np.asarray(d, dtype=np.float64), self.direction_bias_rad,
+            self.turn_scale)
+        return SurrogateTurn(np.array([h0, h1, h2]), np.array([x0, x1, x2]), theta, psi, relax * self.tau_ratio, ratio,
+                             float(t_map), bool(in_range))

@@ -454,8 +454,9 @@ class RulePlanner:
             return None
         i, j, score, score0 = chosen
         extra = {"line_score_m": score, "line_score_straight_m": score0} if line is not None else {}
-        return {"t_c": float(t_c[i]), "theta_deg": math.degrees(theta[i]), "burst_phase": wrap_angle(beta[j]),
-                "predicted_azimuth": wrap_angle(beta[j] + psi[i]),
+        b, p = float(beta[j]), float(psi[i])
+        return {"t_c": float(t_c[i]), "theta_deg": math.degrees(theta[i]), "burst_phase": wrap_angle(b),
+                "predicted_azimuth": wrap_angle(b + p),
                 "predicted_miss_m": float(miss[i, j]), "miss_straight_m": float(miss0),
                 "heading": d.tolist(), "head": head.tolist(), **extra}
 
