@@ -457,7 +457,7 @@ class RulePlanner:
         b, p = float(beta[j]), float(psi[i])
         return {"t_c": float(t_c[i]), "theta_deg": math.degrees(theta[i]), "burst_phase": wrap_angle(b),
                 "predicted_azimuth": wrap_angle(b + p),
-                "predicted_miss_m": float(miss[i, j]), "miss_straight_m": float(miss0),
+                "predicted_miss_m": miss.item(i, j), "miss_straight_m": float(miss0),
                 "heading": d.tolist(), "head": head.tolist(), **extra}
 
     def _miss_if_off_course(self, head: np.ndarray, d: np.ndarray, target: np.ndarray,
@@ -549,10 +549,12 @@ def pick_turn(miss: np.ndarray, miss_straight: float, config: PlannerConfig,
         if miss[i, j] > miss_straight - imp and score[i, j] > straight - imp:
             return None
         return int(i), int(j), float(score[i, j]), float(straight)
-    i, j = divmod(int(miss.argmin()), miss.shape[1])
-    if miss[i, j] > miss_straight - imp:
+    k = int(miss.argmin())
+    best = miss.item(k)
+    if best > miss_straight - imp:
         return None
-    return int(i), int(j), float(miss[i, j]), float(miss_straight)
+    i, j = divmod(k, miss.shape[1])  # np.unravel_index's
+    return i, j, best, float(miss_straight)
 
 
 def line_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
