@@ -12,11 +12,12 @@ The formulas are the planner's (docs/planner.md; Huang & Jawed 2020, Sec. 3, the
     h_ij = cos(theta_i) d + sin(theta_i) (cos(beta_j + psi_i) e1 + sin(beta_j + psi_i) e2),
 
 and misses the target by the distance of the target from the ray after_ij + s h_ij (s >= 0), or, with the target
-behind (along <= 0), by its distance plus ``behind_penalty`` (``_line_miss``). In the frame (d, e1, e2) neither the
+behind (along <= 0), by its distance plus ``behind_penalty`` (``line_miss``, one line each). In the frame (d, e1, e2) neither the
 end's offset nor the heading depends on d (d x e_ref = cos(beta) e2 - sin(beta) e1), so ``candidate_frames``
-tabulates them once per candidate set and each plan only rotates the target into that frame. Numba: the NumPy
-version of the same formulas (``turn_ends``, ``_line_miss``) costs ~0.4 ms per plan, which the turn-level surrogate
-(``FlagellumTurn-surrogate-v0``) cannot afford; tests/agents/test_surrogate_env.py checks that the two agree.
+tabulates them once per candidate set and each plan only rotates the target into that frame. Numba: the world-frame
+form (``agents.turn_planner.candidate_misses``: ``turn_ends`` and the lines' misses) costs ~0.4 ms per plan, which the
+turn-level surrogate (``FlagellumTurn-surrogate-v0``) cannot afford; tests/agents/test_surrogate_env.py checks that the
+two agree.
 """
 
 from __future__ import annotations
@@ -25,6 +26,9 @@ import math
 
 import numpy as np
 from numba import njit
+
+from agents.turn_geometry import angle_of, norm3, unit_basis
+from physics.linalg.vec3 import dot3, rowdot3, rownorm3
 
 
 @njit(cache=True)
@@ -50,26 +54,94 @@ def candidate_frames(theta: np.ndarray, psi: np.ndarray, off: np.ndarray, beta: 
 def candidate_miss(frames: np.ndarray, q0: float, q1: float, q2: float, behind_penalty: float) -> np.ndarray:
     """Miss (m) of each candidate, (T, B): ``frames`` from ``candidate_frames``; (q0, q1, q2) the target minus the
     head in the frame (d, e1, e2), m."""
-    n_t, n_b = frames.shape[0], frames.shape[1]
-    out = np.empty((n_t, n_b))
-    for i in range(n_t):
-        for j in range(n_b):
-            f = frames[i, j]
-            r0, r1, r2 = q0 - f[0], q1 - f[1], q2 - f[2]
-            along = r0 * f[3] + r1 * f[4] + r2 * f[5]
-            if along > 0.0:
-                l0, l1, l2 = r0 - along * f[3], r1 - along * f[4], r2 - along * f[5]
-                out[i, j] = math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
-            else:
-                out[i, j] = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2) + behind_penalty
+    out = np.empty((frames.shape[0], frames.shape[1]))
+    _candidate_miss_into(frames, q0, q1, q2, behind_penalty, out)
     return out
 
 
+@njit(cache=True)
+def _candidate_miss_into(frames: np.ndarray, q0: float, q1: float, q2: float, behind_penalty: float,
+                         out: np.ndarray) -> None:
+    """``candidate_miss`` written to ``out`` (T, B)."""
+    for i in range(frames.shape[0]):
+        for j in range(frames.shape[1]):
+            out[i, j] = _miss(frames[i, j], q0, q1, q2, behind_penalty)
+
+
+@njit(cache=True)
+def _miss(f: np.ndarray, q0: float, q1: float, q2: float, behind_penalty: float) -> float:
+    """One candidate's miss (m): ``f`` (6,) its row of ``candidate_frames``, (q0, q1, q2) the target (``candidate_miss``)."""
+    r0, r1, r2 = q0 - f[0], q1 - f[1], q2 - f[2]
+    along = r0 * f[3] + r1 * f[4] + r2 * f[5]
+    if along > 0.0:
+        l0, l1, l2 = r0 - along * f[3], r1 - along * f[4], r2 - along * f[5]
+        return math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
+    return math.sqrt(r0 * r0 + r1 * r1 + r2 * r2) + behind_penalty
+
+
+@njit(cache=True)
 def local_target(head: np.ndarray, d: np.ndarray, e1: np.ndarray, e2: np.ndarray, target: np.ndarray
                  ) -> tuple[float, float, float]:
-    """The target minus the head in the frame (d, e1, e2), m."""
+    """The target minus the head in the frame (d, e1, e2), m; all (3,) float64."""
     q = target - head
-    return float(q @ d), float(q @ e1), float(q @ e2)
+    return dot3(q, d), dot3(q, e1), dot3(q, e2)
+
+
+@njit(cache=True)
+def line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray, behind_penalty: float) -> np.ndarray:
+    """How far the straight lines starts[i] + s directions[i] (s >= 0) pass from ``target``, (k,) m: the target's
+    distance from the line, or, with the target behind the start, its distance plus ``behind_penalty`` (m). starts,
+    directions (k, 3), target (3,), float64; rounded as the NumPy expression with ``einsum`` and ``norm`` rounds it
+    (``physics.linalg.vec3``)."""
+    k = starts.shape[0]
+    out = np.empty(k)
+    for i in range(k):
+        r0, r1, r2 = target[0] - starts[i, 0], target[1] - starts[i, 1], target[2] - starts[i, 2]
+        d0, d1, d2 = directions[i, 0], directions[i, 1], directions[i, 2]
+        along = rowdot3(r0, r1, r2, d0, d1, d2)
+        if along > 0.0:
+            out[i] = rownorm3(r0 - along * d0, r1 - along * d1, r2 - along * d2)
+        else:
+            out[i] = rownorm3(r0, r1, r2) + behind_penalty
+    return out
+
+
+@njit(cache=True)
+def turn_wanted(miss0: float, d: np.ndarray, rel: np.ndarray, hit_miss_m: float, min_turn_deg: float) -> int:
+    """The rule planner's gate (``RulePlanner._miss_if_off_course``): 1 if a turn is wanted, 0 if not (swimming on
+    misses the target by ``miss0`` m, below ``hit_miss_m``, or the target ``rel`` (3,) m from the head lies less than
+    ``min_turn_deg`` off the heading ``d`` (3,)), -1 if d or rel is zero or not finite (no angle)."""
+    if miss0 < hit_miss_m:
+        return 0
+    angle = angle_of(d, rel)
+    if math.isnan(angle):
+        return -1
+    return 0 if math.degrees(angle) < min_turn_deg else 1
+
+
+@njit(cache=True)
+def paper_rule_misses(head: np.ndarray, d: np.ndarray, target: np.ndarray, frames: np.ndarray,
+                      behind_penalty: float, hit_miss_m: float, min_turn_deg: float, out: np.ndarray
+                      ) -> tuple[int, float]:
+    """(``turn_wanted``, swimming on's miss m) of the rule planner with the paper's miss (``line_miss``), and, when a
+    turn is wanted, each candidate's miss (``candidate_miss``) written to ``out`` (T, B) m: head, d (unit heading),
+    target (3,) m; ``frames`` from ``candidate_frames``."""
+    starts, directions = np.empty((1, 3)), np.empty((1, 3))
+    starts[0], directions[0] = head, d
+    miss0 = line_miss(starts, directions, target, behind_penalty)[0]
+    wanted = turn_wanted(miss0, d, target - head, hit_miss_m, min_turn_deg)
+    if wanted > 0:
+        q0, q1, q2 = target_in_frame(head, d, target)
+        _candidate_miss_into(frames, q0, q1, q2, behind_penalty, out)
+    return wanted, miss0
+
+
+@njit(cache=True)
+def target_in_frame(head: np.ndarray, d: np.ndarray, target: np.ndarray) -> tuple[float, float, float]:
+    """The target minus the head in the frame (d, e1, e2) of the unit heading d, (e1, e2) = ``perpendicular_basis(d)``
+    (``local_target``), m; all (3,) float64."""
+    e1, e2 = unit_basis(d / norm3(d))
+    return local_target(head, d, e1, e2, target)
 
 
 @njit(cache=True)
@@ -147,13 +219,80 @@ def first_improving_sample(frames: np.ndarray, q0: float, q1: float, q2: float, 
     """The first k in 1..n_max at which, with the head moved by k step_m along d, the best candidate's miss
     (``candidate_miss``) is at most swimming on's (the same ray miss from the moved head along d) less
     ``improvement`` (m); -1 if none. The sampled form of ``first_improving_distance`` for stretches along which
-    swimming on's miss changes (the target behind)."""
+    swimming on's miss changes (the target behind).
+
+    Only the candidates that can pass at some k are tried at every k (``_may_pass``: over the head's moves x in
+    [step_m, n_max step_m] a candidate's miss has a least value in closed form; one above the largest bound by more
+    than ``_BOUND_MARGIN_M``, far above rounding, cannot pass)."""
+    bound = np.empty(n_max)
+    largest = -math.inf
     for k in range(1, n_max + 1):
         m0 = q0 - k * step_m
         if m0 > 0.0:
             straight = math.sqrt(q1 * q1 + q2 * q2)
         else:
             straight = math.sqrt(m0 * m0 + q1 * q1 + q2 * q2) + behind_penalty
-        if candidate_miss(frames, m0, q1, q2, behind_penalty).min() <= straight - improvement:
-            return k
+        bound[k - 1] = straight - improvement
+        largest = max(largest, bound[k - 1])
+    if not largest + _BOUND_MARGIN_M >= 0.0:
+        return -1  # a miss is never negative
+    n_t, n_b = frames.shape[0], frames.shape[1]
+    kept = np.empty(n_t * n_b, np.int64)  # flat indices of the candidates that may pass
+    n_kept = 0
+    for i in range(n_t):
+        for j in range(n_b):
+            if _may_pass(frames[i, j], q0, q1, q2, behind_penalty, step_m, n_max * step_m, largest + _BOUND_MARGIN_M):
+                kept[n_kept] = i * n_b + j
+                n_kept += 1
+    for k in range(1, n_max + 1):
+        m0 = q0 - k * step_m
+        for c in range(n_kept):
+            i, j = divmod(kept[c], n_b)
+            if _miss(frames[i, j], m0, q1, q2, behind_penalty) <= bound[k - 1]:
+                return k
     return -1
+
+
+#: How far (m) a candidate's least line distance must exceed the largest bound of ``first_improving_sample`` to be
+#: left out: rounding moves these distances by ~1e-16 m.
+_BOUND_MARGIN_M = 1e-9
+
+
+@njit(cache=True)
+def _may_pass(f: np.ndarray, q0: float, q1: float, q2: float, behind_penalty: float, lo: float, hi: float,
+              bound: float) -> bool:
+    """False if the candidate ``f``'s miss (``_miss``, its row of ``candidate_frames``) of the target (q0 - x, q1, q2)
+    exceeds ``bound`` (m, >= 0) for every move x in [lo, hi] m of the head along d. With r the target from the
+    candidate's end and h its heading, the target lies ahead (r.h - x h_d > 0) on an interval of x, where the miss
+    squared is the convex quadratic (1 - h_d^2) x^2 + 2 ((r.h) h_d - r_d) x + |r|^2 - (r.h)^2
+    (``first_improving_distance``), and behind on the rest, where it is |r - x d| + behind_penalty; each part's
+    least value lies at its vertex or an end of its interval (both widened by ``_BOUND_MARGIN_M``)."""
+    r0, r1, r2 = q0 - f[0], q1 - f[1], q2 - f[2]
+    rr = r0 * r0 + r1 * r1 + r2 * r2
+    rh = r0 * f[3] + r1 * f[4] + r2 * f[5]
+    dh = f[3]
+    slack = _BOUND_MARGIN_M
+    a_lo, a_hi, b_lo, b_hi = lo, hi, lo, hi  # where the target is ahead of the end (a) and behind it (b)
+    if dh > 1e-15:
+        a_hi, b_lo = min(hi, rh / dh + slack), max(lo, rh / dh - slack)
+    elif dh < -1e-15:
+        a_lo, b_hi = max(lo, rh / dh - slack), min(hi, rh / dh + slack)
+    elif rh <= 0.0:
+        a_hi = -math.inf
+    else:
+        b_hi = -math.inf
+    if a_lo <= a_hi and _least_quadratic(max(1.0 - dh * dh, 0.0), 2.0 * (rh * dh - r0), rr - rh * rh, a_lo,
+                                         a_hi) <= bound * bound:
+        return True
+    behind = bound - behind_penalty
+    return b_lo <= b_hi and behind >= 0.0 and _least_quadratic(1.0, -2.0 * r0, rr, b_lo, b_hi) <= behind * behind
+
+
+@njit(cache=True)
+def _least_quadratic(a: float, b: float, c: float, lo: float, hi: float) -> float:
+    """The least value of a x^2 + b x + c (a >= 0) over x in [lo, hi]: at the vertex or an end."""
+    least = min((a * lo + b) * lo + c, (a * hi + b) * hi + c)
+    if a > 0.0:
+        x = min(max(-b / (2.0 * a), lo), hi)
+        least = min(least, (a * x + b) * x + c)
+    return least

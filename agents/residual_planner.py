@@ -41,8 +41,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
-from agents.turn_geometry import angle_between, azimuth, wrap_angle
+from agents.turn_geometry import angle_between, angle_of, azimuth, azimuth_of, norm3, wrap_angle
 from agents.adaptive_planner import AdaptiveConfig, AdaptivePlanner
 from agents.controller_spec import controller_kind, controller_options
 from agents.online_turn_map import OnlineMapConfig, OnlineTurnMap
@@ -94,23 +95,48 @@ def turn_features(plan: dict, targets: np.ndarray, reach_radius_m: float, end_to
     its direction (azimuth about the old heading, actual - predicted) / 90 deg (0, 1, 0 without one).
     """
     d = np.asarray(plan["heading"], dtype=np.float64)
+    targets = np.asarray(targets, dtype=np.float64)
+    had = previous is not None and "predicted_theta_deg" in previous
+    d0 = np.asarray(previous["heading"], dtype=np.float64) if had else d
+    f = np.empty(N_FEATURES, dtype=np.float32)
+    ok = feature_vector(plan["theta_deg"], plan["t_c"], plan["predicted_miss_m"], plan["miss_straight_m"], d, targets,
+                        reach_radius_m, end_to_end_ratio, time_left, n_turns, max_theta_deg, had, d0,
+                        previous["predicted_theta_deg"] if had else 1.0, previous["predicted_azimuth"] if had else 0.0,
+                        f)
+    if not ok:  # a zero or non-finite direction: the ValueError of the geometry that cannot take it
+        angle_between(d, targets[0]), angle_between(d0, d), azimuth(d, d0)
+        if len(targets) > 1:
+            angle_between(targets[0], targets[1] - targets[0])
+    return f
+
+
+@njit(cache=True)
+def feature_vector(theta_deg: float, t_c: float, miss_m: float, miss_straight_m: float, d: np.ndarray,
+                   targets: np.ndarray, reach_radius_m: float, end_to_end_ratio: float, time_left: float,
+                   n_turns: int, max_theta_deg: float, had_previous: bool, d0: np.ndarray,
+                   previous_theta_deg: float, previous_azimuth: float, out: np.ndarray) -> bool:
+    """``turn_features`` (its docstring) compiled: the features written to ``out`` (N_FEATURES,) float32; False if a
+    direction it measures an angle of was zero or not finite. The plan's theta_deg (deg), t_c (s), miss_m and miss_straight_m
+    (m), the heading ``d`` (3,) unit; ``targets`` (W, 3) m; the previous turn's heading ``d0`` (3,), its predicted
+    theta (deg) and azimuth (rad), read if ``had_previous``."""
     to_target = targets[0]
-    after = targets[1] - targets[0] if len(targets) > 1 else np.zeros(3)
-    next_len = _norm(after)
-    corner = angle_between(to_target, after) if next_len > 1e-9 else 0.0
+    after = targets[1] - targets[0] if targets.shape[0] > 1 else np.zeros(3)
+    next_len = norm3(after)
+    corner = angle_of(to_target, after) if next_len > 1e-9 else 0.0
     had, ratio, az_err = 0.0, 1.0, 0.0
-    if previous is not None and "predicted_theta_deg" in previous:
-        d0 = np.asarray(previous["heading"], dtype=np.float64)
+    if had_previous:
         had = 1.0
-        ratio = math.degrees(angle_between(d0, d)) / max(previous["predicted_theta_deg"], 1.0)
-        az_err = math.degrees(wrap_angle(azimuth(d, d0) - previous["predicted_azimuth"])) / 90.0
+        ratio = math.degrees(angle_of(d0, d)) / max(previous_theta_deg, 1.0)
+        az_err = math.degrees(wrap_angle(azimuth_of(d, d0) - previous_azimuth)) / 90.0
+    heading_error = angle_of(d, to_target)
+    ok = not (math.isnan(corner) or math.isnan(ratio) or math.isnan(az_err) or math.isnan(heading_error))
     f = np.array([
-        plan["theta_deg"] / max_theta_deg,
-        plan["t_c"] / 10.0,
-        plan["predicted_miss_m"] / reach_radius_m,
-        plan["miss_straight_m"] / reach_radius_m,
-        _norm(to_target) / FEATURE_LENGTH_M,
-        math.degrees(angle_between(d, to_target)) / 90.0,
+        theta_deg / max_theta_deg,
+        t_c / 10.0,
+        miss_m / reach_radius_m,
+        miss_straight_m / reach_radius_m,
+        norm3(to_target) / FEATURE_LENGTH_M,
+        math.degrees(heading_error) / 90.0,
         math.degrees(corner) / 90.0,
         next_len / FEATURE_LENGTH_M,
         end_to_end_ratio,
@@ -120,19 +146,23 @@ def turn_features(plan: dict, targets: np.ndarray, reach_radius_m: float, end_to
         ratio,
         az_err,
     ])
-    return _bounded(f)
+    _bounded_into(f, out)
+    return ok
 
 
-def _bounded(f: np.ndarray) -> np.ndarray:
-    """Features as the policy sees them: NaN -> 0, clipped to [-10, 10] (+-inf to +-10), float32."""
-    out = np.clip(f, -10.0, 10.0)
-    out[np.isnan(out)] = 0.0
-    return out.astype(np.float32)
+def bounded(f: np.ndarray) -> np.ndarray:
+    """Features as the policy sees them: NaN -> 0, clipped to [-10, 10] (+-inf to +-10), float32; f (n,) float64."""
+    out = np.empty(f.shape[0], dtype=np.float32)
+    _bounded_into(np.asarray(f, dtype=np.float64), out)
+    return out
 
 
-def _norm(v: np.ndarray) -> float:
-    """|v| of a 3-vector: what ``np.linalg.norm`` computes (sqrt of the dot product), without its overhead."""
-    return math.sqrt(float(v @ v))
+@njit(cache=True)
+def _bounded_into(f: np.ndarray, out: np.ndarray) -> None:
+    """``bounded``'s features written to ``out`` (n,) float32."""
+    for i in range(f.shape[0]):
+        x = f[i]
+        out[i] = 0.0 if math.isnan(x) else min(max(x, -10.0), 10.0)
 
 
 def corrected_plan(plan: dict, action: np.ndarray, turn_map: TurnMap, limits: ResidualLimits) -> dict:
@@ -140,16 +170,16 @@ def corrected_plan(plan: dict, action: np.ndarray, turn_map: TurnMap, limits: Re
     map's prediction of the corrected turn: ``predicted_theta_deg`` (the rising branch, held at
     its maximum beyond it) and ``predicted_azimuth`` (rad, of the new heading about the old one in
     ``perpendicular_basis(heading)``, as the planner predicts it: phase + psi)."""
-    a = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), -1.0, 1.0)
-    if a.size != 2 or not np.all(np.isfinite(a)):
+    a = np.asarray(action, dtype=np.float64).reshape(-1)
+    a0, a1 = (min(max(x, -1.0), 1.0) for x in a.tolist()) if a.size == 2 else (math.nan, math.nan)  # np.clip's
+    if not (math.isfinite(a0) and math.isfinite(a1)):
         raise ValueError(f"residual action={action!r} must be two finite numbers in [-1, 1]")
-    t_c = plan["t_c"] * (1.0 + a[0] * limits.max_dtc_fraction)
-    phase = wrap_angle(plan["burst_phase"] + math.radians(a[1] * limits.max_dphase_deg))
-    t_branch, theta_branch = turn_map.rising_branch()
+    t_c = plan["t_c"] * (1.0 + a0 * limits.max_dtc_fraction)
+    phase = wrap_angle(plan["burst_phase"] + math.radians(a1 * limits.max_dphase_deg))
     out = dict(plan)
-    out.update(t_c=float(t_c), burst_phase=phase, residual=[float(a[0]), float(a[1])],
+    out.update(t_c=float(t_c), burst_phase=phase, residual=[a0, a1],
                planned_t_c=float(plan["t_c"]), planned_theta_deg=float(plan["theta_deg"]),
-               predicted_theta_deg=float(np.interp(t_c, t_branch, theta_branch)),
+               predicted_theta_deg=turn_map.theta_for(t_c),
                predicted_azimuth=wrap_angle(phase + math.radians(turn_map.psi_for(t_c))))
     return out
 
@@ -160,7 +190,7 @@ def map_features(online: OnlineTurnMap) -> np.ndarray:
     swimmer still follows the map (``OnlineTurnMap.follows_model``) and 1 if turns have confirmed the map."""
     f = np.array([online.shift_s, online.shift_std_s, online.bias_s, math.degrees(online.psi_offset_rad) / 90.0,
                   float(online.follows_model), float(online.map_confirmed)])
-    return _bounded(f)
+    return bounded(f)
 
 
 def corrected_adaptive_plan(plan: dict, action: np.ndarray, online: OnlineTurnMap, turn_map: TurnMap,

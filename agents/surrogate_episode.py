@@ -68,8 +68,10 @@ class SurrogateEpisode:
     def cruise(self, duration: float, stop_at_waypoint: bool = True) -> tuple[bool, bool] | None:
         """Swim straight at omega_l for ``duration`` s (stopping at a waypoint if asked); the episode's end or None."""
         sw = self.swimmer
-        return self.collect(self.fly(self.head + sw.speed_m_s * duration * self.heading, duration, stop_at_waypoint,
-                                     power_w=sw.cruise_power_w))
+        step = sw.speed_m_s * duration
+        h, d = self.head, self.heading
+        end = np.array([h[0] + step * d[0], h[1] + step * d[1], h[2] + step * d[2]])  # head + step d, on floats
+        return self.collect(self.fly(end, duration, stop_at_waypoint, power_w=sw.cruise_power_w))
 
     def reward(self) -> float:
         """The reward of the legs flown since the last call: ``reward_terms`` (``flagellum_env.rewards``) of the
@@ -80,7 +82,7 @@ class SurrogateEpisode:
                              self._acc_reached, off_path=self._off_path)
         self._progress = progress
         self._acc_energy, self._acc_cross, self._acc_reached = 0.0, 0.0, 0
-        return float(sum(terms[t] for t in TERMS))
+        return float(sum([terms[t] for t in TERMS]))
 
     # --- a burst ----------------------------------------------------------------------------------
     def hover_to_phase(self, beta: float) -> tuple[bool, bool] | None:

@@ -20,15 +20,17 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from flagellum_env.tracking import PathTracker
+from physics.linalg.vec3 import dot3s
 
 #: 3-point Gauss-Legendre nodes on [0, 1] and weights.
 _GAUSS_X = (0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6))
 _GAUSS_W = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
 
 
-@dataclass
+@dataclass(slots=True)
 class LegResult:
     """What a leg did: ``end`` (3,) m where the head stopped, ``duration_s`` flown, ``reached`` waypoints,
     ``cross_integral`` (m s, int e dt), ``off_path`` / ``timed_out`` (why it stopped early, if so),
@@ -43,45 +45,17 @@ class LegResult:
     energy_j: float = 0.0
 
 
-def _entry(a, v, w, radius: float) -> tuple[float, float] | None:
-    """(s of the first entry into the sphere |x - w| <= radius along x = a + s v, s in [0, 1]; s of the closest
-    approach, clipped) or None if the leg stays outside; a, v, w 3-sequences of floats (m)."""
-    q0, q1, q2 = a[0] - w[0], a[1] - w[1], a[2] - w[2]
-    aa = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
-    bb = 2.0 * (q0 * v[0] + q1 * v[1] + q2 * v[2])
-    cc = q0 * q0 + q1 * q1 + q2 * q2 - radius * radius
-    if cc <= 0.0:
-        return 0.0, 0.0
-    if aa <= 0.0:
-        return None
-    disc = bb * bb - 4.0 * aa * cc
-    if disc < 0.0:
-        return None
-    s = (-bb - math.sqrt(disc)) / (2.0 * aa)
-    if not 0.0 <= s <= 1.0:
-        return None
-    return s, min(max(-bb / (2.0 * aa), 0.0), 1.0)
-
-
 class SegmentFrames:
-    """The path's segments as floats for fast cross-track errors: segment i from vertex i (``start``) along the unit
-    ``direction`` for ``length`` m; the error of a point is its distance from the closest point of the current
-    segment (``PathTracker.cross_track_error``'s definition: projection clipped to the segment)."""
+    """The path's segments and waypoints as one array for the compiled leg (``fly_leg``): row i of ``table`` (N, 10)
+    holds segment i's start (vertex i, m), its unit direction, its length (m) and waypoint i (m); the cross-track
+    error of a point is its distance from the closest point of the current segment (``PathTracker.cross_track_error``'s
+    definition: projection clipped to the segment)."""
 
     def __init__(self, tracker: PathTracker) -> None:
         vertices = tracker.path.vertices
         lengths = tracker.path.segment_lengths
-        self.frames = [(tuple(vertices[i].tolist()), tuple(((vertices[i + 1] - vertices[i]) / lengths[i]).tolist()),
-                        float(lengths[i])) for i in range(len(lengths))]
-        self.waypoints = [tuple(w) for w in tracker.path.waypoints.tolist()]
-
-    def error(self, index: int, x0: float, x1: float, x2: float) -> float:
-        """Cross-track error (m) of the point (x0, x1, x2) m while waypoint ``index`` is the target."""
-        (a0, a1, a2), (u0, u1, u2), length = self.frames[min(index, len(self.frames) - 1)]
-        r0, r1, r2 = x0 - a0, x1 - a1, x2 - a2
-        s = min(max(r0 * u0 + r1 * u1 + r2 * u2, 0.0), length)
-        e0, e1, e2 = r0 - s * u0, r1 - s * u1, r2 - s * u2
-        return math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+        self.table = np.concatenate([vertices[:-1], (vertices[1:] - vertices[:-1]) / lengths[:, None],
+                                     lengths[:, None], tracker.path.waypoints], axis=1)
 
 
 def fly_leg(tracker: PathTracker, frames: SegmentFrames, start: np.ndarray, end: np.ndarray, duration_s: float,
@@ -89,48 +63,101 @@ def fly_leg(tracker: PathTracker, frames: SegmentFrames, start: np.ndarray, end:
     """Move the head from ``start`` to ``end`` (3,) m in ``duration_s`` s starting at episode time ``time_s``
     (module docstring); ``stop_at_waypoint``: end the leg where a waypoint is reached (the planner re-plans then).
     ``frames``: ``SegmentFrames(tracker)``. Advances ``tracker``."""
-    a = start.tolist()
-    b = end.tolist()
+    e0, e1, e2, flown, reached, cross, off_path, timed_out = _fly(
+        start, end, duration_s, time_s, time_limit_s, off_path_m, stop_at_waypoint, tracker.index,
+        tracker.reach_radius_m, frames.table)
+    if reached:
+        tracker.mark_reached(reached)
+    return LegResult(np.array([e0, e1, e2]), flown, reached, cross, off_path, timed_out)
+
+
+@njit(cache=True)
+def _entry(a0: float, a1: float, a2: float, v0: float, v1: float, v2: float, w0: float, w1: float, w2: float,
+           radius: float) -> tuple[float, float]:
+    """(s of the first entry into the sphere |x - w| <= radius along x = a + s v, s in [0, 1]; s of the closest
+    approach, clipped), or (-1, -1) if the leg stays outside; m."""
+    q0, q1, q2 = a0 - w0, a1 - w1, a2 - w2
+    aa = v0 * v0 + v1 * v1 + v2 * v2
+    bb = 2.0 * (q0 * v0 + q1 * v1 + q2 * v2)
+    cc = q0 * q0 + q1 * q1 + q2 * q2 - radius * radius
+    if cc <= 0.0:
+        return 0.0, 0.0
+    if aa <= 0.0:
+        return -1.0, -1.0
+    disc = bb * bb - 4.0 * aa * cc
+    if disc < 0.0:
+        return -1.0, -1.0
+    s = (-bb - math.sqrt(disc)) / (2.0 * aa)
+    if not 0.0 <= s <= 1.0:
+        return -1.0, -1.0
+    return s, min(max(-bb / (2.0 * aa), 0.0), 1.0)
+
+
+@njit(cache=True)
+def _error(index: int, x0: float, x1: float, x2: float, table: np.ndarray) -> float:
+    """Cross-track error (m) of the point (x0, x1, x2) m while waypoint ``index`` is the target (``SegmentFrames``)."""
+    row = table[min(index, table.shape[0] - 1)]
+    u0, u1, u2 = row[3], row[4], row[5]
+    r0, r1, r2 = x0 - row[0], x1 - row[1], x2 - row[2]
+    s = min(max(r0 * u0 + r1 * u1 + r2 * u2, 0.0), row[6])
+    e0, e1, e2 = r0 - s * u0, r1 - s * u1, r2 - s * u2
+    return math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+
+
+@njit(cache=True)
+def _fly(start: np.ndarray, end: np.ndarray, duration_s: float, time_s: float, time_limit_s: float,
+         off_path_m: float, stop_at_waypoint: bool, index: int, reach: float, table: np.ndarray
+         ) -> tuple[float, float, float, float, int, float, bool, bool]:
+    """``fly_leg``'s leg from the target ``index`` on: (end x, y, z m, duration flown s, waypoints reached,
+    cross-track integral m s, off the path, timed out). A waypoint counts when the head is within ``reach`` m of it
+    (``PathTracker.update``'s test, its distance rounded alike)."""
+    a0, a1, a2, b0, b1, b2 = start[0], start[1], start[2], end[0], end[1], end[2]
+    n_wp = table.shape[0]
     timed_out = False
     if duration_s > 0.0 and time_s + duration_s > time_limit_s:
         frac = max(time_limit_s - time_s, 0.0) / duration_s
-        b = [a[c] + frac * (b[c] - a[c]) for c in range(3)]
+        b0, b1, b2 = a0 + frac * (b0 - a0), a1 + frac * (b1 - a1), a2 + frac * (b2 - a2)
         duration_s, timed_out = duration_s * frac, True
-    out = LegResult(end=start, duration_s=0.0)
+    flown, reached, cross = 0.0, 0, 0.0
     left = duration_s
-    grazed = False  # a tangent entry that ``PathTracker.update`` did not count: fly the rest without looking again
+    grazed = False  # a tangent entry the reach test did not count: fly the rest without looking again
+    p0, p1, p2 = a0, a1, a2
     while True:
-        v = [b[0] - a[0], b[1] - a[1], b[2] - a[2]]
-        index = tracker.index
-        hit = None if tracker.done or grazed else _entry(a, v, frames.waypoints[index], tracker.reach_radius_m)
-        s = 1.0 if hit is None else hit[0] + 0.01 * (hit[1] - hit[0])  # just inside the sphere
+        v0, v1, v2 = b0 - a0, b1 - a1, b2 - a2
+        hit0, hit1 = -1.0, -1.0
+        if index < n_wp and not grazed:
+            hit0, hit1 = _entry(a0, a1, a2, v0, v1, v2, table[index, 7], table[index, 8], table[index, 9], reach)
+        hit = hit0 >= 0.0
+        s = hit0 + 0.01 * (hit1 - hit0) if hit else 1.0  # just inside the sphere
         piece = left * s
         # cross-track integral of a -> a + s v (and the off-path check at the same points)
         total = 0.0
-        for x, wgt in zip(_GAUSS_X, _GAUSS_W):
+        for g in range(3):
+            x = _GAUSS_X[g]
             xs = x * s
-            e = frames.error(index, a[0] + xs * v[0], a[1] + xs * v[1], a[2] + xs * v[2])
+            x0, x1, x2 = a0 + xs * v0, a1 + xs * v1, a2 + xs * v2
+            e = _error(index, x0, x1, x2, table)
             if e > off_path_m:
                 # ends here; the integral so far taken at this point's error (e > off_path_m ends the episode)
-                out.end = np.array([a[0] + xs * v[0], a[1] + xs * v[1], a[2] + xs * v[2]])
-                out.duration_s += piece * x
-                out.cross_integral += e * piece * x
-                out.off_path = True
-                return out
-            total += wgt * e
-        p = [a[0] + s * v[0], a[1] + s * v[1], a[2] + s * v[2]]
-        out.cross_integral += total * piece
-        out.duration_s += piece
+                return x0, x1, x2, flown + piece * x, reached, cross + e * piece * x, True, False
+            total += _GAUSS_W[g] * e
+        p0, p1, p2 = a0 + s * v0, a1 + s * v1, a2 + s * v2
+        cross += total * piece
+        flown += piece
         left -= piece
-        if hit is None:
+        if not hit:
             break
-        n = tracker.update(np.array(p))
-        out.reached += n
-        a, grazed = p, n == 0
-        if tracker.done or (stop_at_waypoint and n > 0) or left <= 0.0:
+        n = 0
+        while index < n_wp:
+            d0, d1, d2 = p0 - table[index, 7], p1 - table[index, 8], p2 - table[index, 9]
+            if math.sqrt(dot3s(d0, d1, d2, d0, d1, d2)) > reach:
+                break
+            index += 1
+            n += 1
+        reached += n
+        a0, a1, a2, grazed = p0, p1, p2, n == 0
+        if index >= n_wp or (stop_at_waypoint and n > 0) or left <= 0.0:
             break
-    out.end = np.array(p)
-    if not tracker.done and frames.error(tracker.index, *p) > off_path_m:
-        out.off_path = True
-    out.timed_out = timed_out and not tracker.done and not out.off_path and left <= 1e-12
-    return out
+    done = index >= n_wp
+    off_path = not done and _error(index, p0, p1, p2, table) > off_path_m
+    return p0, p1, p2, flown, reached, cross, off_path, timed_out and not done and not off_path and left <= 1e-12

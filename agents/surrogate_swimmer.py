@@ -47,16 +47,16 @@ the clock removes ~70 % of a swimmer's timing error (the map time turned as: 0.0
 
 from __future__ import annotations
 
-import bisect
 import dataclasses
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 from agents.online_turn_map import RatioClock
 from agents.surrogate_calibration import SurrogateCalibration
-from agents.turn_geometry import perpendicular_basis, wrap_angle
+from agents.turn_geometry import norm3, unit_basis, wrap_angle
 from agents.turn_map import TurnMap
 from physics.params import SwimmerParams
 
@@ -80,8 +80,7 @@ def burst_speed_exponent(slow: TurnMap, fast: TurnMap, thetas_deg=(10.0, 20.0, 3
     return np.array([math.log(slow.t_c_for(th) / fast.t_c_for(th)) / ratio for th in thetas_deg])
 
 
-@dataclass(frozen=True)
-class SurrogateTurn:
+class SurrogateTurn(NamedTuple):
     """One burst's outcome: ``heading`` (3,) unit, ``displacement`` (3,) m over the burst and ``relax_s``,
     ``theta_rad``, ``psi_rad``, ``relax_s`` (s, for this swimmer), ``end_ratio`` (L'/L at the burst's end),
     ``map_time_s`` (the map's burst length it was read at), ``in_range`` (within the map's burst lengths)."""
@@ -124,39 +123,84 @@ class TurnMapTable:
         #: every channel stacked, (K, P, 8): theta, cos psi, sin psi, offset (3), relax, L'/L, read at once
         self.channels = np.concatenate([np.stack([theta, np.cos(psi), np.sin(psi)], axis=-1), offset,
                                         np.stack([relax, ratio], axis=-1)], axis=-1)
-        self._t_list, self._ph_list = [float(x) for x in tcs], [float(x) for x in self.phases]
         #: the map's L'/L against burst length (bursts ended by L'/L)
         self.clock = RatioClock(turn_map)
 
-    def weights(self, t_map: float, beta: float) -> tuple[int, int, float, int, int, float, float, bool]:
-        """(k0, k1, w_t, j0, j1, w_b, theta_scale, in_range): the grid corners and weights of (t_map s, beta rad);
-        theta_scale < 1 below the shortest burst (theta -> 0 at t_c = 0)."""
-        t = self._t_list
-        in_range = 0.0 <= t_map <= t[-1] + 1e-9
-        scale = 1.0
-        if t_map <= t[0]:
-            k0 = k1 = 0
-            w_t = 0.0
-            scale = max(t_map, 0.0) / t[0]
-        elif t_map >= t[-1]:
-            k0 = k1 = len(t) - 1
-            w_t = 0.0
-        else:
-            k1 = bisect.bisect_right(t, t_map)
-            k0 = k1 - 1
-            w_t = (t_map - t[k0]) / (t[k1] - t[k0])
-        ph, n, two_pi = self._ph_list, len(self._ph_list), 2.0 * math.pi
-        b = beta % two_pi
-        j1 = bisect.bisect_right(ph, b) % n
-        j0 = (j1 - 1) % n
-        span = (ph[j1] - ph[j0]) % two_pi or two_pi
-        w_b = ((b - ph[j0]) % two_pi) / span
-        return k0, k1, w_t, j0, j1, w_b, scale, in_range
 
-    def read(self, table: np.ndarray, k0: int, k1: int, w_t: float, j0: int, j1: int, w_b: float):
-        """Bilinear read of ``table`` (K, P, ...) at the corners and weights of ``weights``."""
-        return ((1.0 - w_t) * ((1.0 - w_b) * table[k0, j0] + w_b * table[k0, j1])
-                + w_t * ((1.0 - w_b) * table[k1, j0] + w_b * table[k1, j1]))
+@njit(cache=True)
+def read_map(t: np.ndarray, ph: np.ndarray, channels: np.ndarray, t_map: float, beta: float
+             ) -> tuple[float, float, float, float, float, float, float, float, float, bool]:
+    """``channels`` (K, P, 8) read bilinearly at the map time ``t_map`` (s) between the burst lengths ``t`` (K,) s and
+    periodically at ``beta`` (rad) between the phases ``ph`` (P,) rad increasing in [0, 2 pi); then theta_scale (< 1
+    below the shortest burst: theta -> 0 at t_c = 0; the shortest burst's values) and in_range (within the burst
+    lengths; beyond them the longest burst's values)."""
+    n_t, n = t.shape[0], ph.shape[0]
+    in_range = 0.0 <= t_map <= t[n_t - 1] + 1e-9
+    scale = 1.0
+    if t_map <= t[0]:
+        k0 = k1 = 0
+        w_t = 0.0
+        scale = max(t_map, 0.0) / t[0]
+    elif t_map >= t[n_t - 1]:
+        k0 = k1 = n_t - 1
+        w_t = 0.0
+    else:
+        k1 = np.searchsorted(t, t_map, side="right")
+        k0 = k1 - 1
+        w_t = (t_map - t[k0]) / (t[k1] - t[k0])
+    two_pi = 2.0 * math.pi
+    b = beta % two_pi
+    j1 = np.searchsorted(ph, b, side="right") % n
+    j0 = (j1 - 1) % n
+    span = (ph[j1] - ph[j0]) % two_pi
+    if span == 0.0:
+        span = two_pi
+    w_b = ((b - ph[j0]) % two_pi) / span
+    v = np.empty(8)
+    for c in range(8):
+        v[c] = ((1.0 - w_t) * ((1.0 - w_b) * channels[k0, j0, c] + w_b * channels[k0, j1, c])
+                + w_t * ((1.0 - w_b) * channels[k1, j0, c] + w_b * channels[k1, j1, c]))
+    return v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], scale, in_range
+
+
+@njit(cache=True)
+def turn_outcome(t: np.ndarray, ph: np.ndarray, channels: np.ndarray, t_map: float, beta: float, d: np.ndarray,
+                 direction_bias: float, turn_scale: float
+                 ) -> tuple[float, float, float, float, float, float, float, float, float, float, bool]:
+    """``SurrogateSwimmer.turn``'s outcome, compiled: (the new heading, 3 components; the displacement, 3, m; theta,
+    psi rad; the map's relaxation s; L'/L; in_range) of the map (``read_map``'s ``t``, ``ph``, ``channels``) read at
+    the map time ``t_map`` (s) and the azimuth ``beta`` (rad) about the unit heading ``d`` (3,), its direction moved
+    by ``direction_bias`` (rad) and its size scaled by ``turn_scale`` (``SurrogateSwimmer``)."""
+    th, pc, ps, o0, o1, o2, relax, ratio, scale, in_range = read_map(t, ph, channels, t_map, beta)
+    theta, psi = scale * th, math.atan2(ps, pc)
+    ref = beta   # the azimuth of e_ref, the displacement's lateral frame
+    if direction_bias != 0.0 or turn_scale != 1.0:
+        theta = min(max(turn_scale * theta, 0.0), math.pi)
+        psi = wrap_angle(psi + direction_bias)
+        ref = beta + direction_bias
+    h0, h1, h2, x0, x1, x2 = turned(d, theta, psi, beta, ref, o0, o1, o2)
+    return h0, h1, h2, x0, x1, x2, theta, psi, relax, ratio, in_range
+
+
+@njit(cache=True)
+def turned(d: np.ndarray, theta: float, psi: float, beta: float, ref: float, o0: float, o1: float, o2: float
+           ) -> tuple[float, float, float, float, float, float]:
+    """(the new unit heading, the head's displacement m), 3 components each, of a turn by ``theta`` (rad) towards azimuth
+    beta + psi (rad) about the unit heading ``d`` (3,) and the map's displacement (o0, o1, o2) m along d, e_ref
+    (azimuth ``ref``, rad) and d x e_ref (module docstring; ``perpendicular_basis(d)`` = (e1, e2))."""
+    e1, e2 = unit_basis(d / norm3(d))
+    d0, d1, d2 = d[0], d[1], d[2]
+    a0, a1, a2 = e1[0], e1[1], e1[2]
+    b0, b1, b2 = e2[0], e2[1], e2[2]
+    ca, sa = math.cos(beta + psi), math.sin(beta + psi)
+    ct, st = math.cos(theta), math.sin(theta)
+    h0, h1, h2 = ct * d0 + st * (ca * a0 + sa * b0), ct * d1 + st * (ca * a1 + sa * b1), ct * d2 + st * (ca * a2 + sa * b2)
+    hn = math.sqrt(h0 * h0 + h1 * h1 + h2 * h2)
+    cb, sb = math.cos(ref), math.sin(ref)
+    r0, r1, r2 = cb * a0 + sb * b0, cb * a1 + sb * b1, cb * a2 + sb * b2   # e_ref
+    p0, p1, p2 = d1 * r2 - d2 * r1, d2 * r0 - d0 * r2, d0 * r1 - d1 * r0   # d x e_ref
+    return (h0 / hn, h1 / hn, h2 / hn, o0 * d0 + o1 * r0 + o2 * p0, o0 * d1 + o1 * r1 + o2 * p1,
+            o0 * d2 + o1 * r2 + o2 * p2)
 
 
 class SurrogateSwimmer:
@@ -176,8 +220,9 @@ class SurrogateSwimmer:
                 raise ValueError(f"swimmer with {field} = {getattr(params, field):.4g} ({f:.3g} x the map's) is "
                                  f"outside the surrogate's calibrated range [{lo}, {hi}] x the map's")
             self.time_factor *= f ** calibration.burst_time_exponents[name]
-        others = [f.name for f in dataclasses.fields(SwimmerParams) if f.name not in (*FACTOR_FIELDS.values(),
-                  "shear_modulus") and getattr(params, f.name) != getattr(turn_map.params, f.name)]
+        others = [] if params is turn_map.params else [  # the map's own swimmer differs in nothing
+            f.name for f in dataclasses.fields(SwimmerParams) if f.name not in (*FACTOR_FIELDS.values(),
+            "shear_modulus") and getattr(params, f.name) != getattr(turn_map.params, f.name)]
         if others:
             raise ValueError(f"swimmer differs from the map's in {others}; the surrogate is calibrated for "
                              f"{sorted(FACTOR_FIELDS)} only")
@@ -212,27 +257,10 @@ class SurrogateSwimmer:
     def turn(self, d: np.ndarray, t_c: float, beta: float, burst_end: str = "time") -> SurrogateTurn:
         """The outcome of a burst of ``t_c`` s ended by ``burst_end`` (``burst_times``) at the reference
         direction's azimuth ``beta`` (rad) about the unit heading ``d`` (3,)."""
-        tab = self.table
         t_map = self.burst_times(t_c, burst_end)[1]
-        k0, k1, w_t, j0, j1, w_b, scale, in_range = tab.weights(t_map, beta)
-        th, pc, ps, o0, o1, o2, relax, ratio = tab.read(tab.channels, k0, k1, w_t, j0, j1, w_b).tolist()
-        theta, psi = scale * th, math.atan2(ps, pc)
-        ref = beta   # the azimuth of e_ref, the displacement's lateral frame
-        if self.direction_bias_rad != 0.0 or self.turn_scale != 1.0:
-            theta = min(max(self.turn_scale * theta, 0.0), math.pi)
-            psi = wrap_angle(psi + self.direction_bias_rad)
-            ref = beta + self.direction_bias_rad
-        relax *= self.tau_ratio
-        e1, e2 = perpendicular_basis(d)
-        d0, d1, d2 = d.tolist()
-        a0, a1, a2 = e1.tolist()
-        b0, b1, b2 = e2.tolist()
-        ca, sa = math.cos(beta + psi), math.sin(beta + psi)
-        ct, st = math.cos(theta), math.sin(theta)
-        h = [ct * d0 + st * (ca * a0 + sa * b0), ct * d1 + st * (ca * a1 + sa * b1), ct * d2 + st * (ca * a2 + sa * b2)]
-        hn = math.sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2])
-        cb, sb = math.cos(ref), math.sin(ref)
-        r0, r1, r2 = cb * a0 + sb * b0, cb * a1 + sb * b1, cb * a2 + sb * b2   # e_ref
-        p0, p1, p2 = d1 * r2 - d2 * r1, d2 * r0 - d0 * r2, d0 * r1 - d1 * r0   # d x e_ref
-        disp = np.array([o0 * d0 + o1 * r0 + o2 * p0, o0 * d1 + o1 * r1 + o2 * p1, o0 * d2 + o1 * r2 + o2 * p2])
-        return SurrogateTurn(np.array(h) / hn, disp, theta, psi, relax, ratio, float(t_map), bool(in_range))
+        tab = self.table
+        h0, h1, h2, x0, x1, x2, theta, psi, relax, ratio, in_range = turn_outcome(
+            tab.t_c, tab.phases, tab.channels, t_map, beta, np.asarray(d, dtype=np.float64), self.direction_bias_rad,
+            self.turn_scale)
+        return SurrogateTurn(np.array([h0, h1, h2]), np.array([x0, x1, x2]), theta, psi, relax * self.tau_ratio, ratio,
+                             float(t_map), bool(in_range))

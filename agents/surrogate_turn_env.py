@@ -50,12 +50,12 @@ from agents.surrogate_swimmer import FACTOR_RANGE, SurrogateSwimmer, TurnMapTabl
 from agents.turn_decision_env import (DEFAULT_ACTION_COST, DEFAULT_RANDOM_PATH, TurnEpisodes, fixed_paths,
                                       load_turn_map, parse_turn_action, refuse_unknown_arguments, residual_limits,
                                       turn_env_kwargs)
-from agents.candidate_miss import first_improving_distance, first_improving_sample, local_target
-from agents.turn_geometry import perpendicular_basis
+from agents.candidate_miss import first_improving_distance, first_improving_sample, target_in_frame
 from agents.turn_map import TurnMap
 from agents.turn_planner import BEHIND_PENALTY_M, PlannerEpisode, RulePlanner
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M, SteerConfig, draw_randomization, make_config
 from flagellum_env.tracking import PathTracker
+from physics.linalg.vec3 import dot3s
 from physics.presets import DEFAULT_PRESET, RETIRED_PRESETS, retired_preset_message
 from physics.validation import require_finite
 
@@ -172,11 +172,12 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         reward, end = self._pending
         self._pending = (0.0, None)
         if end is None:
-            a = np.clip(a, -1.0, 1.0)
-            end = self._turn(corrected_plan(self._plan, a, self.turn_map, self.limits))
+            plan = corrected_plan(self._plan, a, self.turn_map, self.limits)
+            a0, a1 = plan["residual"]  # the action clipped to [-1, 1]
+            end = self._turn(plan)
             if end is None:
                 end = self._advance()
-            reward += self.episode.reward() - self.action_cost * float(a @ a)
+            reward += self.episode.reward() - self.action_cost * dot3s(a0, a1, 0.0, a0, a1, 0.0)  # a @ a
         terminated, truncated = end if end is not None else (False, False)
         self._done = terminated or truncated
         return self._features(), float(reward), bool(terminated), bool(truncated), self._info()
@@ -238,9 +239,8 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         return self.planner.candidate_frames(theta, psi, off, self.planner._burst_phases)
 
     def _local(self, target: np.ndarray) -> tuple[float, float, float]:
-        run = self.episode
-        e1, e2 = perpendicular_basis(run.heading)
-        return local_target(run.head, run.heading, e1, e2, target)
+        """The target minus the head in the heading's frame (``agents.candidate_miss.target_in_frame``), m."""
+        return target_in_frame(self.episode.head, self.episode.heading, target)
 
     def _turn(self, plan: dict) -> tuple[bool, bool] | None:
         """Fly a decided turn (module docstring, 3.): hover, burst, relax; the plan is remembered as the

@@ -23,6 +23,7 @@ simulation error.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import fields
@@ -93,6 +94,10 @@ INFO_KEYS = ("path", "is_success", "waypoints_reached", "mean_cross_track_m", "t
 
 def parse_turn_action(action: Any) -> np.ndarray:
     """A decision's action as (2,) float64 (not clipped); ValueError unless it is two finite numbers."""
+    if type(action) is np.ndarray and action.shape == (2,) and action.dtype.kind == "f":  # the usual one, cheaper
+        a = action.astype(np.float64)
+        if math.isfinite(a[0]) and math.isfinite(a[1]):
+            return a
     try:
         raw = np.asarray(action)
         a = np.empty(0) if np.iscomplexobj(raw) else np.asarray(raw, dtype=np.float64).reshape(-1)

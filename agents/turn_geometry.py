@@ -19,46 +19,78 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
-
-_X = np.array([1.0, 0.0, 0.0])
-_Z = np.array([0.0, 0.0, 1.0])
+from physics.linalg.vec3 import dot3, fma, norm3
 
 
 def unit(v: np.ndarray) -> np.ndarray:
     """v / |v| for a non-zero 3-vector; ValueError for a zero or non-finite one."""
     v = np.asarray(v, dtype=np.float64)
-    n = math.sqrt(float(v @ v))  # np.linalg.norm of a vector, without its overhead
+    n = norm3(v)
     if not math.isfinite(n) or n == 0.0:
         raise ValueError(f"cannot normalise the vector {v.tolist()} (zero or not finite)")
     return v / n
 
 
+@njit(cache=True)
+def unit_basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``perpendicular_basis`` of a unit axis a (3,), compiled (no check)."""
+    h0, h2 = (0.0, 1.0) if abs(a[2]) < 0.9 else (1.0, 0.0)  # the helper, z or x
+    p = fma(a[2], h2, fma(a[1], 0.0, a[0] * h0))  # helper @ a (physics.linalg.vec3.dot3's rounding)
+    v = np.array([h0 - p * a[0], 0.0 - p * a[1], h2 - p * a[2]])
+    e1 = v / norm3(v)
+    a0, a1, a2 = a[0], a[1], a[2]
+    b0, b1, b2 = e1[0], e1[1], e1[2]
+    return e1, np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])  # a x e1
+
+
 def perpendicular_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Two unit vectors (e1, e2) with (e1, e2, axis) right-handed and orthonormal; axis (3,) unit."""
-    a = unit(axis)
-    helper = _Z if abs(a[2]) < 0.9 else _X
-    e1 = unit(helper - (helper @ a) * a)
-    a0, a1, a2 = float(a[0]), float(a[1]), float(a[2])
-    b0, b1, b2 = float(e1[0]), float(e1[1]), float(e1[2])
-    # a x e1, the products and differences of np.cross (same values), without its overhead
-    return e1, np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+    return unit_basis(unit(axis))
+
+
+@njit(cache=True)
+def azimuth_of(v: np.ndarray, axis: np.ndarray) -> float:
+    """``azimuth``, compiled (no check: NaN for a zero or non-finite axis)."""
+    n = norm3(axis)
+    if not (0.0 < n < math.inf):
+        return math.nan
+    e1, e2 = unit_basis(axis / n)
+    return math.atan2(dot3(v, e2), dot3(v, e1))
 
 
 def azimuth(v: np.ndarray, axis: np.ndarray) -> float:
     """Angle (rad, (-pi, pi]) of v's component across ``axis`` in ``perpendicular_basis(axis)``."""
-    e1, e2 = perpendicular_basis(axis)
-    return math.atan2(float(v @ e2), float(v @ e1))
+    out = azimuth_of(np.asarray(v, dtype=np.float64), np.asarray(axis, dtype=np.float64))
+    if math.isnan(out):
+        unit(axis)  # raises for a zero or non-finite axis
+    return out
 
 
+@njit(cache=True)
 def wrap_angle(a: float) -> float:
     """a wrapped to (-pi, pi] (rad)."""
     return math.pi - (math.pi - a) % (2.0 * math.pi)
 
 
+@njit(cache=True)
+def angle_of(a: np.ndarray, b: np.ndarray) -> float:
+    """``angle_between`` of two float64 3-vectors, compiled (no check: NaN if either is zero or not finite)."""
+    na, nb = norm3(a), norm3(b)
+    if not (0.0 < na < math.inf and 0.0 < nb < math.inf):
+        return math.nan
+    c = dot3(a / na, b / nb)
+    return math.acos(min(max(c, -1.0), 1.0))
+
+
 def angle_between(a: np.ndarray, b: np.ndarray) -> float:
     """Angle between two non-zero vectors, rad in [0, pi]."""
-    return math.acos(min(max(float(unit(a) @ unit(b)), -1.0), 1.0))
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    out = angle_of(a, b)
+    if math.isnan(out):
+        unit(a), unit(b)  # raises for a zero or non-finite one
+    return out
 
 
 def turn_angles(d0: np.ndarray, t1: np.ndarray, frame: np.ndarray) -> tuple[float, float]:

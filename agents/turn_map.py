@@ -150,11 +150,21 @@ class TurnMap:
         tumbles on: theta oscillates with t_c and the turn's direction flips, so longer bursts are
         not used and larger turns are made in several bursts.
         """
+        t, y = self._branch(drop_deg)
+        return t.copy(), y.copy()
+
+    def theta_for(self, t_c: float, drop_deg: float = 5.0) -> float:
+        """The turn (deg) of a burst of ``t_c`` s on the rising branch (``rising_branch``), held at its maximum
+        beyond it."""
+        t, y = self._branch(drop_deg)
+        return float(np.interp(t_c, t, y))
+
+    def _branch(self, drop_deg: float) -> tuple[np.ndarray, np.ndarray]:
+        """``rising_branch``'s arrays, computed once (not to be changed)."""
         key = float(drop_deg)
         if key not in self._rising_branch:
             self._rising_branch[key] = self._compute_rising_branch(key)
-        t, y = self._rising_branch[key]
-        return t.copy(), y.copy()
+        return self._rising_branch[key]
 
     def _compute_rising_branch(self, drop_deg: float) -> tuple[np.ndarray, np.ndarray]:
         tcs, th, _ = self._theta_curve

@@ -28,8 +28,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from agents.candidate_miss import candidate_frames, candidate_miss, local_target
-from agents.turn_geometry import angle_between, azimuth, perpendicular_basis, unit, wrap_angle
+from agents.candidate_miss import candidate_frames, line_miss, paper_rule_misses, turn_wanted
+from agents.turn_geometry import angle_between, azimuth, norm3, perpendicular_basis, unit, wrap_angle
 from agents.turn_map import TurnMap, leading_within
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M
 from physics.validation import require_finite
@@ -382,7 +382,7 @@ class RulePlanner:
         """Keep ``ep.segment`` the (start, target) of the path segment being followed (start frame, m)."""
         if ep.segment is None:
             ep.segment = (np.zeros(3), target.copy())  # the path starts at the head's start
-        elif float(np.linalg.norm(target - ep.segment[1])) > 1e-3:
+        elif norm3(target - ep.segment[1]) > 1e-3:
             ep.segment = (ep.segment[1].copy(), target.copy())  # the target switched: the old one starts the segment
 
     def _continue_burst(self, ep: PlannerEpisode, obs: np.ndarray) -> bool:
@@ -426,20 +426,25 @@ class RulePlanner:
         turn's end from the segment's line, and a turn is made if it improves the miss or the score.
         """
         cfg = self.config
-        miss0 = self._miss_if_off_course(head, d, target, line_miss)
-        if miss0 is None:
-            return None
         t_c, theta, psi, off = self._candidate_turns(ep)
         beta = self._burst_phases
         segment = ep.segment if ep is not None else None
         with_line = cfg.line_weight > 0.0 and segment is not None
         if line_miss is RulePlanner._line_miss:
-            # the paper's miss, compiled (agents.candidate_miss: the same formulas as below)
-            e1, e2 = perpendicular_basis(d)
-            miss = candidate_miss(self.candidate_frames(theta, psi, off, beta), *local_target(head, d, e1, e2, target),
-                                  BEHIND_PENALTY_M)
+            # the paper's miss, compiled (agents.candidate_miss.paper_rule_misses: the same formulas as below)
+            miss = np.empty((len(theta), len(beta)))
+            wanted, miss0 = paper_rule_misses(head, d, target, self.candidate_frames(theta, psi, off, beta),
+                                              BEHIND_PENALTY_M, cfg.hit_fraction * self.reach_radius_m,
+                                              cfg.min_turn_deg, miss)
+            if wanted < 0:
+                angle_between(d, target - head)  # raises: the heading or the target's direction is zero
+            if wanted <= 0:
+                return None
             after = turn_ends(head, d, off, beta) if with_line else None
         else:
+            miss0 = self._miss_if_off_course(head, d, target, line_miss)
+            if miss0 is None:
+                return None
             miss, after = candidate_misses(head, d, theta, psi, off, beta, target, line_miss)
         line = None  # the line term only where it counts (PlannerConfig.line_weight > 0)
         if with_line:
@@ -449,9 +454,10 @@ class RulePlanner:
             return None
         i, j, score, score0 = chosen
         extra = {"line_score_m": score, "line_score_straight_m": score0} if line is not None else {}
-        return {"t_c": float(t_c[i]), "theta_deg": math.degrees(theta[i]), "burst_phase": wrap_angle(beta[j]),
-                "predicted_azimuth": wrap_angle(beta[j] + psi[i]),
-                "predicted_miss_m": float(miss[i, j]), "miss_straight_m": float(miss0),
+        b, p = float(beta[j]), float(psi[i])
+        return {"t_c": float(t_c[i]), "theta_deg": math.degrees(theta[i]), "burst_phase": wrap_angle(b),
+                "predicted_azimuth": wrap_angle(b + p),
+                "predicted_miss_m": miss.item(i, j), "miss_straight_m": float(miss0),
                 "heading": d.tolist(), "head": head.tolist(), **extra}
 
     def _miss_if_off_course(self, head: np.ndarray, d: np.ndarray, target: np.ndarray,
@@ -461,11 +467,10 @@ class RulePlanner:
         ``min_turn_deg`` off the heading (re-checked every step)."""
         cfg = self.config
         miss0 = float((line_miss or self._line_miss)(head[None, :], d[None, :], target)[0])
-        if miss0 < cfg.hit_fraction * self.reach_radius_m:
-            return None
-        if math.degrees(angle_between(d, target - head)) < cfg.min_turn_deg:
-            return None
-        return miss0
+        wanted = turn_wanted(miss0, d, target - head, cfg.hit_fraction * self.reach_radius_m, cfg.min_turn_deg)
+        if wanted < 0:
+            angle_between(d, target - head)  # raises: the heading or the target's direction is zero
+        return miss0 if wanted > 0 else None
 
     @staticmethod
     def _line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray) -> np.ndarray:
@@ -479,12 +484,11 @@ class RulePlanner:
     def candidate_frames(self, theta: np.ndarray, psi: np.ndarray, off: np.ndarray, beta: np.ndarray) -> np.ndarray:
         """``agents.candidate_miss.candidate_frames`` of these candidates, (T, B, 6), remembered for the last set
         (the rule planner's are the same every plan)."""
-        key = (theta, psi, off, beta)
         cached = getattr(self, "_frames", None)
-        if cached is None or any(a is not b for a, b in zip(cached[0], key)):
-            cached = (key, candidate_frames(theta, psi, off, beta))
+        if cached is None or not (cached[0] is theta and cached[1] is psi and cached[2] is off and cached[3] is beta):
+            cached = (theta, psi, off, beta, candidate_frames(theta, psi, off, beta))
             self._frames = cached
-        return cached[1]
+        return cached[4]
 
     @functools.cached_property
     def _burst_phases(self) -> np.ndarray:
@@ -510,7 +514,7 @@ def candidate_misses(head: np.ndarray, d: np.ndarray, theta: np.ndarray, psi: np
                      beta: np.ndarray, target: np.ndarray, line_miss) -> tuple[np.ndarray, np.ndarray]:
     """(miss (T, B) m, turn ends (T, B, 3) m) of the candidate turns: theta, psi (T,) rad and ``offset`` (T, 3) m
     of the map's turns flown at the burst phases ``beta`` (B,) rad about the heading ``d``, scored by
-    ``line_miss(starts, directions, target)`` (NumPy; ``agents.candidate_miss`` compiles it for ``_line_miss``)."""
+    ``line_miss(starts, directions, target)`` (the world-frame form of ``agents.candidate_miss.candidate_miss``)."""
     e1, e2 = perpendicular_basis(d)
     az = beta[None, :] + psi[:, None]                                        # (T, B)
     across = (np.cos(az)[..., None] * e1 + np.sin(az)[..., None] * e2)       # (T, B, 3)
@@ -541,14 +545,16 @@ def pick_turn(miss: np.ndarray, miss_straight: float, config: PlannerConfig,
     w, imp = config.line_weight, config.improvement_m
     if w > 0.0 and line is not None:
         score, straight = miss + w * line[0], miss_straight + w * line[1]
-        i, j = np.unravel_index(int(np.argmin(score)), score.shape)
+        i, j = divmod(int(score.argmin()), score.shape[1])  # np.unravel_index's, cheaper
         if miss[i, j] > miss_straight - imp and score[i, j] > straight - imp:
             return None
         return int(i), int(j), float(score[i, j]), float(straight)
-    i, j = np.unravel_index(int(np.argmin(miss)), miss.shape)
-    if miss[i, j] > miss_straight - imp:
+    k = int(miss.argmin())
+    best = miss.item(k)
+    if best > miss_straight - imp:
         return None
-    return int(i), int(j), float(miss[i, j]), float(miss_straight)
+    i, j = divmod(k, miss.shape[1])  # np.unravel_index's
+    return i, j, best, float(miss_straight)
 
 
 def line_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -580,8 +586,7 @@ def graded_line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndar
 def _line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray,
                behind_penalty: float = BEHIND_PENALTY_M) -> np.ndarray:
     """How far the straight lines start + s direction (s >= 0) pass from ``target``, (k,) m; a target
-    behind a start counts its distance plus ``behind_penalty`` (m)."""
-    rel = target - starts
-    along = np.einsum("ij,ij->i", rel, directions)
-    lateral = np.linalg.norm(rel - along[:, None] * directions, axis=1)
-    return np.where(along > 0.0, lateral, np.linalg.norm(rel, axis=1) + behind_penalty)
+    behind a start counts its distance plus ``behind_penalty`` (m). starts, directions (k, 3); compiled
+    (``agents.candidate_miss.line_miss``)."""
+    return line_miss(np.asarray(starts, dtype=np.float64), np.asarray(directions, dtype=np.float64),
+                     np.asarray(target, dtype=np.float64), float(behind_penalty))

@@ -23,7 +23,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numba import njit
 
+from physics.linalg.vec3 import dot3s, rownorm3
 from physics.validation import require_finite
 
 #: Side of the paper's square path, m.
@@ -50,31 +52,35 @@ class WaypointPath:
     reach_radius_m: float | None = None
 
     def __post_init__(self) -> None:
-        pts = _validated_waypoints(self.waypoints, source=f"path {self.name!r}")
-        pts.setflags(write=False)
-        object.__setattr__(self, "waypoints", pts)
+        pts, vertices, lengths = _validated_waypoints(self.waypoints, source=f"path {self.name!r}")
+        for name, value in (("waypoints", pts), ("_vertices", vertices), ("_segment_lengths", lengths)):
+            value.setflags(write=False)
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "_length_m", float(lengths.sum()))
         if self.reach_radius_m is not None:
             r = require_finite(f"path {self.name!r}: reach_radius_m", self.reach_radius_m, 0.0, lo_open=True, unit="m")
             object.__setattr__(self, "reach_radius_m", r)
 
+    # The summaries below are computed once per path, by the validation (a frozen path never changes; read-only
+    # arrays).
     @property
     def n_waypoints(self) -> int:
-        return int(self.waypoints.shape[0])
+        return self.waypoints.shape[0]
 
     @property
     def vertices(self) -> np.ndarray:
-        """The origin followed by the waypoints, (k + 1, 3), m."""
-        return np.vstack([np.zeros((1, 3)), self.waypoints])
+        """The origin followed by the waypoints, (k + 1, 3), m (read-only)."""
+        return self._vertices
 
     @property
     def segment_lengths(self) -> np.ndarray:
-        """Length of each segment (origin -> w0, w0 -> w1, ...), (k,), m."""
-        return np.linalg.norm(np.diff(self.vertices, axis=0), axis=1)
+        """Length of each segment (origin -> w0, w0 -> w1, ...), (k,), m (read-only)."""
+        return self._segment_lengths
 
     @property
     def length_m(self) -> float:
         """Total length of the polyline from the origin, m."""
-        return float(self.segment_lengths.sum())
+        return self._length_m
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON form (see the module docstring)."""
@@ -160,8 +166,9 @@ def random_path(rng: np.random.Generator, config: RandomPathConfig | None = None
     cfg = config or RandomPathConfig()
     lo, hi = cfg.segment_length_m
     max_turn = math.radians(cfg.max_turn_deg)
-    heading = np.array([1.0, 0.0, 0.0])
-    point = np.zeros(3)
+    min_turn = math.radians(cfg.min_turn_deg)
+    h0, h1, h2 = 1.0, 0.0, 0.0  # the heading
+    p0, p1, p2 = 0.0, 0.0, 0.0  # the point
     pts = []
     n = cfg.n_waypoints
     if isinstance(n, tuple):
@@ -169,17 +176,14 @@ def random_path(rng: np.random.Generator, config: RandomPathConfig | None = None
     for _ in range(n):
         length = float(rng.uniform(lo, hi))
         if cfg.min_turn_deg > 0.0:  # |angle| in [min, max], either sign
-            angle = float(rng.uniform(math.radians(cfg.min_turn_deg), max_turn)) * (1.0 if rng.random() < 0.5 else -1.0)
+            angle = float(rng.uniform(min_turn, max_turn)) * (1.0 if rng.random() < 0.5 else -1.0)
         else:
             angle = float(rng.uniform(-max_turn, max_turn))
-        if cfg.planar:
-            axis = np.array([0.0, 0.0, 1.0])
-        else:
-            axis = _random_perpendicular(rng, heading)
-        heading = _rotate(heading, axis, angle)
-        heading /= np.linalg.norm(heading)
-        point = point + length * heading
-        pts.append(point)
+        # about +z, or about an axis perpendicular to the heading at a uniformly drawn angle
+        phi = 0.0 if cfg.planar else float(rng.uniform(0.0, 2.0 * math.pi))
+        h0, h1, h2 = _turned_heading(h0, h1, h2, cfg.planar, phi, angle)
+        p0, p1, p2 = p0 + length * h0, p1 + length * h1, p2 + length * h2
+        pts.append((p0, p1, p2))
     reach = None if cfg.reach_radius_m is None else float(rng.uniform(*cfg.reach_radius_m))
     return WaypointPath(name="random", waypoints=np.array(pts), reach_radius_m=reach)
 
@@ -202,7 +206,7 @@ def path_from_dict(data: Any, source: str = "path", default_name: str = "path") 
     name = data.get("name", default_name)
     if not isinstance(name, str) or not name:
         raise ValueError(f"{source}: 'name' must be a non-empty string, got {name!r}")
-    pts = _validated_waypoints(data["waypoints"], source=source)
+    pts, _, _ = _validated_waypoints(data["waypoints"], source=source)
     radius = data.get("reach_radius_m")
     if radius is not None:
         radius = require_finite(f"{source}: reach_radius_m", radius, 0.0, lo_open=True, unit="m")
@@ -229,16 +233,55 @@ def save_path(path: WaypointPath, file: str | os.PathLike) -> None:
 
 
 # --- helpers ------------------------------------------------------------------------------
-def _validated_waypoints(raw: Any, source: str) -> np.ndarray:
-    """(k, 3) float64 copy of ``raw``; ValueError naming the bad waypoint."""
-    if isinstance(raw, np.ndarray):
-        items = list(raw) if raw.ndim >= 1 else [raw]
-    elif isinstance(raw, (list, tuple)):
-        items = list(raw)
+def _validated_waypoints(raw: Any, source: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """((k, 3) float64 copy of ``raw``, the vertices (k + 1, 3) m and the segments' lengths (k,) m of the path
+    through them: ``WaypointPath.vertices``, ``segment_lengths``); ValueError naming the bad waypoint."""
+    if (type(raw) is np.ndarray and raw.dtype == np.float64 and raw.ndim == 2 and raw.shape[0] > 0
+            and raw.shape[1] == 3 and _within_reach(raw)):
+        pts = raw.copy()  # numbers, finite and within reach: what _checked_points checks, at once
     else:
-        raise ValueError(f"{source}: waypoints must be a list of [x, y, z] (metres), got {type(raw).__name__}")
-    if not items:
-        raise ValueError(f"{source}: waypoints is empty; give at least one [x, y, z] (metres)")
+        if isinstance(raw, np.ndarray):
+            items = list(raw) if raw.ndim >= 1 else [raw]
+        elif isinstance(raw, (list, tuple)):
+            items = list(raw)
+        else:
+            raise ValueError(f"{source}: waypoints must be a list of [x, y, z] (metres), got {type(raw).__name__}")
+        if not items:
+            raise ValueError(f"{source}: waypoints is empty; give at least one [x, y, z] (metres)")
+        pts = _checked_points(items, source)
+    vertices = np.empty((pts.shape[0] + 1, 3))
+    vertices[0], vertices[1:] = 0.0, pts
+    lengths = _segment_lengths(vertices)
+    if lengths.min() < MIN_SEGMENT_M:
+        i = int(np.flatnonzero(lengths < MIN_SEGMENT_M)[0])
+        start = "the start (origin)" if i == 0 else f"waypoint {i - 1}"
+        raise ValueError(f"{source}: zero-length segment from {start} to waypoint {i} "
+                         f"({pts[i].tolist()}); consecutive points must differ by at least {MIN_SEGMENT_M} m")
+    return pts, vertices, lengths
+
+
+@njit(cache=True)
+def _within_reach(pts: np.ndarray) -> bool:
+    """Whether every coordinate of ``pts`` (k, 3) is finite and within +-``MAX_COORDINATE_M`` m."""
+    for v in pts.ravel():
+        if not abs(v) <= MAX_COORDINATE_M:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _segment_lengths(vertices: np.ndarray) -> np.ndarray:
+    """|vertices[i + 1] - vertices[i]|, (k,) m, rounded as ``np.linalg.norm(np.diff(vertices, axis=0), axis=1)``."""
+    out = np.empty(vertices.shape[0] - 1)
+    for i in range(out.shape[0]):
+        out[i] = rownorm3(vertices[i + 1, 0] - vertices[i, 0], vertices[i + 1, 1] - vertices[i, 1],
+                          vertices[i + 1, 2] - vertices[i, 2])
+    return out
+
+
+def _checked_points(items: list, source: str) -> np.ndarray:
+    """(k, 3) float64 of the waypoints ``items``; ValueError naming the first that is not three finite numbers
+    within reach."""
     pts = np.empty((len(items), 3))
     for i, w in enumerate(items):
         if isinstance(w, (str, bytes)) or not hasattr(w, "__len__") or len(w) != 3:
@@ -252,14 +295,6 @@ def _validated_waypoints(raw: Any, source: str) -> np.ndarray:
                 raise ValueError(f"{source}: waypoint {i} = {_short(w)} has a coordinate {c!r} m out of reach; "
                                  f"allowed: coordinates within +-{MAX_COORDINATE_M:g} m of the start")
             pts[i, k] = float(c)
-    vertices = np.vstack([np.zeros((1, 3)), pts])
-    lengths = np.linalg.norm(np.diff(vertices, axis=0), axis=1)
-    short = np.flatnonzero(lengths < MIN_SEGMENT_M)
-    if short.size:
-        i = int(short[0])
-        start = "the start (origin)" if i == 0 else f"waypoint {i - 1}"
-        raise ValueError(f"{source}: zero-length segment from {start} to waypoint {i} "
-                         f"({pts[i].tolist()}); consecutive points must differ by at least {MIN_SEGMENT_M} m")
     return pts
 
 
@@ -274,27 +309,30 @@ def _short(w: Any) -> str:
     return s if len(s) <= 60 else s[:57] + "..."
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a x b of two 3-vectors: np.cross's products and differences (the same values) without its overhead."""
-    a0, a1, a2 = float(a[0]), float(a[1]), float(a[2])
-    b0, b1, b2 = float(b[0]), float(b[1]), float(b[2])
-    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
-
-
-def _rotate(u: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
-    """Rodrigues rotation of u about the unit vector axis by angle (rad)."""
+@njit(cache=True)
+def _turned_heading(h0: float, h1: float, h2: float, planar: bool, phi: float, angle: float
+                    ) -> tuple[float, float, float]:
+    """The unit heading h turned by ``angle`` (rad, Rodrigues) about +z if ``planar``, else about the unit vector
+    perpendicular to h at angle ``phi`` (rad) from e1 = h x helper / |h x helper| towards h x e1 (helper +z, or +y
+    with h near +-z); rounded as the NumPy expressions (``physics.linalg.vec3``)."""
+    if planar:
+        x0, x1, x2 = 0.0, 0.0, 1.0
+    else:
+        g0, g1, g2 = (0.0, 0.0, 1.0) if abs(h2) < 0.9 else (0.0, 1.0, 0.0)
+        a0, a1, a2 = h1 * g2 - h2 * g1, h2 * g0 - h0 * g2, h0 * g1 - h1 * g0  # h x helper
+        n = math.sqrt(dot3s(a0, a1, a2, a0, a1, a2))
+        a0, a1, a2 = a0 / n, a1 / n, a2 / n
+        b0, b1, b2 = h1 * a2 - h2 * a1, h2 * a0 - h0 * a2, h0 * a1 - h1 * a0  # h x e1
+        cp, sp = math.cos(phi), math.sin(phi)
+        x0, x1, x2 = cp * a0 + sp * b0, cp * a1 + sp * b1, cp * a2 + sp * b2
     c, s = math.cos(angle), math.sin(angle)
-    return u * c + _cross(axis, u) * s + axis * float(axis @ u) * (1.0 - c)
-
-
-def _random_perpendicular(rng: np.random.Generator, heading: np.ndarray) -> np.ndarray:
-    """A unit vector perpendicular to ``heading``, uniform in angle."""
-    helper = np.array([0.0, 0.0, 1.0]) if abs(heading[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = _cross(heading, helper)
-    e1 /= np.linalg.norm(e1)
-    e2 = _cross(heading, e1)
-    phi = float(rng.uniform(0.0, 2.0 * math.pi))
-    return math.cos(phi) * e1 + math.sin(phi) * e2
+    k0, k1, k2 = x1 * h2 - x2 * h1, x2 * h0 - x0 * h2, x0 * h1 - x1 * h0  # axis x h
+    p = dot3s(x0, x1, x2, h0, h1, h2)
+    r0 = h0 * c + k0 * s + x0 * p * (1.0 - c)
+    r1 = h1 * c + k1 * s + x1 * p * (1.0 - c)
+    r2 = h2 * c + k2 * s + x2 * p * (1.0 - c)
+    n = math.sqrt(dot3s(r0, r1, r2, r0, r1, r2))
+    return r0 / n, r1 / n, r2 / n
 
 
 __all__ = ["PAPER_SQUARE_SIDE_M", "RandomPathConfig", "WaypointPath", "load_path", "path_from_dict",

@@ -7,17 +7,11 @@ All positions are in the start frame, metres.
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
 from flagellum_env.paths import WaypointPath
-
-
-def _norm(v: np.ndarray) -> float:
-    """Euclidean length of a vector (3,): what ``np.linalg.norm`` computes (sqrt of the dot product), without its
-    overhead (called several times per env step)."""
-    return math.sqrt(float(v @ v))
+from physics.linalg.vec3 import norm3, segment_projection
 
 
 class PathTracker:
@@ -32,13 +26,14 @@ class PathTracker:
         self._vertices = path.vertices
         self._lengths = path.segment_lengths
         self._cumulative = np.concatenate([[0.0], np.cumsum(self._lengths)])
-        self.path_length_m = path.length_m  # m (``WaypointPath.length_m`` computes it on every call)
+        self.path_length_m = path.length_m  # m
+        self._n_waypoints = path.n_waypoints
         self.index = 0  # current target waypoint; == n_waypoints when the path is complete
 
     @property
     def done(self) -> bool:
         """True once the last waypoint has been reached."""
-        return self.index >= self.path.n_waypoints
+        return self.index >= self._n_waypoints
 
     @property
     def n_reached(self) -> int:
@@ -47,10 +42,17 @@ class PathTracker:
     def update(self, position: np.ndarray) -> int:
         """Advance past every waypoint now within the reach radius; returns how many, (3,) m input."""
         reached = 0
-        while not self.done and _norm(position - self.path.waypoints[self.index]) <= self.reach_radius_m:
+        while not self.done and norm3(position - self.path.waypoints[self.index]) <= self.reach_radius_m:
             self.index += 1
             reached += 1
         return reached
+
+    def mark_reached(self, count: int) -> None:
+        """Count the next ``count`` waypoints as reached: for a caller that applied ``update``'s test itself
+        (``agents.surrogate_legs``, along a leg)."""
+        if count < 0 or self.index + count > self.path.n_waypoints:
+            raise ValueError(f"count={count!r} must be in [0, {self.path.n_waypoints - self.index}] (waypoints left)")
+        self.index += count
 
     def _segment(self) -> int:
         return min(self.index, self.path.n_waypoints - 1)
@@ -63,32 +65,33 @@ class PathTracker:
     def _projection(self, position: np.ndarray) -> tuple[float, np.ndarray]:
         """(clipped arc length along the current segment, m; closest point on it, (3,) m)."""
         i = self._segment()
-        a, b = self._vertices[i], self._vertices[i + 1]
-        u = (b - a) / self._lengths[i]
-        s = min(max(float((position - a) @ u), 0.0), float(self._lengths[i]))  # np.clip's value, cheaper
-        return s, a + s * u
+        s, c0, c1, c2 = segment_projection(np.asarray(position, dtype=np.float64), self._vertices[i],
+                                           self._vertices[i + 1], float(self._lengths[i]))
+        return s, np.array([c0, c1, c2])
 
     def progress(self, position: np.ndarray) -> float:
         """Arc length of the path covered, m: the finished segments plus the head's clipped
         projection onto the current one (the full length once the path is complete)."""
         if self.done:
             return float(self._cumulative[-1])
-        s, _ = self._projection(position)
+        i = self._segment()
+        s = segment_projection(np.asarray(position, dtype=np.float64), self._vertices[i], self._vertices[i + 1],
+                               float(self._lengths[i]))[0]
         return float(self._cumulative[self.index] + s)
 
     def cross_track_error(self, position: np.ndarray) -> float:
         """Distance from the head to the current segment, m (to the last one once complete)."""
         _, closest = self._projection(position)
-        return _norm(position - closest)
+        return norm3(position - closest)
 
     def distance_to_target(self, position: np.ndarray) -> float:
         """Distance from the head to the current target waypoint (the last one once complete), m."""
-        return _norm(position - self.path.waypoints[self._segment()])
+        return norm3(position - self.path.waypoints[self._segment()])
 
     def targets(self, count: int) -> np.ndarray:
         """The next ``count`` waypoints from the current target on, the last repeated, (count, 3) m."""
-        idx = np.minimum(np.arange(self.index, self.index + count), self.path.n_waypoints - 1)
-        return self.path.waypoints[idx]
+        last = self._n_waypoints - 1
+        return self.path.waypoints[[min(k, last) for k in range(self.index, self.index + count)]]
 
 
 class BucklingMonitor:

@@ -20,6 +20,8 @@ from typing import Any
 
 def is_real(value: Any) -> bool:
     """True for an ``int``, ``float`` or NumPy real scalar; False for a ``bool`` and anything else."""
+    if type(value) is float or type(value) is int:  # the usual ones, without the ABC's check (a bool is neither)
+        return True
     return isinstance(value, numbers.Real) and not isinstance(value, bool)
 
 
