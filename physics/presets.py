@@ -21,7 +21,7 @@ validation only.
 
 Retired (``RETIRED_PRESETS``; asking for it anywhere raises a one-line ValueError naming the replacement,
 ``check_preset``): ``coarse`` (N = 45, 10 ms implicit Euler: slower than ``faithful`` and wrong, it does not
-buckle); docs/bench_quick.md.
+buckle); docs/presets.md.
 
 Measured costs and errors against ``reference``: docs/bench_quick.md (``flagellum bench --quick``); the wider
 ladder: docs/fidelity.md (scripts/bench_fidelity.py).
@@ -65,7 +65,7 @@ PRESET_DESCRIPTIONS = {
     "fast": "faithful at a looser step tolerance (step_tol 1e-3): cheaper, at a measured price",
 }
 
-#: Presets that were retired, with why (docs/bench_quick.md): asking for one raises ``retired_preset_message``.
+#: Presets that were retired, with why (docs/presets.md): asking for one raises ``retired_preset_message``.
 RETIRED_PRESETS = {
     "coarse": "slower than 'faithful' and wrong: it does not buckle",
 }
@@ -78,7 +78,7 @@ def preset_names() -> list[str]:
 
 def retired_preset_message(name: str) -> str:
     """The one-line refusal of the retired preset ``name``, naming the replacement."""
-    return (f"preset {name!r} was retired ({RETIRED_PRESETS[name]}; docs/bench_quick.md); use {DEFAULT_PRESET!r} "
+    return (f"preset {name!r} was retired ({RETIRED_PRESETS[name]}; docs/presets.md); use {DEFAULT_PRESET!r} "
             "(the default), or FlagellumTurn-surrogate-v0 / FlagellumBurst-surrogate-v0 for a cheap turn-level swimmer")
 
 

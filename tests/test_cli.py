@@ -214,7 +214,7 @@ def test_a_retired_preset_is_refused_on_one_line_with_status_2_before_any_output
     argv = [*command, "--preset", preset] + ([] if command == ["params"] else ["--out", str(out)])
     line = usage_error(argv)
     assert line == (f"flagellum: error: argument --preset: preset {preset!r} was retired ({RETIRED[preset]}; "
-                    "docs/bench_quick.md); use 'faithful' (the default), or FlagellumTurn-surrogate-v0 / "
+                    "docs/presets.md); use 'faithful' (the default), or FlagellumTurn-surrogate-v0 / "
                     f"FlagellumBurst-surrogate-v0 for a cheap turn-level swimmer (see 'flagellum {command[0]} --help')")
     assert capsys.readouterr().out == "" and not out.exists()
 
@@ -237,6 +237,6 @@ def test_a_training_config_with_a_retired_preset_is_refused_before_any_output(us
     cfg, out = tmp_path / "cfg.yml", tmp_path / "o"
     cfg.write_text(yaml.safe_dump(doc))
     line = usage_error(["train", "--config", str(cfg), "--out", str(out)])
-    assert str(cfg) in line and f"preset {preset!r} was retired ({RETIRED[preset]}; docs/bench_quick.md); use " \
+    assert str(cfg) in line and f"preset {preset!r} was retired ({RETIRED[preset]}; docs/presets.md); use " \
                                   "'faithful' (the default)" in line
     assert capsys.readouterr().out == "" and not out.exists()

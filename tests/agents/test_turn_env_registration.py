@@ -98,7 +98,7 @@ def test_make_gives_the_ids_class_and_preset(env_id, preset):
 @pytest.mark.parametrize("env_id, preset, why", [
     ("FlagellumTurn-coarse-v0", "coarse", "slower than 'faithful' and wrong: it does not buckle")])
 def test_a_retired_id_or_preset_is_refused_on_one_line_naming_the_replacement(env_id, preset, why):
-    retired = (f"preset {preset!r} was retired ({why}; docs/bench_quick.md); use 'faithful' (the default), or "
+    retired = (f"preset {preset!r} was retired ({why}; docs/presets.md); use 'faithful' (the default), or "
                "FlagellumTurn-surrogate-v0 / FlagellumBurst-surrogate-v0 for a cheap turn-level swimmer")
     for kwargs in ({}, CHEAP):
         with pytest.raises(ValueError) as err:

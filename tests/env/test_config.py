@@ -17,7 +17,7 @@ from flagellum_env.steer_env import FlagellumSteerEnv
     ({"path": 3}, "path=3 must be one of"),
     ({"preset": "slow"}, r"preset='slow' is not allowed; choose one of \['reference', 'paper', 'faithful', 'fast'\]"),
     ({"preset": "coarse"}, r"^preset 'coarse' was retired \(slower than 'faithful' and wrong: it does not buckle; "
-                           r"docs/bench_quick.md\); use 'faithful' \(the default\), or FlagellumTurn-surrogate-v0"),
+                           r"docs/presets.md\); use 'faithful' \(the default\), or FlagellumTurn-surrogate-v0"),
     ({"control_dt": 0.0}, r"control_dt=0.0 is not allowed; allowed: a finite number > 0 and <= 600 s"),
     ({"control_dt": 0.0301}, r"control_dt=0.0301 s must be a whole multiple of the physics time step dt="),
     ({"omega_range_rpm": (60, 10)}, r"omega_range_rpm=\(60, 10\) must be \(lo, hi\) rpm with 0 < lo < hi"),

@@ -67,7 +67,7 @@ def test_a_retired_id_is_refused_on_one_line_naming_the_replacement(env_id, pres
             gym.make(env_id, **kwargs)
         assert str(err.value) == (
             f"{env_id} was retired with its preset (use FlagellumSteer-v0): preset {preset!r} was retired ({why}; "
-            "docs/bench_quick.md); use 'faithful' (the default), or FlagellumTurn-surrogate-v0 / "
+            "docs/presets.md); use 'faithful' (the default), or FlagellumTurn-surrogate-v0 / "
             "FlagellumBurst-surrogate-v0 for a cheap turn-level swimmer")
     with pytest.raises(ValueError, match=f"^preset {preset!r} was retired"):
         gym.make("FlagellumSteer-v0", preset=preset)

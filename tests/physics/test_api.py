@@ -55,7 +55,7 @@ def test_retired_presets_are_refused_on_one_line_naming_the_replacement(name, wh
             call()
         msg = str(err.value)
         assert "\n" not in msg
-        assert msg == (f"preset {name!r} was retired ({why}; docs/bench_quick.md); use 'faithful' (the default), or "
+        assert msg == (f"preset {name!r} was retired ({why}; docs/presets.md); use 'faithful' (the default), or "
                        "FlagellumTurn-surrogate-v0 / FlagellumBurst-surrogate-v0 for a cheap turn-level swimmer")
     with pytest.raises(ValueError, match=r"preset='turbo' is not allowed; choose one of \['reference', 'paper', 'faithful', 'fast'\]"):
         configure("turbo")
