@@ -51,3 +51,20 @@ def usage_error(capsys) -> Callable[[list[str]], str]:
         return lines[0]
 
     return run
+
+
+@pytest.fixture(scope="session")
+def load_script() -> Callable[[str], object]:
+    """Import scripts/NAME.py as a module (scripts/ is not a package): ``load_script("stress_tiers")``."""
+    import importlib.util
+    from pathlib import Path
+
+    scripts = Path(__file__).resolve().parents[1] / "scripts"
+
+    def load(name: str):
+        spec = importlib.util.spec_from_file_location(name, scripts / f"{name}.py")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+
+    return load

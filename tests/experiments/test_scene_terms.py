@@ -3,16 +3,9 @@ changes nothing; the Stokes head changes the swim speed (docs/force_terms.md, "W
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
 
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "measure_scene_terms.py"
-
-
-def test_cruise_without_contact_is_the_same_and_the_stokes_head_is_not():
-    spec = importlib.util.spec_from_file_location("measure_scene_terms", SCRIPT)
-    scene = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(scene)
+def test_cruise_without_contact_is_the_same_and_the_stokes_head_is_not(load_script):
+    scene = load_script("measure_scene_terms")
     full, no_contact, stokes = (scene.cruise(v) for v in ("full", "no contact", "Stokes head"))
     assert 3e-3 < full["swim_per_turn_m"] < 6e-3
     assert no_contact["swim_per_turn_m"] == full["swim_per_turn_m"]

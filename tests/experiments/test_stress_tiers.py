@@ -3,20 +3,12 @@ summary section replaces itself in the page."""
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import pytest
-
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "stress_tiers.py"
 
 
 @pytest.fixture(scope="module")
-def stress():
-    spec = importlib.util.spec_from_file_location("stress_tiers", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+def stress(load_script):
+    return load_script("stress_tiers")
 
 
 def test_every_tier_has_every_corner(stress):
@@ -61,11 +53,9 @@ def test_section_replaced_in_place(stress, tmp_path):
     assert "| faithful | 0 rpm | error |" in text and "| faithful | 0 rpm | ok |" not in text
 
 
-def test_numerics_table_keeps_the_tier_section(stress, tmp_path):
+def test_numerics_table_keeps_the_tier_section(stress, load_script, tmp_path):
     """scripts/stress.py rewrites its own table and keeps the "Every tier" section below it."""
-    spec = importlib.util.spec_from_file_location("stress", SCRIPT.with_name("stress.py"))
-    numerics = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(numerics)
+    numerics = load_script("stress")
     md = tmp_path / "stability.md"
     rec = {"tier": "faithful", "corner": "0 rpm", "outcome": "ok", "sim_time_s": 1.0, "halvings": 0,
            "end_to_end": 1.0, "edge_ratio": [0.99, 1.01], "cpu_s": 1.0}
