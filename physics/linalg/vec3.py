@@ -1,8 +1,8 @@
 """3-vector arithmetic for compiled kernels, rounded as NumPy rounds it, so that a kernel gives the very floats of
 the NumPy expressions it replaces.
 
-- ``dot3(a, b)`` (``dot3s`` on components): ``a @ b`` of two float64 3-vectors. NumPy hands this to BLAS, whose ddot (OpenBLAS) accumulates
-  with fused multiply-adds: fma(a2, b2, fma(a1, b1, a0 b0)).
+- ``dot3(a, b)`` (``dot3s`` on components): ``a @ b`` of two float64 3-vectors. NumPy hands this to BLAS, whose
+  ddot (OpenBLAS) accumulates with fused multiply-adds: fma(a2, b2, fma(a1, b1, a0 b0)).
 - ``rowdot3(a, b)``: ``np.einsum("ij,ij->i", a, b)`` of one row pair, (a0 b0 + a2 b2) + a1 b1 (its pairwise lanes).
 - ``rownorm3(v)``: ``np.linalg.norm(v, axis=1)`` of one row, sqrt((v0^2 + v1^2) + v2^2).
 - ``norm3(v)``: ``np.linalg.norm(v)`` (and ``math.sqrt(v @ v)``) of a 3-vector.
