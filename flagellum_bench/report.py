@@ -189,7 +189,6 @@ def quick_markdown(rows: list[dict[str, Any]], wall_s: float, missing: list[str]
     import platform
 
     load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
-    err_keys = QUICK_ERROR_KEYS
     lines = ["# flagellum bench --quick", "",
              f"{platform.node()}, {os.cpu_count()} cores, load average {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} "
              f"at the end; {wall_s:.0f} s in all. Real-time factor = simulated s per CPU s (`time.process_time`; "
@@ -201,8 +200,8 @@ def quick_markdown(rows: list[dict[str, Any]], wall_s: float, missing: list[str]
              "actions (seed 0). Episode and env are not run for paper and reference. Errors: "
              "|x - x_ref| / max(|x_ref|, floor) against the `reference` preset, floor 10° for angles.", "",
              "| preset | steady RTF | burst RTF | relaxation RTF | episode CPU s | env steps/s (rule) "
-             "| env steps/s (random) | " + " | ".join(f"error {k}" for k in err_keys)
-             + " |", "|---" * (7 + len(err_keys)) + "|"]
+             "| env steps/s (random) | " + " | ".join(f"error {k}" for k in QUICK_ERROR_KEYS)
+             + " |", "|---" * (7 + len(QUICK_ERROR_KEYS)) + "|"]
 
     def pair(a, b):
         return "—" if a is None else f"{_fmt(b)} ({a:.3g})"
@@ -213,7 +212,7 @@ def quick_markdown(rows: list[dict[str, Any]], wall_s: float, missing: list[str]
                      f"{_fmt(r.get('relax_real_time_factor_cpu'))} | "
                      f"{pair(r['episode_wall_s'], r['episode_cpu_s'])} | {_fmt(r.get('env_steps_per_s_rule'))} | "
                      f"{_fmt(r.get('env_steps_per_s_random'))} | "
-                     + " | ".join(f"{100 * r['errors'][k]:.2f} %" if k in r["errors"] else "—" for k in err_keys)
+                     + " | ".join(f"{100 * r['errors'][k]:.2f} %" if k in r["errors"] else "—" for k in QUICK_ERROR_KEYS)
                      + " |")
     if figure:
         lines += ["", f"![Error against CPU cost, one point per preset]({figure})"]

@@ -59,7 +59,7 @@ def burst(variant: str, t_c: float) -> dict:
     from agents.turn_measurement import measure_turn
     from physics.params import RPM_TO_RAD_S
 
-    sim, dt = settled(VARIANTS[variant])
+    sim, _ = settled(VARIANTS[variant])
     turn = measure_turn(sim, 10.0, 150.0, t_c, 0.0)
     sim, dt = settled(VARIANTS[variant])
     sim.set_motor_speed(150.0 * RPM_TO_RAD_S)
