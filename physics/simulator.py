@@ -59,16 +59,16 @@ from physics.solvers.chord_iteration import chord_solve
 from physics.forces.contact import NO_CONTACT_MODEL, NO_EDGES, NO_PAIRS, ContactModel, ContactParams, ContactState
 from physics.forces.force_terms import scene_for
 from physics.hydro.higdon_head import head_spin_map
-from physics.solvers.implicit_residual import block_max_abs
+from physics.solvers.implicit_residual import contact_candidates
 from physics.solvers.krylov_span import SPAN_AFTER_ACCEPT, SPAN_DONE, krylov_span_applies, run_krylov_span
 from physics.params import NumericsConfig, SwimmerParams, check_combination
 from physics.forces.step_context import StepContext, SystemDescription
 from physics.solvers.step_solvers import BandedNewtonSolver, DenseChordSolver
 from physics.threads import one_blas_thread
 from physics.integrate.adaptive_state import AdaptiveState
-from physics.integrate.time_integrator import (COLLAPSED_STEPS, EXTRAPOLATION_POINTS, MAX_STEPS_PER_SPAN, SAFETY,
-                                     SCHEME_ORDER, SHRINK_MIN, ContractionRate, StepBase, error_norm,
-                                     extrapolate, next_step, split_remaining, step_base, step_spans, velocity_of)
+from physics.integrate.adaptive_step import accepted_step, commit_point, local_error, rejected_step, step_start
+from physics.integrate.time_integrator import (COLLAPSED_STEPS, MAX_STEPS_PER_SPAN, SCHEME_ORDER, ContractionRate,
+                                              StepBase, split_remaining, step_spans)
 
 
 @dataclass
@@ -194,7 +194,7 @@ class Simulator:
         #: the step-size controller's state between steps (``physics.integrate.adaptive_state``): the accepted
         #: points for BDF and the error estimate, restarted at every kink of the motion, the next step, the force
         #: points; read and written by the Python step and by the compiled span (``krylov_span``)
-        self.adaptive = AdaptiveState(h=self.numerics.h_start)
+        self.adaptive = AdaptiveState.empty(self.numerics.h_start, self.layout.ndof, n)
         self._base: StepBase | None = None
         self.contraction = ContractionRate()  # the nonlinear iteration's convergence test (adaptive steps)
         # observables of the last step
@@ -207,6 +207,8 @@ class Simulator:
         self.contact_energy = 0.0  # J, at the last step
         self.contact_count = 0  # active contact interactions at the last step
         self.last_contact = (0.0, 0)  # (J, count) of the last evaluation (``contact_energy``: the last step's)
+        #: this step's contact broad phase (``implicit_residual.contact_candidates``), none before the first step
+        self._contact = ContactState(q0, 0.0, NO_PAIRS, NO_EDGES, True)
         self._f_floor = 1e-9 * p.bending_stiffness / p.axial_length**2
         #: the static description of the system that the force terms and the solvers read
         self.system = SystemDescription(
@@ -340,16 +342,6 @@ class Simulator:
         """(t, d1, d2, ref_twist, m1, m2) of q, transported from the start-of-step frames."""
         return rod_frames(q, self.d1, self.tangent, self.ref_twist)
 
-    def _contact_broad_phase(self, q_pred: np.ndarray) -> None:
-        """This step's contact candidates, padded by twice the predicted motion of any node (and at
-        least r0 / 2): the Newton iterates stay that close to the predictor (checked at every residual:
-        ``implicit_residual.contact_state_at``)."""
-        x_pred = nodes_of(q_pred)
-        move = block_max_abs(q_pred - self.q, self._pos) if self.step_count else 0.0
-        self._contact_pad = max(0.5 * self.params.rod_radius, 2.0 * move)
-        self._contact_candidates = self.contact.broad_phase(x_pred, self._contact_pad)
-        self._contact_none = len(self._contact_candidates[0]) == 0 and len(self._contact_candidates[1]) == 0
-
     def min_gaps(self) -> tuple[float, float]:
         """(smallest rod-rod gap d - 2 r0 over non-adjacent edges, smallest head gap d - b - r0), m,
         of the current shape (a diagnostic over all pairs; see ``physics.forces.contact``)."""
@@ -362,15 +354,13 @@ class Simulator:
         without contact (q: the iterate)."""
         if self.contact is None:
             return NO_CONTACT_MODEL, ContactState(q, 0.0, NO_PAIRS, NO_EDGES, True)
-        pairs, head = self._contact_candidates
-        return self.contact.model, ContactState(self._contact_q, self._contact_pad, pairs, head, self._contact_none)
+        return self.contact.model, self._contact
 
     def keep_contact_state(self, cstate: ContactState, energy: float, count: int) -> None:
         """Store the contact state a compiled kernel returns and the last evaluation's contact energy (J) and
         number of active interactions (no-op without contact)."""
         if self.contact is not None:
-            self._contact_q, self._contact_pad, self._contact_none = cstate.q, cstate.pad, cstate.none
-            self._contact_candidates = (cstate.pairs, cstate.head_edges)
+            self._contact = cstate
             self.last_contact = (energy, count)
 
     nodes_at = staticmethod(nodes_of)
@@ -395,11 +385,9 @@ class Simulator:
         """Begin a step from ``base``: the iteration's start (ndof,), the predictor with the motor's prescribed twist
         at the step's end, and this step's contact broad phase around it."""
         self._base = base
-        q = base.q_pred.copy()
-        q[self.prescribed] = self.q[self.prescribed] + base.h * self.omega
-        if self.contact is not None:
-            self._contact_broad_phase(q)
-            self._contact_q = q.copy()
+        q = step_start(base.q_pred, self.q, self.prescribed, base.h, self.omega)
+        if self.contact is not None:  # its iterates stay within twice the predicted motion of any node
+            self._contact = contact_candidates(q, self.contact.model, self.q, self._pos, self.step_count == 0)
         return q
 
     def _try_step(self, base: StepBase):
@@ -410,9 +398,10 @@ class Simulator:
         if self.solver.krylov:  # the resistance was rebuilt: Newton-Krylov in the mobility form
             self.stats.krylov_steps += 1
             first = 1 if p.has_head else 0
-            forces = (extrapolate(self.adaptive.force_points, self.time + base.h) if self.adaptive.force_points
-                      else self.node_forces)  # the last forces where no accepted point since the restart
-            return self.solver.mobility.solve(q, -forces[first:].ravel(), h)
+            forces = self.adaptive.force_start(self.time + base.h)
+            if forces is None:  # the last forces where no accepted point since the restart
+                forces = self.node_forces.ravel()
+            return self.solver.mobility.solve(q, -forces[3 * first:], h)
         return self._chord_step(q, h)
 
     def _chord_step(self, q: np.ndarray, h: float):
@@ -424,12 +413,9 @@ class Simulator:
 
     def _base_for(self, h: float) -> StepBase:
         if self.adaptive.restart:
-            self.adaptive.history.restart(self.time, self.q, self.v)
-            self.adaptive.restart = False
-        scheme = self.numerics.integrator
-        if self.adaptive.order_capped and SCHEME_ORDER[scheme] > 2:
-            scheme = "bdf2"
-        return step_base(self.adaptive.history, h, scheme)
+            self.adaptive.restart_at(self.time, self.q, self.v)
+        top = SCHEME_ORDER[self.numerics.integrator]
+        return self.adaptive.base(h, min(top, 2) if self.adaptive.order_capped else top)
 
     def _advance(self, h: float, level: int) -> None:
         """Fixed steps: one step of h, halved (recursively) on failure."""
@@ -471,12 +457,13 @@ class Simulator:
             try:
                 q, r, grad, f, (t, d1, rt) = self._try_step(base)
                 self._check_state(q, t)
-                err = error_norm(q, base, self._weights, nm.step_tol)
+                err = local_error(q, base.q_pred, -1.0 if base.error_ratio is None else base.error_ratio,
+                                  self._weights, nm.step_tol)
             except StepFailed as exc:
                 self._reject(h / 4.0, exc.quantity, str(exc))
                 continue
             if err > 1.0:
-                self._reject(h * max(SHRINK_MIN, SAFETY * err ** (-1.0 / (base.order + 1))), "local error",
+                self._reject(rejected_step(h, err, base.order), "local error",
                              f"estimated local error {err * nm.step_tol:.3g} (r0 or rad) above step_tol")
                 continue
             rejected = False
@@ -493,15 +480,12 @@ class Simulator:
             # collapse excited) and go on with BDF2, A-stable, until the motor speed changes
             self.adaptive.order_capped = self.adaptive.restart = True
             self.adaptive.h = nm.h_start
-            self.adaptive.force_points = []
+            self.adaptive.force_count = 0
             self.stats.order_reductions += 1
         elif accepted >= MAX_STEPS_PER_SPAN:
             raise SimulationError(f"too much work: {accepted} steps in {self.time - (t_end - dt):.3g} s of a "
                                   f"{dt:g} s span (last step {h:.3g} s)", self.step_count, self.time, "step size")
-        proposal = next_step(h, err, order, keep=not self.solver.krylov)
-        if h < self.adaptive.h and proposal >= h:  # a step shortened to land on t_end says nothing against h
-            proposal = max(proposal, self.adaptive.h)
-        self.adaptive.h = min(proposal, dt)
+        self.adaptive.h = accepted_step(h, err, order, self.adaptive.h, dt, not self.solver.krylov)
 
     def _reject(self, h_new: float, quantity: str, why: str) -> None:
         self.stats.rejected_steps += 1
@@ -529,28 +513,28 @@ class Simulator:
 
     def _commit(self, q, base: StepBase, grad, f, t, d1, rt, t_new: float | None = None) -> None:
         h = base.h
-        dq = q - self.q
-        self.adaptive.v_prev = self.v if h == self.adaptive.h_prev else None
-        self.adaptive.h_prev = h
-        self.v = dq / h if base.order == 1 and base.h_eff == h else velocity_of(q, base)
+        st = self.adaptive
+        dq3 = q[3] - self.q[3]  # the motor's DOF: the head's or the flagellum's first twist
+        st.v_prev = self.v if h == st.h_prev else None
+        st.h_prev = h
+        self.time = self.time + h if t_new is None else t_new
+        self.node_forces = nodes_of(f)  # the (n, 3) node blocks of f
+        self.v, st.count, st.force_count = commit_point(
+            q, self.q, base.q_hat, h, base.h_eff, base.order, self.time,
+            self.numerics.integrator != "euler" or self.numerics.step_tol > 0.0, st.times, st.qs, st.vs, st.count,
+            self.node_forces.ravel(), st.force_times, st.force_values, st.force_count)
         self.q = q
         self.tangent, self.d1, self.ref_twist = t, d1, rt
-        self.time = self.time + h if t_new is None else t_new
         self.stats.substeps += 1
-        if self.numerics.integrator != "euler" or self.numerics.step_tol > 0.0:
-            self.adaptive.history.push(self.time, self.q, self.v)
         self.motor_angle += h * self.omega
         self.solver.end_step()
-        self.node_forces = nodes_of(f)  # the (n, 3) node blocks of f
-        points = self.adaptive.force_points
-        self.adaptive.force_points = [*points[1 - EXTRAPOLATION_POINTS:], (self.time, self.node_forces)]
         self.head_axial_torque = float(f[3]) if self.head_spins else 0.0
         self.motor_torque = float(grad[3])
         if self.head_spins_from_balance:
             self.head_spin_rate = self._spin_from_balance(q)
             dpsi = h * self.head_spin_rate
         else:
-            dpsi = dq[3] - h * self.omega
+            dpsi = dq3 - h * self.omega
             self.head_spin_rate = dpsi / h if self.head_spins else 0.0
         self.body_frame = transported_body_frame(self.body_frame, q[0:3], q[4:7], dpsi,
                                                  self.head_spins or self.head_spins_from_balance)

@@ -17,7 +17,7 @@ Jacobian M/h_e^2 + K + P^T R P / h_e and every solver are shared:
   alpha = ((1 + 2w) / (h (1 + w)), -(1 + w) / h, w^2 / (h (1 + w))). BDF2 is L-stable like implicit Euler (the
   stiff elastic and twist modes are damped, not rung); BDF3 and BDF4 are A(alpha)-stable (see
   ``COLLAPSED_STEPS`` below for what is done when that shows). The order ramps up by one per step after a
-  restart (``scheme_order``).
+  restart (``order_after``).
 
 Local error (Milne's device): the predictor P is the polynomial through the last p + 1 accepted
 points (p = the order), evaluated at t_{n+1}. For a solution with smooth (p+1)-th derivative,
@@ -65,25 +65,6 @@ class StepBase:
     error_ratio: float | None
 
 
-class History:
-    """The accepted points (t, q, v) since the last restart, newest last (at most five kept: BDF4 and its
-    error estimate)."""
-
-    def __init__(self) -> None:
-        self.points: list[tuple[float, np.ndarray, np.ndarray]] = []
-
-    def restart(self, t: float, q: np.ndarray, v: np.ndarray) -> None:
-        self.points = [(t, q, v)]
-
-    def push(self, t: float, q: np.ndarray, v: np.ndarray) -> None:
-        self.points.append((t, q, v))
-        if len(self.points) > 5:
-            del self.points[0]
-
-    def __len__(self) -> int:
-        return len(self.points)
-
-
 #: the largest order of each scheme (``NumericsConfig.integrator``)
 SCHEME_ORDER = {"euler": 1, "bdf2": 2, "bdf3": 3, "bdf4": 4}
 
@@ -128,35 +109,15 @@ def bdf_coefficients(t_new: float, times: np.ndarray) -> np.ndarray:
     return alpha
 
 
-def scheme_order(scheme: str, npts: int) -> int:
-    """The order of the next step with ``npts`` accepted points since the last restart: implicit Euler
-    first, then BDF2, and an order above 2 only once the step can be checked by the estimate at that
-    order (order + 1 earlier points): the order ramps up by one per step after a restart."""
-    return order_after(SCHEME_ORDER[scheme], npts)
-
-
 @njit(cache=True)
 def order_after(top: int, npts: int) -> int:
-    """``scheme_order`` for a scheme of largest order ``top`` (compiled: the Newton-Krylov span calls it)."""
+    """The order of the next step with ``npts`` accepted points since the last restart, for a scheme of largest
+    order ``top`` (``SCHEME_ORDER``): implicit Euler first, then BDF2, and an order above 2 only once the step can be
+    checked by the estimate at that order (order + 1 earlier points): the order ramps up by one per step after a
+    restart."""
     if npts == 1 or top == 1:
         return 1
     return max(2, min(top, npts - 1))
-
-
-def step_base(history: History, h: float, scheme: str) -> StepBase:
-    """The base of a step of length h (s) from the newest point of ``history``.
-
-    ``scheme`` "euler", "bdf2", "bdf3" or "bdf4" (its largest order; ``scheme_order`` gives the order of this
-    step). BDF-p is v_{n+1} = sum_j alpha_j q_{n+1-j} (``bdf_coefficients``), the same formula for the
-    acceleration from the velocities, so h_e = 1/alpha_0, q^ = -sum_{j>=1} alpha_j q_{n+1-j} / alpha_0 and
-    likewise v^. The error estimate needs order + 1 earlier points (see the module doc). Computed by the
-    compiled ``base_kernel`` (the arithmetic of the Python form it replaced, in the same order)."""
-    pts = history.points
-    order = scheme_order(scheme, len(pts))
-    use = pts[-(order + 1):]
-    q_hat, v_hat, h_eff, q_pred, ratio = base_kernel(np.array([p[0] for p in use]), np.array([p[1] for p in use]),
-                                                     np.array([p[2] for p in use]), h, order)
-    return StepBase(h, h_eff, q_hat, v_hat, q_pred, order, None if ratio < 0.0 else ratio)
 
 
 @njit(cache=True)
@@ -165,7 +126,7 @@ def base_kernel(times: np.ndarray, qs: np.ndarray, vs: np.ndarray, h: float, ord
     accepted points (times (m,) s, qs and vs (m, ndof), newest last; m = order + 1, or fewer right after
     a restart; m >= order for order >= 2).
 
-    BDF base over the newest ``order`` points (``step_base``); predictor: the polynomial through the m points at
+    BDF base over the newest ``order`` points; predictor: the polynomial through the m points at
     t_n + h (q_n + h v_n with one point), and the error ratio k = E_c / E_p of the corrector when there are
     order + 1 points: with S_m = sum_{j<m} 1 / (t_{n+1} - t_{n-j}), the predictor misses by E_p = c pi(t_{n+1}),
     the corrector by E_c = E_p (1 - S_{p+1} / S_p) (c = q^{(p+1)} / (p+1)!, pi the node polynomial of the p + 1
@@ -220,22 +181,12 @@ def base_kernel(times: np.ndarray, qs: np.ndarray, vs: np.ndarray, h: float, ord
 EXTRAPOLATION_POINTS = 4
 
 
-def extrapolate(points: list[tuple[float, np.ndarray]], t_new: float) -> np.ndarray:
-    """The polynomial through ``points`` [(t_j s, y_j (n,)), ...] (1 to ``EXTRAPOLATION_POINTS`` of them, oldest
-    first; degree one less) at ``t_new`` (s), by Newton's divided differences: the start of an iteration for
-    quantities the scheme does not integrate (the flagellum's node forces of the Newton-Krylov step), predicted as
-    the BDF predictor predicts q (as IDA predicts every component of a DAE: Hindmarsh et al., ACM TOMS 31, 2005,
-    Sec. 2.1)."""
-    k = len(points)
-    if not 1 <= k <= EXTRAPOLATION_POINTS:
-        raise ValueError(f"{k} points are not allowed; allowed: 1 to {EXTRAPOLATION_POINTS}")
-    ys = np.array([np.asarray(y, dtype=np.float64) for _, y in points])
-    return extrapolate_kernel(np.array([t for t, _ in points]), ys.reshape(k, -1), t_new).reshape(ys.shape[1:])
-
-
 @njit(cache=True)
 def extrapolate_kernel(ts: np.ndarray, ys: np.ndarray, t_new: float) -> np.ndarray:
-    """``extrapolate`` compiled: the polynomial through (ts (k,) s, ys (k, n)) at t_new (s), (n,)."""
+    """The polynomial through (ts (k,) s, ys (k, n)) at t_new (s), (n,) (k = 1 to ``EXTRAPOLATION_POINTS``,
+    oldest first; degree k - 1), by Newton's divided differences: the start of an iteration for quantities the scheme
+    does not integrate (the flagellum's node forces of the Newton-Krylov step), predicted as the BDF predictor
+    predicts q (as IDA predicts every component of a DAE: Hindmarsh et al., ACM TOMS 31, 2005, Sec. 2.1)."""
     k, n = ys.shape
     diff = ys.copy()  # row m becomes y[t_0, ..., t_m]
     for level in range(1, k):
@@ -249,15 +200,6 @@ def extrapolate_kernel(ts: np.ndarray, ys: np.ndarray, t_new: float) -> np.ndarr
         for i in range(n):
             out[i] = diff[m, i] + c * out[i]
     return out
-
-
-def error_norm(q_new: np.ndarray, base: StepBase, weights: np.ndarray, tol: float) -> float:
-    """Estimated local error of an accepted iterate over the tolerance (<= 1: accept), max norm with
-    ``weights`` (1/r0 on positions, 1 on twists). 0 if the step has no estimate."""
-    k = base.error_ratio
-    if k is None:
-        return 0.0
-    return weighted_max_abs_diff(q_new, base.q_pred, weights) * (k / (1.0 + k)) / tol
 
 
 @njit(cache=True)
@@ -352,11 +294,6 @@ def split_remaining(h: float, remaining: float, stretch: bool = True) -> float:
     if remaining < 2.0 * h:
         return 0.5 * remaining
     return h
-
-
-def velocity_of(q_new: np.ndarray, base: StepBase) -> np.ndarray:
-    """The scheme's velocity at the new point, (q - q^) / h_e (m/s, rad/s)."""
-    return (q_new - base.q_hat) / base.h_eff
 
 
 def step_spans(duration_s: float, numerics: Any) -> list[float | None]:

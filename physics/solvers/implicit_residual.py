@@ -197,20 +197,26 @@ def rotate_dense_blocks(R: np.ndarray, Q: np.ndarray, spin: bool) -> np.ndarray:
 
 
 @njit(cache=True)
+def contact_candidates(q: np.ndarray, model: ContactParams, q_start: np.ndarray, pos: np.ndarray,
+                       first_step: bool) -> ContactState:
+    """A new broad phase at q (ndof,), its boxes padded by twice the largest node move from the step's start
+    q_start (at least r0 / 2; none on the first step): the iterates of the step stay that close to it (model =
+    ``ContactModel.model``). The step's start takes it at the predictor, ``contact_state_at`` when an iterate
+    leaves the boxes."""
+    move = 0.0 if first_step else block_max_abs(q - q_start, pos)
+    pad = max(0.5 * model.r0, 2.0 * move)
+    pairs, head = contact_broad_phase(nodes_array(q), model, pad)
+    return ContactState(q.copy(), pad, pairs, head, pairs.shape[0] == 0 and head.shape[0] == 0)
+
+
+@njit(cache=True)
 def contact_state_at(q: np.ndarray, model: ContactParams, cstate: ContactState, q_start: np.ndarray, pos: np.ndarray,
                      first_step: bool) -> ContactState:
     """The contact state valid at q (ndof,): ``cstate`` itself while q stays within half the pad of the broad
-    phase's q, else a new broad phase at q padded by twice the step's motion so far (at least r0 / 2; model =
-    ``ContactModel.model``)."""
-    cq, pad, pairs, head, none = cstate.q, cstate.pad, cstate.pairs, cstate.head_edges, cstate.none
-    if block_max_abs(q - cq, pos) > 0.5 * pad:  # the iterate left the padded boxes: redo the broad phase
-        x = nodes_array(q)
-        move = 0.0 if first_step else block_max_abs(q - q_start, pos)
-        pad = max(0.5 * model.r0, 2.0 * move)
-        pairs, head = contact_broad_phase(x, model, pad)
-        none = pairs.shape[0] == 0 and head.shape[0] == 0
-        cq = q.copy()
-    return ContactState(cq, pad, pairs, head, none)
+    phase's q, else a new broad phase at q (``contact_candidates``)."""
+    if block_max_abs(q - cstate.q, pos) > 0.5 * cstate.pad:  # the iterate left the padded boxes
+        return contact_candidates(q, model, q_start, pos, first_step)
+    return cstate
 
 
 @njit(cache=True)

@@ -3,10 +3,13 @@
 While the swimmer's shape changes (a burst, the relaxation after it) every step rebuilds the LSBT resistance and is
 solved by Newton-Krylov (``newton_krylov``); ``Simulator._adaptive`` then spends ~15 % of a step in Python around
 the compiled kernels (the step's base, the contact broad phase, the resistance and preconditioner set-up, the error
-estimate, the controller, the commit). ``krylov_span`` runs those steps in one compiled call: the same operations in
-the same order as the Python step (``Simulator._adaptive``, ``_step_start``, ``DenseChordSolver.begin_step``,
-``MobilityStep.begin`` / ``solve``, ``_commit``), so the trajectory is bit-identical
-(tests/physics/test_krylov_span.py).
+estimate, the controller, the commit). ``krylov_span`` runs those steps in one compiled call. Its step is the Python
+step's (``Simulator._adaptive``, ``_step_start``, ``DenseChordSolver.begin_step``, ``MobilityStep.begin`` /
+``solve``, ``_commit``) made of the same compiled parts: the base (``time_integrator.base_kernel``), the start, error
+estimate, controller and commit (``integrate.adaptive_step``), the broad phase
+(``implicit_residual.contact_candidates``), the choice of a Newton-Krylov step (``step_solvers.krylov_begins``) and
+the iteration (``newton_krylov.newton_krylov_loop``); only the loop around them is written twice (Python and
+compiled), so the trajectory is bit-identical (tests/physics/test_krylov_span.py).
 
 The span returns to Python where the Python step does anything else:
 
@@ -36,28 +39,27 @@ from numba import njit
 
 from physics.model.body_frame import transported_body_frame
 from physics.linalg.compiled_lapack import NUMPY_BLAS, numpy_dot
-from physics.forces.contact import ContactParams, ContactState, contact_broad_phase, contact_kernel
+from physics.forces.contact import ContactParams, ContactState, contact_kernel
 from physics.model.geometry import edge_stretch_extremes, nodes_array
 from physics.hydro.higdon_head import head_flow_operators
 from physics.hydro.hydrodynamics import ResistanceOperator
-from physics.solvers.implicit_residual import block_max_abs
+from physics.solvers.implicit_residual import contact_candidates
 from physics.hydro.lsbt import lsbt_mobility, node_tangents
 from physics.solvers.newton_krylov import (CONVERGED, GMRES_MAX_ITER, GMRES_RTOL, KrylovRate, KrylovTols,
                                            MobilityHydro, Preconditioner, newton_krylov_loop,
                                            preconditioner_factors)
 from physics.model.rigid_alignment import best_fit_rotation
 from physics.forces.step_context import NO_BLOCKS, NO_NODES, StepSystem
-from physics.solvers.step_solvers import H_REUSE, CALM_STEPS_FOR_LU
-from physics.integrate.time_integrator import (COLLAPSED_STEPS, EXTRAPOLATION_POINTS, MAX_STEPS_PER_SPAN, SAFETY,
-                                     SCHEME_ORDER, SHRINK_MIN, base_kernel, extrapolate_kernel, next_step,
-                                     order_after, split_remaining, weighted_max_abs_diff)
+from physics.solvers.step_solvers import krylov_begins
+from physics.integrate.adaptive_step import accepted_step, commit_point, local_error, rejected_step, step_start
+from physics.integrate.time_integrator import (COLLAPSED_STEPS, MAX_STEPS_PER_SPAN, SCHEME_ORDER, base_kernel,
+                                              extrapolate_kernel, order_after, split_remaining)
 
 #: how ``krylov_span`` returned (module doc)
 SPAN_DONE, SPAN_CHORD, SPAN_FAILED, SPAN_AFTER_ACCEPT = range(4)
 #: the counters a span advances, in this order (``StepStats`` fields)
 SPAN_COUNTERS = ("substeps", "newton_iterations", "krylov_iterations", "krylov_steps", "resistance_refreshes",
                  "preconditioner_factorisations", "rejected_steps")
-HISTORY_POINTS = 5  # ``time_integrator.History`` keeps five
 
 
 class SpanStatic(NamedTuple):
@@ -143,8 +145,8 @@ class RodState(NamedTuple):
 
 
 class SpanHistory(NamedTuple):
-    """The accepted points (``time_integrator.History``), oldest first: t (HISTORY_POINTS,) s, q and v
-    (HISTORY_POINTS, ndof); the first ``count`` rows are used."""
+    """The accepted points (``AdaptiveState``'s arrays, advanced in place), oldest first: t (HISTORY_POINTS,) s, q
+    and v (HISTORY_POINTS, ndof); the first ``count`` rows are used."""
 
     t: np.ndarray
     q: np.ndarray
@@ -153,9 +155,9 @@ class SpanHistory(NamedTuple):
 
 
 class ForcePoints(NamedTuple):
-    """The flagellum's node forces at the last accepted points (``AdaptiveState.force_points``): t
-    (EXTRAPOLATION_POINTS,) s, y (EXTRAPOLATION_POINTS, 3n) N, the first ``count`` rows used; and the last
-    step's node forces (n, 3) N."""
+    """The flagellum's node forces at the last accepted points (``AdaptiveState``'s force arrays, advanced in
+    place): t (EXTRAPOLATION_POINTS,) s, y (EXTRAPOLATION_POINTS, 3n) N, the first ``count`` rows used; and the
+    last step's node forces (n, 3) N."""
 
     t: np.ndarray
     y: np.ndarray
@@ -283,31 +285,23 @@ def krylov_span(static: SpanStatic, consts: SpanConsts, placeholders: ContactPla
         h = split_remaining(h_ctl, t_end - time, not rejected)
         rejected = True  # until the step is accepted
         last = h == t_end - time
-        # the step's base (Simulator._base_for; step_base)
+        # the step's base (Simulator._base_for; AdaptiveState.base)
         order = order_after(consts.top_order, npts)
         m = min(npts, order + 1)
         q_hat, v_hat, h_eff, q_pred, ratio = base_kernel(ht[npts - m:npts].copy(), hq[npts - m:npts],
                                                          hv[npts - m:npts], h, order)
         # its start and contact broad phase (Simulator._step_start)
-        q = q_pred.copy()
-        for k in prescribed:
-            q[k] = q_cur[k] + h * omega
+        q = step_start(q_pred, q_cur, prescribed, h, omega)
         x_pred = nodes_array(q)
         if contact_on:
-            move = 0.0 if static.first_step else block_max_abs(q - q_cur, static.pos)
-            pad = max(0.5 * consts.r0, 2.0 * move)
-            pairs, head = contact_broad_phase(x_pred, model, pad)
-            cstate = ContactState(q.copy(), pad, pairs, head, pairs.shape[0] == 0 and head.shape[0] == 0)
+            cstate = contact_candidates(q, model, q_cur, static.pos, static.first_step)
         else:
             cstate = ContactState(q, 0.0, cstate.pairs, cstate.head_edges, True)
-        # the resistance: rebuilt where the shape has changed, or where a chord step would need a new LU before
-        # the swimmer cruises (DenseChordSolver.begin_step, lu_stale); else the chord step
+        # the resistance: rebuilt by a Newton-Krylov step (DenseChordSolver.begin_step), else the chord step
         dev = best_fit_rotation(x_hyd, x_pred)[1]
-        changed = since_hydro >= consts.refresh_steps or dev > consts.refresh_dev
-        calm = 0 if changed else calm + 1
-        stale = (solver.lu_h < 0.0 or not H_REUSE[0] <= h_eff / solver.lu_h <= H_REUSE[1]
-                 or (since_hydro == 0 and solver.lu_after_rebuild))
-        if not (changed or (calm < CALM_STEPS_FOR_LU and stale)):
+        krylov, calm = krylov_begins(since_hydro, consts.refresh_steps, dev, consts.refresh_dev, calm, solver.lu_h,
+                                     h_eff, solver.lu_after_rebuild)
+        if not krylov:
             code = SPAN_CHORD
             break
         parts = _mobility_parts(x_pred, consts.mu, consts.delta, consts.head_radius, consts.smoothing,
@@ -362,10 +356,9 @@ def krylov_span(static: SpanStatic, consts: SpanConsts, placeholders: ContactPla
         if not finite or r_min < 0.2 or r_max > 5.0:
             code = SPAN_FAILED
             break
-        err = (0.0 if ratio < 0.0 else weighted_max_abs_diff(q, q_pred, static.weights) * (ratio / (1.0 + ratio))
-               / consts.step_tol)
+        err = local_error(q, q_pred, ratio, static.weights, consts.step_tol)
         if err > 1.0:  # Simulator._reject
-            h_new = h * max(SHRINK_MIN, SAFETY * err ** (-1.0 / (order + 1)))
+            h_new = rejected_step(h, err, order)
             counters[6] += 1
             if h_new < consts.h_min:
                 code = SPAN_FAILED
@@ -374,54 +367,30 @@ def krylov_span(static: SpanStatic, consts: SpanConsts, placeholders: ContactPla
             continue
         rejected = False
         # Simulator._commit
-        dq = q - q_cur
+        dpsi = q[3] - q_cur[3] - h * omega
         v_before = v_cur
         same_h = h == h_prev
         h_prev = h
-        if order == 1 and h_eff == h:
-            v_new = dq / h
-        else:
-            v_new = (q - q_hat) / h_eff
-        q_cur, v_cur = q, v_new
+        time = t_end if last else time + h
+        node_forces = nodes_array(f)
+        v_cur, npts, nfp = commit_point(q, q_cur, q_hat, h, h_eff, order, time, True, ht, hq, hv, npts,
+                                        node_forces.ravel(), ft, fy, nfp)
+        q_cur = q
         t, d1, d2, ref_twist, m1, m2 = frames
         tangent = t
-        time = t_end if last else time + h
         counters[0] += 1
-        if npts == HISTORY_POINTS:
-            for j in range(HISTORY_POINTS - 1):
-                ht[j] = ht[j + 1]
-                hq[j] = hq[j + 1]
-                hv[j] = hv[j + 1]
-            npts -= 1
-        ht[npts] = time
-        hq[npts] = q_cur
-        hv[npts] = v_cur
-        npts += 1
         motor_angle += h * omega
         since_hydro += 1
-        node_forces = nodes_array(f)
-        if nfp == EXTRAPOLATION_POINTS:
-            for j in range(EXTRAPOLATION_POINTS - 1):
-                ft[j] = ft[j + 1]
-                fy[j] = fy[j + 1]
-            nfp -= 1
-        ft[nfp] = time
-        fy[nfp] = node_forces.ravel()
-        nfp += 1
         head_torque = f[3] if static.head_spins else 0.0
         motor_torque = grad[3]
-        body_frame = transported_body_frame(body_frame, q[0:3], q[4:7], dq[3] - h * omega,
-                                           static.head_spins)
+        body_frame = transported_body_frame(body_frame, q[0:3], q[4:7], dpsi, static.head_spins)
         e_commit, count_commit = e_last, count_last
         accepted += 1
         if (accepted == COLLAPSED_STEPS and order > 2) or accepted >= MAX_STEPS_PER_SPAN:
             code = SPAN_AFTER_ACCEPT
             break
         # Simulator._after_accept (a Newton-Krylov step: no band in which h is kept)
-        proposal = next_step(h, err, order, consts.keep_h)
-        if h < h_ctl and proposal >= h:
-            proposal = max(proposal, h_ctl)
-        h_ctl = min(proposal, dt)
+        h_ctl = accepted_step(h, err, order, h_ctl, dt, consts.keep_h)
     if code == SPAN_CHORD or code == SPAN_FAILED:  # the returning attempt is Python's to take
         rebuilt, x_hyd, since_hydro, rho, age, parts, pre, calm, cstate, e_last, count_last, kept, rejected = saved
         counters[:] = kept
@@ -469,15 +438,6 @@ def run_krylov_span(sim: Any, t_end: float, dt: float, accepted: int,
         # as values, not compile-time literals: the kernels called inside are the specialisations the Python
         # step compiled (one compile, one cache entry each)
         gmres_rtol=GMRES_RTOL, gmres_max_iter=GMRES_MAX_ITER, has_head=True, first=1, keep_h=False)
-    pts = st.history.points
-    nd = sim.q.shape[0]
-    ht, hq, hv = np.zeros(HISTORY_POINTS), np.zeros((HISTORY_POINTS, nd)), np.zeros((HISTORY_POINTS, nd))
-    for j, (t, q, v) in enumerate(pts):
-        ht[j], hq[j], hv[j] = t, q, v
-    n_nodes = sim.node_forces.shape[0]
-    ft, fy = np.zeros(EXTRAPOLATION_POINTS), np.zeros((EXTRAPOLATION_POINTS, 3 * n_nodes))
-    for j, (t, y) in enumerate(st.force_points):
-        ft[j], fy[j] = t, y.ravel()
     counters = np.array([getattr(sim.stats, k) for k in SPAN_COUNTERS], dtype=np.int64)
     rate = mob.contraction
     code, clock, state, points, out, cstate, contact, commit, last_step = krylov_span(
@@ -486,8 +446,8 @@ def run_krylov_span(sim: Any, t_end: float, dt: float, accepted: int,
                   h_prev=st.h_prev),
         RodState(q=sim.q, v=sim.v, d1=sim.d1, tangent=sim.tangent, ref_twist=sim.ref_twist,
                  body_frame=sim.body_frame, motor_angle=sim.motor_angle),
-        SpanHistory(t=ht, q=hq, v=hv, count=len(pts)),
-        ForcePoints(t=ft, y=fy, count=len(st.force_points), node_forces=sim.node_forces),
+        SpanHistory(t=st.times, q=st.qs, v=st.vs, count=st.count),
+        ForcePoints(t=st.force_times, y=st.force_values, count=st.force_count, node_forces=sim.node_forces),
         SpanSolver(x_hyd=solver.x_hyd, since_hydro=solver.since_hydro, rho=rate.rho, age=rate.age,
                    parts=(hyd.a, hyd.H, hyd.g), pre=(mob.ab, mob.lu, mob.piv, mob.alu, mob.apiv, mob.h),
                    calm=solver.calm_steps, lu_h=solver.lu_h if solver.lu is not None else -1.0,
@@ -502,12 +462,10 @@ def run_krylov_span(sim: Any, t_end: float, dt: float, accepted: int,
     sim.time, st.h, st.h_prev = clock.time, clock.h, clock.h_prev
     if steps:
         st.v_prev = commit.v_before if commit.same_h else None
-        st.history.points = [(float(ht[j]), hq[j].copy(), hv[j].copy()) for j in range(points.history_count)]
-        # the newest point holds the state's own arrays, as History.push does (q and v returned are equal to them)
-        sim.q, sim.v = st.history.points[-1][1:]
+        st.count, st.force_count = points.history_count, points.force_count
+        sim.q, sim.v = state.q, state.v
         sim.d1, sim.tangent, sim.ref_twist = state.d1, state.tangent, state.ref_twist
         sim.body_frame, sim.motor_angle = state.body_frame, state.motor_angle
-        st.force_points = [(float(ft[j]), fy[j].reshape(n_nodes, 3).copy()) for j in range(points.force_count)]
         sim.node_forces, sim.motor_torque = points.node_forces, float(commit.motor_torque)
         sim.head_axial_torque = float(commit.head_torque)
         if sim.contact is not None:

@@ -31,7 +31,7 @@ not positive), three banded solves per application.
 
 Prescribed DOFs (the motor's Dirichlet twist) are identity rows and columns, as in the direct solver.
 The iteration starts from the BDF predictor for q and, for y, from the cubic through the node forces of the
-last four accepted steps (the simulator's ``time_integrator.extrapolate``; the last forces right after a
+last four accepted steps (``AdaptiveState.force_start``; the last forces right after a
 restart): a third fewer GMRES iterations per step than starting from the last forces (docs/time_integration.md).
 
 The whole iteration of a step (residual, contact, convergence tests, GMRES directions) is one compiled call

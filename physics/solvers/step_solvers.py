@@ -30,6 +30,7 @@ import time
 from typing import Any, Protocol
 
 import numpy as np
+from numba import njit
 from scipy.linalg import lu_factor
 
 from physics.forces.contact import ContactState, add_blocks_to_dense
@@ -75,6 +76,24 @@ LU_REFRESH_BUDGET = 30
 # until the shape has stayed within hydro_refresh_tol of the kept resistance for this many attempts in a row:
 # then the swimmer is cruising and the LU pays for itself over the chord steps that follow.
 CALM_STEPS_FOR_LU = 4
+
+
+@njit(cache=True)
+def krylov_begins(since_hydro: int, refresh_steps: int, dev: float, refresh_dev: float, calm: int, lu_h: float,
+                  h: float, lu_after_rebuild: bool) -> tuple[bool, int]:
+    """Is the next attempt (effective step h, s) a Newton-Krylov step, and the new count of calm attempts?
+
+    The shape has changed when the resistance is ``refresh_steps`` accepted steps old or the predictor deviates
+    from its shape by dev > refresh_dev (m, after the best rigid fit); a calm attempt is one where it has not. A
+    Newton-Krylov step rebuilds the resistance where the shape has changed, or where a chord step would need a new
+    dense factorisation (no LU: lu_h < 0; h outside the ``H_REUSE`` band of the LU's step lu_h; a resistance
+    rebuilt by an attempt that was not accepted, with ``lu_after_rebuild``) before ``CALM_STEPS_FOR_LU`` calm
+    attempts in a row. The one decision of ``DenseChordSolver.begin_step`` and the compiled span
+    (``krylov_span``)."""
+    changed = since_hydro >= refresh_steps or dev > refresh_dev
+    calm = 0 if changed else calm + 1
+    stale = (lu_h < 0.0 or not H_REUSE[0] <= h / lu_h <= H_REUSE[1] or (since_hydro == 0 and lu_after_rebuild))
+    return changed or (calm < CALM_STEPS_FOR_LU and stale), calm
 
 
 class DenseChordSolver:
@@ -174,9 +193,10 @@ class DenseChordSolver:
         fit = None  # best_fit_rotation(x_hyd, x_pred), computed once
         if nm.newton_krylov and self.hyd is not None and not nm.single_iteration:
             Qh, dev = fit = best_fit_rotation(self.x_hyd, x_pred)
-            changed = self.since_hydro >= nm.hydro_refresh_max_steps or dev > nm.hydro_refresh_tol * p.rod_radius
-            self.calm_steps = 0 if changed else self.calm_steps + 1
-            if changed or (self.calm_steps < CALM_STEPS_FOR_LU and self.lu_stale(h)):
+            krylov, self.calm_steps = krylov_begins(self.since_hydro, nm.hydro_refresh_max_steps, dev,
+                                                    nm.hydro_refresh_tol * p.rod_radius, self.calm_steps, self.lu_h,
+                                                    h, nm.jacobian_refresh == "resistance")
+            if krylov:
                 # the shape has changed (or the chord step would need a new LU while the swimmer is not yet
                 # cruising): rebuild the resistance at x_pred and solve this step by Newton-Krylov
                 self._refresh_hydro(q_pred, lazy=True)
@@ -212,12 +232,6 @@ class DenseChordSolver:
         # a resistance rebuilt this step sits at x_pred already; otherwise reuse the fit above
         self.Qh = _EYE if self.since_hydro == 0 else Qh
         self.Qj = _EYE if self.jac_fresh else best_fit_rotation(self.x_jac, x_pred)[0]
-
-    def lu_stale(self, h: float) -> bool:
-        """Would a chord step at the effective step h (s) start with a new dense factorisation? (no LU yet, h
-        outside the H_REUSE band of the LU's, or a resistance rebuilt by an attempt that was not accepted)."""
-        return (self.lu is None or not H_REUSE[0] <= h / self.lu_h <= H_REUSE[1]
-                or (self.since_hydro == 0 and self.system.numerics.jacobian_refresh == "resistance"))
 
     def _contacts_changed(self, q: np.ndarray, h: float) -> bool:
         ctx = self.state.step_context(h)

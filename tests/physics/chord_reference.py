@@ -50,7 +50,7 @@ def converged(sim: Simulator, r, grad, f, inertia) -> bool:
 
 def correction_size(sim: Simulator, z: np.ndarray) -> float:
     """The weighted max norm of a correction of q (ndof,): positions in r0, twists in rad (the error estimate's
-    units, ``time_integrator.error_norm``)."""
+    units, ``adaptive_step.local_error``)."""
     return float(np.max(np.abs(z) * sim.system.weights))
 
 

@@ -109,18 +109,19 @@ def _open_step(sim: Simulator, h: float):
     return q, base.h_eff
 
 
-_STATE = ("_contact_q", "_contact_pad", "_contact_candidates", "_contact_none", "last_contact")
+def _contact_of(sim: Simulator) -> tuple:
+    """(the step's contact broad phase, the last evaluation's (energy, count)) by the simulator's public names."""
+    return sim.contact_state(sim.q)[1], sim.last_contact
 
 
 def _from_the_same_setup(sim: Simulator, q: np.ndarray, h: float):
     """(Python result, compiled result, Python counters, compiled counters, Python contact state, compiled contact
     state): both iterations of one step from the same set-up (a StepFailed stands for its result)."""
-    saved = ({k: getattr(sim, k) for k in _STATE if hasattr(sim, k)}, dataclasses.replace(sim.stats),
+    saved = (_contact_of(sim), dataclasses.replace(sim.stats),
              (sim.contraction.rho, sim.contraction.prev, sim.contraction.age))
     out = []
     for fn in (chord_python, chord_solve):
-        for k, v in saved[0].items():
-            setattr(sim, k, v)
+        sim.keep_contact_state(saved[0][0], *saved[0][1])
         sim.stats = dataclasses.replace(saved[1])
         sim.contraction.rho, sim.contraction.prev, sim.contraction.age = saved[2]
         try:
@@ -129,7 +130,7 @@ def _from_the_same_setup(sim: Simulator, q: np.ndarray, h: float):
             res = exc
         out.append((res, dataclasses.replace(sim.stats), (sim.contraction.rho, sim.contraction.prev,
                                                            sim.contraction.age),
-                    {k: getattr(sim, k) for k in ("_contact_pad", "_contact_none", "last_contact") if hasattr(sim, k)}))
+                    (lambda c: (c[0].pad, c[0].none, c[1]))(_contact_of(sim))))
     return out
 
 

@@ -159,13 +159,11 @@ def test_compiled_iteration_is_the_python_iteration_bit_for_bit(make, h):
 
     sim = make()
     ms, q, y, h = _open_step(sim, h)  # a step the predictor does not solve
-    saved = {k: copy.deepcopy(getattr(sim, k)) for k in ("_contact_q", "_contact_pad", "_contact_candidates",
-                                                          "_contact_none") if hasattr(sim, k)}
+    saved = copy.deepcopy((sim.contact_state(sim.q)[1], sim.last_contact))
     rate = (ms.contraction.rho, ms.contraction.age)
     n0 = sim.stats.newton_iterations
     ref = _python_iteration(ms, q.copy(), y.copy(), h)
-    for k, v in saved.items():
-        setattr(sim, k, v)
+    sim.keep_contact_state(saved[0], *saved[1])
     ms.contraction.rho, ms.contraction.age = rate
     got = ms.solve(q.copy(), y.copy(), h)
     assert ref[5] >= 2 and sim.stats.newton_iterations - n0 == ref[5]  # at least one GMRES direction

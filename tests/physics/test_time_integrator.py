@@ -13,8 +13,10 @@ from physics.elastic import banded_to_dense, elastic_hessian_banded_kernel
 from physics import MotorSchedule, Simulator, SimulationError, advance, configure, run_simulation
 from physics.params import RPM_TO_RAD_S
 from tests.physics.chord_reference import scene_residual
-from physics.integrate.time_integrator import (GROW_MAX, History, error_norm, extrapolate, next_step, split_remaining,
-                                     step_base, step_spans, velocity_of)
+from physics.integrate.adaptive_state import AdaptiveState
+from physics.integrate.adaptive_step import commit_point, local_error, push_point
+from physics.integrate.time_integrator import (GROW_MAX, SCHEME_ORDER, extrapolate_kernel, next_step, split_remaining,
+                                              step_spans)
 
 
 def _quadratic(t):
@@ -22,11 +24,29 @@ def _quadratic(t):
 
 
 def _history(times, f):
-    hist = History()
-    hist.restart(times[0], f(times[0]), np.zeros(3))
+    """The controller's points at ``times`` on the curve f (zero velocities), as the simulator keeps them."""
+    nd = len(f(times[0]))
+    st = AdaptiveState.empty(0.1, nd, 1)
+    st.restart_at(times[0], f(times[0]), np.zeros(nd))
     for t in times[1:]:
-        hist.push(t, f(t), np.zeros(3))
-    return hist
+        st.count = push_point(st.times, st.qs, st.vs, st.count, t, f(t), np.zeros(nd))
+    return st
+
+
+def step_base(st, h, scheme):
+    return st.base(h, SCHEME_ORDER[scheme])
+
+
+def velocity_of(q_new, base):
+    """The velocity the commit gives the point q_new of the step ``base`` (``adaptive_step.commit_point``)."""
+    times, qs, vs = np.zeros(5), np.zeros((5, q_new.size)), np.zeros((5, q_new.size))
+    v, _, _ = commit_point(q_new, base.q_hat, base.q_hat, base.h, base.h_eff, base.order, 1.0, True, times, qs, vs,
+                           0, np.zeros(3), np.zeros(4), np.zeros((4, 3)), 0)
+    return v
+
+
+def error_norm(q_new, base, weights, tol):
+    return local_error(q_new, base.q_pred, -1.0 if base.error_ratio is None else base.error_ratio, weights, tol)
 
 
 def test_bdf2_is_exact_for_quadratics_with_variable_steps():
@@ -153,13 +173,10 @@ def test_extrapolate_is_exact_for_polynomials_one_degree_below_its_points():
         def poly(t, degree):
             return sum(coef[j] * t ** j for j in range(degree + 1))
 
-        exact = extrapolate([(t, poly(t, k - 1)) for t in times], t_new)
+        exact = extrapolate_kernel(times, np.array([poly(t, k - 1) for t in times]), t_new)
         np.testing.assert_allclose(exact, poly(t_new, k - 1), rtol=1e-9, atol=1e-12)
-        above = extrapolate([(t, poly(t, k)) for t in times], t_new)  # one degree more: not reproduced
+        above = extrapolate_kernel(times, np.array([poly(t, k) for t in times]), t_new)  # one degree more: missed
         assert np.max(np.abs(above - poly(t_new, k))) > 1e-9
-    for bad in ([], [(0.0, np.zeros(2))] * 5):
-        with pytest.raises(ValueError, match=f"{len(bad)} points are not allowed"):
-            extrapolate(bad, 1.0)
 
 
 def test_newton_krylov_starts_the_forces_from_their_extrapolation_and_not_across_a_switch():
@@ -171,21 +188,23 @@ def test_newton_krylov_starts_the_forces_from_their_extrapolation_and_not_across
     sim.set_motor_speed(10 * RPM_TO_RAD_S)
     advance(sim, 0.5)
     sim.set_motor_speed(150 * RPM_TO_RAD_S)
-    assert sim.adaptive.force_points == []
+    assert sim.adaptive.force_count == 0
     starts = []
     solve = sim.solver.mobility.solve
 
     def spy(q, y, h):
-        points = list(sim.adaptive.force_points)
-        expected = extrapolate(points, sim.time + sim._base.h) if points else sim.node_forces
-        starts.append((len(points), np.array_equal(y, -expected[1:].ravel())))
+        st = sim.adaptive
+        k = st.force_count
+        expected = (extrapolate_kernel(st.force_times[:k].copy(), st.force_values[:k].copy(), sim.time + sim._base.h)
+                    if k else sim.node_forces.ravel())
+        starts.append((k, np.array_equal(y, -expected[3:])))
         return solve(q, y, h)
 
     sim.solver.mobility.solve = spy
     advance(sim, 1.0)
     assert starts and all(same for _, same in starts)
     assert 4 in {k for k, _ in starts}  # the cubic (the first steps after the switch reuse the resistance)
-    assert len(sim.adaptive.force_points) == 4
+    assert sim.adaptive.force_count == 4
 
 
 def test_newton_jacobian_matches_finite_differences_of_the_bdf2_residual():
@@ -196,16 +215,11 @@ def test_newton_jacobian_matches_finite_differences_of_the_bdf2_residual():
     sim.set_motor_speed(150 * RPM_TO_RAD_S)
     advance(sim, 0.5)
     base = sim._base_for(0.02)
-    sim._base = base
-    q = base.q_pred.copy()
-    q[sim.prescribed] = sim.q[sim.prescribed] + base.h * sim.omega
+    q = sim._step_start(base)  # the predictor with the motor's twist, and the contact broad phase around it
     solver = sim.solver
     solver.begin_step(q, base.h_eff)
     solver._refresh_hydro(q)
     solver.Qh = np.eye(3)
-    if sim.contact is not None:
-        sim._contact_broad_phase(q)
-        sim._contact_q = q.copy()
     J = solver.dense_jacobian(q, base.h_eff, solver.hyd.dense())
     t, d1, d2, rt, m1, m2 = sim.frames_at(q)
     K = banded_to_dense(elastic_hessian_banded_kernel(q, d1, d2, rt, m1, m2, *sim.rest_arrays))
@@ -349,12 +363,13 @@ def _bdf_coefficients_python(t_new, times):
     return alpha
 
 
-def _step_base_python(history, h, scheme):
-    """``step_base`` as it was written in Python before it was compiled (``base_kernel``): the reference."""
-    from physics.integrate.time_integrator import StepBase, scheme_order
+def _step_base_python(pts, h, scheme):
+    """The step's base as it was written in Python before it was compiled (``base_kernel``), from the points
+    [(t, q, v), ...] oldest first: the reference."""
+    from physics.integrate.time_integrator import StepBase
 
-    pts = history.points
-    order = scheme_order(scheme, len(pts))
+    top = SCHEME_ORDER[scheme]
+    order = 1 if len(pts) == 1 or top == 1 else max(2, min(top, len(pts) - 1))
     t0, q0, v0 = pts[-1]
     if order == 1:
         q_hat, v_hat, h_eff = q0, v0, h
@@ -391,17 +406,19 @@ def test_compiled_step_base_is_the_python_one_bit_for_bit(scheme):
     exactly as the Python form computed them."""
     rng = np.random.default_rng(7)
     for trial in range(40):
-        hist = History()
+        st = AdaptiveState.empty(0.1, 487, 1)
         t = float(rng.uniform(0.0, 10.0))
-        hist.restart(t, rng.normal(size=487), rng.normal(size=487))
+        pts = [(t, rng.normal(size=487), rng.normal(size=487))]
+        st.restart_at(*pts[0])
         for npts in range(1, 7):
             h = float(rng.uniform(1e-3, 0.2))
-            got, ref = step_base(hist, h, scheme), _step_base_python(hist, h, scheme)
+            got, ref = step_base(st, h, scheme), _step_base_python(pts, h, scheme)
             assert (got.h, got.h_eff, got.order, got.error_ratio) == (ref.h, ref.h_eff, ref.order, ref.error_ratio)
             for a, b in ((got.q_hat, ref.q_hat), (got.v_hat, ref.v_hat), (got.q_pred, ref.q_pred)):
                 assert np.array_equal(a, b)
             t += h
-            hist.push(t, rng.normal(size=487), rng.normal(size=487))
+            pts = (pts + [(t, rng.normal(size=487), rng.normal(size=487))])[-5:]
+            st.count = push_point(st.times, st.qs, st.vs, st.count, *pts[-1])
 
 
 def test_error_norm_is_numpys_weighted_max():
