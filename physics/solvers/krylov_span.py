@@ -216,12 +216,14 @@ class SpanPoints(NamedTuple):
 
 class SpanCommit(NamedTuple):
     """What the last accepted step leaves besides the state: the velocity before it (ndof,), whether it had the
-    length of the one before it (``AdaptiveState.v_prev``), the motor torque and the head's axial torque (N m)."""
+    length of the one before it (``AdaptiveState.v_prev``), the motor torque and the head's axial torque (N m), the
+    head's spin rate (rad/s; 0 for a head held still)."""
 
     v_before: np.ndarray
     same_h: bool
     motor_torque: float
     head_torque: float
+    head_spin_rate: float
 
 
 class LastStep(NamedTuple):
@@ -272,6 +274,7 @@ def krylov_span(static: SpanStatic, consts: SpanConsts, placeholders: ContactPla
     same_h = False  # the last accepted step had the length of the one before it (AdaptiveState.v_prev)
     motor_torque = 0.0
     head_torque = 0.0
+    spin_rate = 0.0
     err = 0.0
     h = 0.0
     order = 1
@@ -382,6 +385,7 @@ def krylov_span(static: SpanStatic, consts: SpanConsts, placeholders: ContactPla
         motor_angle += h * omega
         since_hydro += 1
         head_torque = f[3] if static.head_spins else 0.0
+        spin_rate = dpsi / h if static.head_spins else 0.0
         motor_torque = grad[3]
         body_frame = transported_body_frame(body_frame, q[0:3], q[4:7], dpsi, static.head_spins)
         e_commit, count_commit = e_last, count_last
@@ -398,7 +402,7 @@ def krylov_span(static: SpanStatic, consts: SpanConsts, placeholders: ContactPla
             RodState(q_cur, v_cur, d1, tangent, ref_twist, body_frame, motor_angle),
             SpanPoints(npts, nfp, node_forces), SpanSolverOut(rebuilt, x_hyd, since_hydro, rho, age, parts, pre, calm),
             cstate, LastContact(e_last, count_last, e_commit, count_commit),
-            SpanCommit(v_before, same_h, motor_torque, head_torque), LastStep(h, err, order))
+            SpanCommit(v_before, same_h, motor_torque, head_torque, spin_rate), LastStep(h, err, order))
 
 
 def krylov_span_applies(sim: Any) -> bool:
@@ -467,7 +471,7 @@ def run_krylov_span(sim: Any, t_end: float, dt: float, accepted: int,
         sim.d1, sim.tangent, sim.ref_twist = state.d1, state.tangent, state.ref_twist
         sim.body_frame, sim.motor_angle = state.body_frame, state.motor_angle
         sim.node_forces, sim.motor_torque = points.node_forces, float(commit.motor_torque)
-        sim.head_axial_torque = float(commit.head_torque)
+        sim.head_axial_torque, sim.head_spin_rate = float(commit.head_torque), float(commit.head_spin_rate)
         if sim.contact is not None:
             sim.contact_energy, sim.contact_count = contact.e_commit, int(contact.count_commit)
     sim.keep_contact_state(cstate, contact.e_last, int(contact.count_last))

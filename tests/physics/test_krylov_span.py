@@ -38,8 +38,8 @@ def _count_spans(monkeypatch) -> Counter:
 
 def _observed(sim: Simulator) -> list[np.ndarray]:
     return [sim.q, sim.v, sim.d1, sim.tangent, sim.ref_twist, sim.body_frame, sim.node_forces,
-            np.array([sim.time, sim.motor_angle, sim.motor_torque, sim.head_axial_torque, sim.contact_energy,
-                      sim.contact_count, sim.adaptive.h])]
+            np.array([sim.time, sim.motor_angle, sim.motor_torque, sim.head_axial_torque, sim.head_spin_rate,
+                      sim.contact_energy, sim.contact_count, sim.adaptive.h])]
 
 
 def _run(overrides: dict, phases: tuple, compiled: bool) -> tuple[list, dict, Simulator]:
@@ -67,8 +67,8 @@ CASES = {
 
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_runs_with_the_span_are_the_python_runs_bit_for_bit(case, monkeypatch):
-    """The same state after every dt (q, v, frames, body frame, forces, torques, contact, time, next step) and the
-    same counters, with the compiled span and with the Python step; the span's returns to Python were exercised."""
+    """The same state after every dt (q, v, frames, body frame, forces, torques, head spin, contact, time, next
+    step) and the same counters, with the compiled span and with the Python step; the span's returns to Python were exercised."""
     overrides, phases, expected = CASES[case]
     codes = _count_spans(monkeypatch)
     seen, counters, sim = _run(overrides, phases, True)
