@@ -220,7 +220,7 @@ def run_identity(config: TrainConfig) -> dict[str, Any]:
 
 def _check_same_run(out: Path, meta: dict[str, Any], config: TrainConfig) -> None:
     """ValueError naming the first difference when ``out`` holds a run of another agent or task."""
-    from batch.store import _short, first_difference
+    from batch.store import short_repr, first_difference
 
     new = run_identity(config)
     old = meta.get("run")
@@ -231,8 +231,8 @@ def _check_same_run(out: Path, meta: dict[str, Any], config: TrainConfig) -> Non
     diff = first_difference(old, new)
     if diff is not None:
         key, a, b = diff
-        raise ValueError(f"--resume: {str(out)!r} holds another training run: {key} is {_short(a)} there and "
-                         f"{_short(b)} in this config; allowed: the same agent, task and network, or another --out")
+        raise ValueError(f"--resume: {str(out)!r} holds another training run: {key} is {short_repr(a)} there and "
+                         f"{short_repr(b)} in this config; allowed: the same agent, task and network, or another --out")
 
 
 def algorithm_class(name: str):

@@ -41,7 +41,7 @@ def check_scheduler_address(address: str) -> tuple[str, str, int]:
     return m["proto"] or "tcp", m["host"].strip("[]"), int(m["port"])
 
 
-def _probe(address: str) -> None:
+def probe_scheduler(address: str) -> None:
     """Fail at once (not after Dask's 30 s of retries) when nothing listens at a TCP address."""
     proto, host, port = check_scheduler_address(address)
     if proto != "tcp":
@@ -144,7 +144,7 @@ class DaskBackend:
             if not isinstance(address, str):
                 raise BackendError(f"scheduler={scheduler!r} is not allowed; allowed: an address 'tcp://HOST:PORT', "
                                    "a cluster object or a distributed.Client")
-            _probe(address)
+            probe_scheduler(address)
             try:
                 self.client = distributed.Client(address, timeout=SCHEDULER_TIMEOUT_S)
             except Exception as exc:  # OSError, TimeoutError, ValueError for a malformed address

@@ -232,7 +232,7 @@ def check_same_run(folder: Path, file_name: str, identity: dict[str, Any], what:
     diff = first_difference(old, new)
     if diff is not None:
         key, a, b = diff
-        raise SweepError(f"--resume: {folder} holds another {what}: {key} is {_short(a)} there and {_short(b)} here; "
+        raise SweepError(f"--resume: {folder} holds another {what}: {key} is {short_repr(a)} there and {short_repr(b)} here; "
                          f"allowed: the same settings as that run, or another output folder")
 
 
@@ -253,7 +253,8 @@ class _Absent:
 _ABSENT = _Absent()
 
 
-def _short(value: Any) -> str:
+def short_repr(value: Any) -> str:
+    """A value as a config file shows it (JSON, or repr for a string), cut to 80 characters: for one-line errors."""
     if value is _ABSENT:
         return "(absent)"
     s = json.dumps(value, default=str) if not isinstance(value, str) else repr(value)

@@ -81,9 +81,9 @@ def run_sweep(config: SweepConfig, out_dir: str | os.PathLike[str], workers: int
             check_same_run(store.out_dir, CONFIG_FILE, {"config": config.to_dict()}, "sweep")
             check_records_belong(store.records, {p.point_id for p in points}, store.out_dir, "sweep")
         if isinstance(scheduler, str):
-            from batch.backends import _probe
+            from batch.backends import probe_scheduler
 
-            _probe(scheduler)  # nobody listening: BackendError now, not after the status line
+            probe_scheduler(scheduler)  # nobody listening: BackendError now, not after the status line
         if on_start is not None:
             on_start()
         _write_config(store.out_dir, config, points)

@@ -41,6 +41,8 @@ class _TopParser(_Parser):
     """The top-level parser: an unknown option before the command is named (argparse would only say that
     COMMAND is missing, or complain about the command's own options)."""
 
+    commands: list[str]  # the command names, in ``COMMANDS`` order (``build_parser``)
+
     def parse_args(self, args=None, namespace=None):  # type: ignore[override]
         argv = list(sys.argv[1:] if args is None else args)
         known = {"-h", "--help", "--version"}
@@ -49,7 +51,7 @@ class _TopParser(_Parser):
                 break  # the command: what follows is its own
             if token not in known:
                 self.error(f"unrecognized argument {token!r} before the command; allowed: COMMAND (one of "
-                           f"{', '.join(self._commands)}) or {', '.join(sorted(known))}")
+                           f"{', '.join(self.commands)}) or {', '.join(sorted(known))}")
         return super().parse_args(argv, namespace)
 
 
@@ -59,10 +61,10 @@ def build_parser() -> argparse.ArgumentParser:
                                             "rotating helical flagellum in a viscous fluid.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    parser._commands = []
+    parser.commands = []
     for name in COMMANDS:
         module = importlib.import_module(f"flagellum.commands.{name}")
-        parser._commands.append(module.NAME)
+        parser.commands.append(module.NAME)
         cmd = sub.add_parser(module.NAME, help=module.HELP, description=module.DESCRIPTION)
         module.add_arguments(cmd)
         add_common_arguments(cmd, accepts_set=getattr(module, "ACCEPTS_SET", True),

@@ -114,7 +114,7 @@ class SteerConfig:
 
     def __post_init__(self) -> None:
         s = self._set
-        s("fixed_path", _resolve_path(self.path))
+        s("fixed_path", resolve_path(self.path))
         s("random_path", _sub_config(self.random_path, RandomPathConfig, "random_path"))
         check_preset(self.preset)
         s("params", _overrides(self.params, SwimmerParams, "params"))
@@ -206,12 +206,6 @@ def make_config(**kwargs: Any) -> SteerConfig:
 def resolve_path(spec: Any) -> WaypointPath | None:
     """The fixed path ``spec`` names, in any form the ``path`` argument takes (None for "random");
     ``ValueError`` naming ``spec`` otherwise."""
-    return _resolve_path(spec)
-
-
-# --- helpers -------------------------------------------------------------------------------
-def _resolve_path(spec: Any) -> WaypointPath | None:
-    """The fixed path named by ``spec`` (None for "random"); ValueError otherwise."""
     if isinstance(spec, WaypointPath):
         return spec
     if isinstance(spec, str) and spec in PATH_NAMES:

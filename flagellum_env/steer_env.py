@@ -9,7 +9,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from flagellum_env.config import DEFAULT_REACH_RADIUS_M, SteerConfig, _resolve_path, draw_randomization, make_config
+from flagellum_env.config import (DEFAULT_REACH_RADIUS_M, SteerConfig, draw_randomization, make_config,
+                                   resolve_path)
 from flagellum_env.observations import ObservationModel
 from flagellum_env.paths import WaypointPath, random_path
 from flagellum_env.registration import STEER_ENV_ID, STEER_FAST_ENV_ID, registered_max_episode_steps
@@ -245,7 +246,7 @@ class FlagellumSteerEnv(gym.Env):
             raise ValueError(f"unknown reset option(s) {unknown}; allowed: {list(RESET_OPTIONS)}")
         cfg, rng = self.config, self.np_random
         if "path" in options:
-            path = _resolve_path(options["path"]) or random_path(rng, cfg.random_path)
+            path = resolve_path(options["path"]) or random_path(rng, cfg.random_path)
         else:
             path = cfg.fixed_path or random_path(rng, cfg.random_path)
         self.episode_params, self._noise_std = self._draw_randomization(rng)

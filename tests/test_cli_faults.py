@@ -175,7 +175,7 @@ def test_evaluate_and_calibrate_turns_pass_the_scheduler_to_the_task_pool(tmp_pa
 
     monkeypatch.setattr(module, "run_tasks", fake_run_tasks)
     monkeypatch.setattr(evaluation, "check_controllers", lambda *a, **k: None)
-    monkeypatch.setattr(backends, "_probe", lambda address: None)
+    monkeypatch.setattr(backends, "probe_scheduler", lambda address: None)
     assert main(command + ["--scheduler", "tcp://10.1.2.3:8786", "--out", str(tmp_path / "o.json"),
                            "--no-progress"]) == 130
     assert seen["scheduler"] == "tcp://10.1.2.3:8786"

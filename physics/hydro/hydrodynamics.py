@@ -53,7 +53,7 @@ class HydroError(RuntimeError):
 
 # An explicit inverse costs about as much as 50-60 Cholesky solves and makes later solves ~3x
 # cheaper: form it once an operator has been used this often (i.e. when it is being reused).
-_INVERSE_AFTER_SOLVES = 60
+INVERSE_AFTER_SOLVES = 60
 
 
 class ResistanceOperator:
@@ -109,7 +109,7 @@ class ResistanceOperator:
             self.drag_t = sphere_translational_drag(mu, head_radius)
             self.drag_r = sphere_rotational_drag(mu, head_radius)
         self.nv = self.m3 + (3 if self.has_head else 0) + (1 if self.spin else 0)
-        self.applies = 0  # Cholesky solves so far (the inverse is formed after _INVERSE_AFTER_SOLVES)
+        self.applies = 0  # Cholesky solves so far (the inverse is formed after INVERSE_AFTER_SOLVES)
 
     @classmethod
     def from_parts(cls, a: np.ndarray, H: np.ndarray, g: np.ndarray, drag_t: float, drag_r: float, spin: bool,
@@ -145,7 +145,7 @@ class ResistanceOperator:
         if self.inv is not None:
             return self.inv @ b
         self.applies += 1
-        if self.applies > _INVERSE_AFTER_SOLVES:
+        if self.applies > INVERSE_AFTER_SOLVES:
             return self.inverse() @ b
         # LAPACK potrs directly: what cho_solve calls, without its wrapper (~5 % of a step)
         x, info = lapack.dpotrs(self.chol[0], b, lower=self.chol[1])

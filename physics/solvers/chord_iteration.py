@@ -28,7 +28,7 @@ Common to both: the residual (frames, elastic and contact forces with the contac
 
 Python acts only where the iteration does something other than arithmetic (LSBT only): a stall (the
 Jacobian is refactorised, ``DenseChordSolver.on_stall``) and the moment the resistance operator forms its explicit
-inverse (``ResistanceOperator.inverse``, after ``_INVERSE_AFTER_SOLVES`` Cholesky solves); the loop returns there
+inverse (``ResistanceOperator.inverse``, after ``INVERSE_AFTER_SOLVES`` Cholesky solves); the loop returns there
 and ``chord_solve`` resumes it where it stopped (``phase``).
 """
 
@@ -43,7 +43,7 @@ from numba.extending import overload
 from physics.elastic import BANDWIDTH
 from physics.linalg.compiled_lapack import gbsv, getrs, numpy_dot, numpy_matvec, potrs_upper
 from physics.errors import StepFailed
-from physics.hydro.hydrodynamics import _INVERSE_AFTER_SOLVES, HydroError
+from physics.hydro.hydrodynamics import INVERSE_AFTER_SOLVES, HydroError
 from physics.hydro.rft import local_drag_apply
 from physics.solvers.implicit_residual import (BandedNewtonTerms, assemble_residual, banded_newton_matrix,
                                                block_max_abs, forces_converged, generalised_velocity,
@@ -434,7 +434,7 @@ def chord_solve(sim: Any, q: np.ndarray, h: float):
                                printed=hyd.printed, Qh=np.ascontiguousarray(solver.Qh))
             lin = ChordLinear(lu=solver.lu[0], piv1=solver.piv1, Qj=np.ascontiguousarray(solver.Qj),
                               jac_fresh=solver.jac_fresh)
-            inverse_state = InverseState(use_inv=use_inv, applies=hyd.applies, applies_max=_INVERSE_AFTER_SOLVES)
+            inverse_state = InverseState(use_inv=use_inv, applies=hyd.applies, applies_max=INVERSE_AFTER_SOLVES)
         (code, q, it, phase, hist, carried, cstate, rstate, applies, evaluated, solves, value) = chord_loop(
             q, h, it, phase, hist, carried, ctx.q_start, frames_old, system.rest, base, arrays, hydro, inverse_state,
             contact_on, model, cstate, ctx.first_step, lin, tols, rstate)

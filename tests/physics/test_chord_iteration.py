@@ -136,7 +136,7 @@ def test_a_steady_step_is_the_python_iteration_bit_for_bit(steady):
 
 def test_a_step_that_forms_the_inverse_inside_the_iteration_is_the_python_iteration(steady):
     """Before the inverse exists the resistance is applied by Cholesky solves; the solve that crosses
-    ``_INVERSE_AFTER_SOLVES`` forms the inverse (Python enters there) and the iteration goes on with it."""
+    ``INVERSE_AFTER_SOLVES`` forms the inverse (Python enters there) and the iteration goes on with it."""
     sim = steady
     q, h = _open_chord_step(sim, 0.1)
     hyd = sim.solver.hyd
