@@ -85,12 +85,16 @@ QUICK_METRICS = ("swim_per_turn_10rpm", "lratio_100s")
 
 # --- flagellum bench --quick: one row per preset ------------------------------------------------
 #: The burst of the quick protocol: from steady 10 rpm, BURST_TC s at BURST_RPM, then 10 rpm until the
-#: heading settles (``agents.turn_measurement``).
+#: heading settles (``agents.turn_measurement``); the ``turns`` metric repeats it for the shorter TURN_TCS, so the
+#: turn is measured on the rising branch (4 s), past its peak (6 s) and tumbling (8 s).
 BURST_RPM = 150.0
-BURST_TC = 7.5
+BURST_TC = 8.0
+TURN_TCS = (4.0, 6.0)
 #: The held-out path of the episode metric (a start and 3 waypoints, from the committed eval set).
 EPISODE_PATH = "planar_1000.json"
-QUICK_PRESET_METRICS = ("swim_per_turn_10rpm", "burst", "episode", "env_random")
+QUICK_PRESET_METRICS = ("swim_per_turn_10rpm", "burst", "turns", "episode", "env_random")
+#: the quick protocol's row of the turn-level surrogate (``surrogate_tier``), measured in the same run
+SURROGATE_CONFIG = "surrogate"
 #: the steady cruise is measured after this many seconds more at 10 rpm (6 s start + 20 s: the helix has settled)
 SETTLE_S = 20.0
 #: env steps of the quick protocol: ``FlagellumSteer-v0`` at its default control step, random actions (seed 0)
@@ -99,32 +103,41 @@ ENV_RANDOM_STEPS = 40
 #: the configuration every quick row's errors are measured against (``physics.presets``)
 QUICK_REFERENCE = "reference"
 #: value -> name of the error in the quick rows
-QUICK_ERRORS = {"swim_per_turn_10rpm": "swim_per_turn", "theta_burst": "theta", "phi_burst": "phi",
+QUICK_ERRORS = {"swim_per_turn_10rpm": "swim_per_turn", "theta_tc4": "theta_tc4", "theta_tc6": "theta_tc6",
+                "theta_tc8": "theta_tc8", "phi_tc4": "phi_tc4", "phi_tc6": "phi_tc6", "phi_tc8": "phi_tc8",
                 "lratio_burst": "lratio_end_of_burst"}
 
 
 def quick_configs() -> tuple[FidelityConfig, ...]:
-    from physics.presets import preset_names
+    """Every preset, and the turn-level surrogate (of the default preset: its map and calibration)."""
+    from physics.presets import DEFAULT_PRESET, preset_names
 
-    return tuple(FidelityConfig(p, p) for p in preset_names())
+    return tuple(FidelityConfig(p, p) for p in preset_names()) + (FidelityConfig(SURROGATE_CONFIG, DEFAULT_PRESET),)
 
 
 def quick_tasks(configs: tuple[FidelityConfig, ...]) -> list[tuple[FidelityConfig, str]]:
     """(config, metric) of the quick protocol: every metric for every preset, but the episode and the random-policy
-    env only for the presets users swim with (not ``paper`` and ``reference``: minutes each)."""
+    env only for the presets users swim with (not ``paper`` and ``reference``: minutes each); the surrogate's own
+    metrics (``surrogate_tier.SURROGATE_METRICS``) for the surrogate."""
+    from flagellum_bench.surrogate_tier import SURROGATE_METRICS
+
     slow = ("paper", QUICK_REFERENCE)
-    return [(c, m) for m in QUICK_PRESET_METRICS for c in configs
-            if not (c.name in slow and m in ("episode", "env_random"))]
+    tasks = [(c, m) for m in QUICK_PRESET_METRICS for c in configs if c.name != SURROGATE_CONFIG
+             and not (c.name in slow and m in ("episode", "env_random"))]
+    return tasks + [(c, m) for m in SURROGATE_METRICS for c in configs if c.name == SURROGATE_CONFIG]
 
 
 def quick_rows(done: dict[tuple[str, str], dict], configs: tuple[FidelityConfig, ...]) -> list[dict[str, Any]]:
     """The rows of ``bench --quick``: config, preset, real_time_factor (steady 10 rpm), burst_real_time_factor
-    (the 150 rpm burst), episode_wall_s, their CPU-time versions, values, and errors against ``QUICK_REFERENCE``."""
+    (the 150 rpm burst), episode_wall_s, their CPU-time versions, the episode's simulated s per CPU s, values, and
+    errors against ``QUICK_REFERENCE`` (the surrogate's: its map's leave-one-out error, ``surrogate_tier``)."""
+    from flagellum_bench.surrogate_tier import SURROGATE_METRICS
+
     values: dict[str, dict[str, Any]] = {}
     rows = []
     for c in configs:
         vals, rtf, failures = {}, {}, []
-        for m in QUICK_PRESET_METRICS:
+        for m in QUICK_PRESET_METRICS + SURROGATE_METRICS:
             rec = done.get((c.name, m))
             if rec is None:
                 continue
@@ -142,6 +155,9 @@ def quick_rows(done: dict[tuple[str, str], dict], configs: tuple[FidelityConfig,
                      "burst_real_time_factor_cpu": rtf.get("burst", (None, None))[1],
                      "relax_real_time_factor_cpu": vals.get("relax_rtf_cpu"),
                      "episode_wall_s": vals.get("episode_wall_s"), "episode_cpu_s": vals.get("episode_cpu_s"),
+                     "episode_real_time_factor_cpu": (vals["episode_time_s"] / vals["episode_cpu_s"]
+                                                      if vals.get("episode_cpu_s") else None),
+                     "decisions_per_cpu_s": vals.get("decisions_per_cpu_s"),
                      "env_steps_per_s_rule": vals.get("env_steps_per_s_rule"),
                      "env_steps_per_s_random": vals.get("env_steps_per_s_random"),
                      "values": vals, "failures": failures,
@@ -152,6 +168,8 @@ def quick_rows(done: dict[tuple[str, str], dict], configs: tuple[FidelityConfig,
         row["errors"] = {QUICK_ERRORS[k]: relative_error(k, v, ref[k])
                          for k, v in row["values"].items()
                          if k in QUICK_ERRORS and isinstance(v, (int, float)) and isinstance(ref.get(k), (int, float))}
+        if "map_loo_rising_relative_max" in row["values"]:  # the surrogate: its error between the map's samples
+            row["errors"]["theta_between_samples"] = row["values"]["map_loo_rising_relative_max"]
     return rows
 FULL_METRICS = QUICK_METRICS + tuple(f"turn_tc{int(t)}" for t in TC_VALUES) + ("omega_b",)
 
@@ -217,12 +235,24 @@ def run_metric(cfg: FidelityConfig, metric: str) -> dict[str, Any]:
 
         sim = _steady(cfg)
         res = measure_turn(sim, 10.0, BURST_RPM, BURST_TC, relax_max_s=90.0)
-        out.update(theta_burst=res.theta_deg, phi_burst=res.phi_deg, lratio_burst=res.burst_end_ratio,
-                   straight=res.straight)
+        out.update({f"theta_tc{BURST_TC:g}": res.theta_deg, f"phi_tc{BURST_TC:g}": res.phi_deg,
+                    "lratio_burst": res.burst_end_ratio, "straight": res.straight})
         out["rtf"] = BURST_TC / res.burst_wall_s
         out["rtf_cpu"] = BURST_TC / max(res.burst_cpu_s, 1e-9)
         out["relax_s"] = res.relax_s
         out["relax_rtf_cpu"] = res.relax_s / max(res.relax_cpu_s, 1e-9)
+    elif metric == "turns":
+        from agents.turn_measurement import measure_turn
+
+        for tc in TURN_TCS:  # each from the burst's start: the same phase
+            res = measure_turn(_steady(cfg), 10.0, BURST_RPM, tc, relax_max_s=90.0)
+            out.update({f"theta_tc{tc:g}": res.theta_deg, f"phi_tc{tc:g}": res.phi_deg,
+                        f"straight_tc{tc:g}": res.straight})
+    elif metric.startswith("surrogate_"):
+        from agents.assets import eval_paths_dir
+        from flagellum_bench.surrogate_tier import run_surrogate_metric
+
+        out.update(run_surrogate_metric(metric, str(eval_paths_dir() / EPISODE_PATH), ANGLE_FLOOR_DEG))
     elif metric == "episode":
         from agents.assets import eval_paths_dir
         from agents.path_following import EpisodeTask

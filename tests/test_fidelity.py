@@ -145,8 +145,15 @@ def test_bench_runs_its_tasks_on_a_dask_cluster_with_scheduler(tmp_path, monkeyp
     tasks = quick_tasks(configs)
     cheap = next((c, m) for c, m in tasks if c.name == "faithful" and m == "swim_per_turn_10rpm")
     stubs = {"swim_per_turn_10rpm": {"swim_per_turn_10rpm": 0.0028, "rtf": 1.0, "rtf_cpu": 1.0, "wall_s": 1.0},
-             "burst": {"theta_burst": 80.0, "phi_burst": 80.0, "lratio_burst": 0.5, "straight": True, "rtf": 1.0,
+             "burst": {"theta_tc8": 80.0, "phi_tc8": 80.0, "lratio_burst": 0.5, "straight": True, "rtf": 1.0,
                        "rtf_cpu": 1.0, "wall_s": 1.0},
+             "turns": {"theta_tc4": 60.0, "phi_tc4": 5.0, "theta_tc6": 120.0, "phi_tc6": 30.0, "wall_s": 1.0},
+             "surrogate_episode": {"episode_success": True, "episode_mean_cross_track_m": 0.012,
+                                   "episode_time_s": 290.0, "episode_cpu_s": 0.002, "episode_decisions": 5,
+                                   "rtf_cpu": 145000.0, "decisions_per_cpu_s": 8000.0, "wall_s": 0.1},
+             "surrogate_map": {"map_loo_rising_rms_deg": 3.5, "map_loo_rising_max_deg": 7.2,
+                               "map_loo_peak_rms_deg": 36.7, "map_loo_beyond_rms_deg": 20.7,
+                               "map_loo_rising_relative_max": 0.09, "wall_s": 0.1},
              "episode": {"episode_wall_s": 9.0, "episode_cpu_s": 9.0, "episode_success": True,
                          "episode_mean_cross_track_m": 0.01, "episode_time_s": 300.0, "rtf": 30.0, "wall_s": 9.0,
                          "env_steps_per_s_rule": 16.7},
@@ -171,9 +178,32 @@ def test_bench_runs_its_tasks_on_a_dask_cluster_with_scheduler(tmp_path, monkeyp
     row = next(r for r in rows if r["config"] == "faithful")
     assert set(row) >= {"config", "preset", "real_time_factor", "burst_real_time_factor", "episode_wall_s", "errors",
                         "relax_real_time_factor_cpu", "env_steps_per_s_rule", "env_steps_per_s_random"}
-    assert row["errors"]["theta"] == 0.0 and row["episode_wall_s"] == 9.0  # the stubs equal reference's
+    assert row["errors"]["theta_tc8"] == 0.0 and row["episode_wall_s"] == 9.0  # the stubs equal reference's
+    assert row["errors"]["theta_tc4"] == 0.0 and row["episode_real_time_factor_cpu"] == pytest.approx(300.0 / 9.0)
     assert row["env_steps_per_s_random"] == 4.0
     assert next(r for r in rows if r["config"] == "reference")["episode_wall_s"] is None  # not run for reference
+    sur = next(r for r in rows if r["config"] == "surrogate")  # the cheapest tier, in the same run
+    assert sur["decisions_per_cpu_s"] == 8000.0 and sur["errors"] == {"theta_between_samples": 0.09}
+    assert sur["episode_real_time_factor_cpu"] == pytest.approx(145000.0) and sur["real_time_factor"] is None
     md = (tmp_path / "quick.md").read_text()
     assert "faithful" in md and "](quick.png)" in md  # the Pareto figure, written beside it
+    assert "| surrogate |" in md and "rising branch RMS 3.5" in md
     assert (tmp_path / "quick.png").stat().st_size > 10_000
+
+
+def test_the_surrogate_tier_measures_its_episode_speed_and_map_error():
+    """The surrogate row's two tasks on the quick protocol's path: the rule planner's episode in the surrogate
+    (success, cross-track, simulated s per CPU s, decisions per CPU s) and its map's leave-one-out error."""
+    from agents.assets import eval_paths_dir
+    from flagellum_bench.fidelity import ANGLE_FLOOR_DEG, EPISODE_PATH
+    from flagellum_bench.surrogate_tier import run_surrogate_metric
+
+    ep = run_surrogate_metric("surrogate_episode", str(eval_paths_dir() / EPISODE_PATH), ANGLE_FLOOR_DEG)
+    assert ep["episode_success"] and 0.0 < ep["episode_mean_cross_track_m"] < 0.05
+    assert ep["episode_decisions"] >= 3 and ep["episode_time_s"] > 100.0  # three waypoints, minutes of swimming
+    assert ep["rtf_cpu"] > 1000.0 and ep["decisions_per_cpu_s"] > 100.0  # no rod: far faster than real time
+    m = run_surrogate_metric("surrogate_map", "", ANGLE_FLOOR_DEG)
+    assert 0.0 < m["map_loo_rising_rms_deg"] <= m["map_loo_rising_max_deg"] < m["map_loo_peak_rms_deg"]
+    assert 0.0 < m["map_loo_rising_relative_max"] < 1.0
+    with pytest.raises(ValueError, match="unknown surrogate metric 'surrogate_x'"):
+        run_surrogate_metric("surrogate_x", "", ANGLE_FLOOR_DEG)

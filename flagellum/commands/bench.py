@@ -6,7 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
-from flagellum_bench.fidelity import BURST_RPM, BURST_TC, QUICK_REFERENCE
+from flagellum_bench.fidelity import BURST_RPM, BURST_TC, QUICK_REFERENCE, TURN_TCS
 from flagellum.commands.common import SCHEDULER_HELP, UsageError, ensure_dir, parse_workers
 
 NAME = "bench"
@@ -22,11 +22,13 @@ PRESET = None
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true",
-                        help="one row per preset (minutes): steady 10 rpm real-time factor (after the helix has settled) "
-                             f"and swim speed, a {BURST_TC:g} s burst at {BURST_RPM:g} rpm (real-time factor, turn "
-                             "angles, L'/L at its end), the relaxation after it, the rule planner's CPU and wall time "
-                             "on one held-out path, env steps/s under its actions and a random policy, errors "
-                             f"against {QUICK_REFERENCE!r}")
+                        help="every tier in one run, one row each (minutes): each preset's steady 10 rpm real-time "
+                             "factor (after the helix has settled) and swim speed, bursts of "
+                             f"{', '.join(f'{t:g}' for t in (*TURN_TCS, BURST_TC))} s at {BURST_RPM:g} rpm (turn "
+                             f"angles; real-time factor and L'/L of the {BURST_TC:g} s one), the relaxation after it, "
+                             "the rule planner's CPU and wall time on one held-out path, env steps/s under its actions "
+                             f"and a random policy, errors against {QUICK_REFERENCE!r}; and the turn-level surrogate's "
+                             "episode on that path, decisions/s and its map's error between samples")
     parser.add_argument("--full", action="store_true", help="the ladder with all metrics (turning angles, omega_b): "
                                                             "hours")
     parser.add_argument("--json", default=None,
@@ -81,7 +83,7 @@ def _run_quick(out: Path, results: Path, workers, scheduler, progress: bool, t0:
     import json
 
     from flagellum_bench.fidelity import quick_configs, quick_rows, quick_tasks, run_fidelity
-    from flagellum_bench.report import quick_markdown, quick_pareto_plot
+    from flagellum_bench.quick_report import quick_markdown, quick_pareto_plot
     from batch.store import SweepError
 
     configs = quick_configs()
@@ -98,7 +100,8 @@ def _run_quick(out: Path, results: Path, workers, scheduler, progress: bool, t0:
                                                      figure=out.with_suffix(".png").name))
     for r in rows:
         print(f"{r['config']:10s} " + "  ".join(f"{k} {_fmt(r[k])}" for k in
-                                                ("real_time_factor", "burst_real_time_factor", "episode_wall_s"))
+                                                ("real_time_factor", "burst_real_time_factor", "episode_wall_s",
+                                                 "decisions_per_cpu_s"))
               + "  errors " + ", ".join(f"{k} {100 * v:.2f} %" for k, v in r["errors"].items()))
     print(f"wrote {out}, {out.with_suffix('.md')}, {out.with_suffix('.png')}")
     return 0
