@@ -13,7 +13,7 @@ there, ``--fresh`` starts over):
   swim per turn (head displacement / 2, m), mean motor torque (N m, sampled every 0.1 s), CPU real-time factor;
 * ``turn:<t_c>``: from the same steady start, ``agents.turn_measurement.measure_turn`` with omega_l = 10 rpm,
   omega_h = 150 rpm, burst t_c s, phase 0: theta, phi (deg), L'/L at the burst's end, the burst's CPU seconds;
-* ``burst``: the protocol of ``flagellum bench --quick`` (6 s at 10 rpm, 7.5 s at 150 rpm, relaxation): the
+* ``burst``: 6 s at 10 rpm, 7.5 s at 150 rpm, relaxation (``flagellum bench --quick``'s burst when it was run): the
   burst's CPU real-time factor (simulated s per CPU s), theta;
 * ``buckle:<rpm>``: L'/L after 100 s at ``rpm`` from rest (buckled: < 0.98, as the fidelity ladder's omega_b);
 * ``env``: ``FlagellumSteer-v0`` with the case's settings, control_dt 2 s, 40 random actions (seed 0): env steps
