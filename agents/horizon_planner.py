@@ -453,6 +453,7 @@ class HorizonEpisode(AdaptiveEpisode):
     segment_start: np.ndarray = field(default_factory=lambda: np.zeros(3))
     searches: int = 0
     search_s: float = 0.0
+    rel_pending: np.ndarray | None = None  # (k, 3) the waypoints relative to the head (m) read at this step
 
 
 class HorizonPlanner(AdaptivePlanner):
@@ -487,13 +488,13 @@ class HorizonPlanner(AdaptivePlanner):
         lay = self.layout
         rot = obs[lay.orientation].reshape(3, 3).T
         rel = (obs[lay.waypoints].reshape(-1, 3) * lay.length_scale_m) @ rot.T
-        ep._rel_pending = rel  # type: ignore[attr-defined]
+        ep.rel_pending = rel
         return super()._decide(ep, obs)
 
     def _plan_turn(self, head, d, target, node, ep=None):
         if ep.step < ep.next_search:
             return None
-        rel = ep._rel_pending
+        rel = ep.rel_pending
         targets = ep.head + rel
         if ep.targets is not None and float(np.linalg.norm(targets[0] - ep.targets[0])) > 1e-6:
             ep.segment_start = ep.targets[0].copy()  # the target switched: the old one starts the segment
