@@ -66,9 +66,9 @@ LADDER: tuple[FidelityConfig, ...] = (
     FidelityConfig("paper, h = 5 ms, refresh 0.3 r0", "paper", numerics={"dt": 5e-3, "hydro_refresh_tol": 0.3}),
     FidelityConfig("paper, h = 5 ms, Stokes head", "paper", numerics={"dt": 5e-3, "head_model": "stokes"}),
     FidelityConfig("faithful", "faithful"),
-    # `balanced` until 2026-12-02 (retired: implicit Euler at 20 ms turns 14 % less than paper)
+    # the retired preset `balanced`, as its configuration (implicit Euler at 20 ms turns 14 % less than paper)
     FidelityConfig("balanced", "paper", numerics={"dt": 2e-2, "newton_tol": 1e-5}),
-    FidelityConfig("LSBT N = 60, h = 5 ms, refresh 0.1 r0", "paper",  # `balanced` before 2026-12-01
+    FidelityConfig("LSBT N = 60, h = 5 ms, refresh 0.1 r0", "paper",
                    params={"n_nodes": 60}, numerics={"dt": 5e-3, "hydro_refresh_tol": 0.1}),
     FidelityConfig("fast", "fast"),
     # the retired preset coarse (docs/bench_quick.md), as its configuration
