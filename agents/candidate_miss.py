@@ -137,6 +137,40 @@ def paper_rule_misses(head: np.ndarray, d: np.ndarray, target: np.ndarray, frame
 
 
 @njit(cache=True)
+def pick_least(miss: np.ndarray, miss_straight: float, improvement: float) -> tuple[int, float]:
+    """(flat index of the least of ``miss`` (T, B) m, that miss), the first among equals and a NaN before all
+    (``np.argmin``'s); index -1 if it does not beat swimming on's ``miss_straight`` by ``improvement`` (m): the rule
+    planner's choice by the miss alone (``agents.turn_planner.pick_turn``)."""
+    flat = miss.ravel()
+    k, best = 0, flat[0]
+    if not math.isnan(best):
+        for c in range(1, flat.shape[0]):
+            x = flat[c]
+            if x < best:
+                k, best = c, x
+            elif math.isnan(x):
+                k, best = c, x
+                break
+    if best > miss_straight - improvement:
+        return -1, best
+    return k, best
+
+
+@njit(cache=True)
+def paper_rule_choice(head: np.ndarray, d: np.ndarray, target: np.ndarray, frames: np.ndarray,
+                      behind_penalty: float, hit_miss_m: float, min_turn_deg: float, improvement: float,
+                      out: np.ndarray) -> tuple[int, float, int, float]:
+    """The rule planner's plan with the paper's miss and no line score: (``turn_wanted``, swimming on's miss m, the
+    chosen candidate's flat index in (T, B) or -1 for none, its miss m) of ``paper_rule_misses`` (its arguments and
+    ``out``) and ``pick_least``."""
+    wanted, miss0 = paper_rule_misses(head, d, target, frames, behind_penalty, hit_miss_m, min_turn_deg, out)
+    if wanted <= 0:
+        return wanted, miss0, -1, math.nan
+    k, best = pick_least(out, miss0, improvement)
+    return wanted, miss0, k, best
+
+
+@njit(cache=True)
 def target_in_frame(head: np.ndarray, d: np.ndarray, target: np.ndarray) -> tuple[float, float, float]:
     """The target minus the head in the frame (d, e1, e2) of the unit heading d, (e1, e2) = ``perpendicular_basis(d)``
     (``local_target``), m; all (3,) float64."""

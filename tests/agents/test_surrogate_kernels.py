@@ -14,10 +14,11 @@ import pytest
 
 from agents.assets import default_turn_map
 from agents.candidate_miss import (candidate_frames, candidate_miss, first_improving_sample, line_miss, local_target,
-                                   paper_rule_misses, target_in_frame, turn_wanted)
+                                   paper_rule_misses, pick_least, target_in_frame, turn_wanted)
 from agents.residual_planner import N_FEATURES, turn_features
 from agents.surrogate_calibration import SurrogateCalibration, calibration_file
-from agents.surrogate_legs import SegmentFrames, fly_leg
+from agents.surrogate_legs import (ACC_REACHED, CROSS, ENERGY, LEG_SIZE, OFF_PATH, OFF_PATH_M, REACH, STATE_SIZE, TIME,
+                                   TIME_LIMIT, TERMINATED, TRUNCATED, SegmentFrames, fly_state)
 from agents.surrogate_swimmer import SurrogateSwimmer, TurnMapTable
 from agents.turn_geometry import angle_between, azimuth, perpendicular_basis, unit, wrap_angle
 from agents.turn_map import TurnMap
@@ -174,7 +175,7 @@ def _oracle_entry(a, v, w, radius):
 
 
 def _oracle_leg(tracker, start, end, duration_s, time_s, time_limit_s, off_path_m, stop_at_waypoint):
-    """(end, duration, reached, cross integral, off path, timed out): ``fly_leg``'s loop in Python."""
+    """(end, duration, reached, cross integral, off path, timed out): ``fly_state``'s leg in Python."""
     path = tracker.path
     a, b = start.tolist(), end.tolist()
     timed_out = False
@@ -227,10 +228,18 @@ def test_a_compiled_leg_is_the_python_leg():
         end = start + rng.normal(0, 0.05, 3)
         args = (start, end, float(rng.uniform(0.5, 20.0)), float(rng.uniform(0, 50)), 60.0,
                 float(rng.uniform(0.01, 0.05)), bool(rng.integers(2)))
-        leg = fly_leg(fast, SegmentFrames(fast), *args)
+        start, end, duration_s, time_s, limit_s, off_m, stop = args
+        state, consts = np.zeros(STATE_SIZE), np.zeros(LEG_SIZE)
+        state[0:3], state[TIME] = start, time_s
+        consts[[REACH, TIME_LIMIT, OFF_PATH_M]] = reach, limit_s, off_m
+        # a power of 1 W: the energy is the duration flown
+        got, how = fly_state(state, *end.tolist(), duration_s, 1.0, 0.0, False, stop, fast.index,
+                             SegmentFrames(fast).table, consts)
+        fast.mark_reached(got)
         p, flown, reached, cross, off, timed_out = _oracle_leg(slow, *args)
-        assert leg.end.tolist() == p and (leg.duration_s, leg.reached, leg.cross_integral, leg.off_path,
-                                          leg.timed_out) == (flown, reached, cross, off, timed_out), trial
+        assert state[0:3].tolist() == p and (state[ENERGY], got, state[CROSS], bool(state[OFF_PATH]),
+                                             how == TRUNCATED) == (flown, reached, cross, off, timed_out), trial
+        assert state[ACC_REACHED] == reached and (how == TERMINATED) == (slow.done or off)
         assert fast.index == slow.index
         kinds.update({("reached", reached > 0), ("off", off), ("timed_out", timed_out)})
     assert kinds >= {("reached", True), ("off", True), ("timed_out", True), ("reached", False)}
@@ -377,3 +386,17 @@ def test_theta_for_reads_the_rising_branch(tmap):
     t, y = tmap.rising_branch()
     for t_c in np.linspace(-0.5, t[-1] + 1.0, 57):
         assert tmap.theta_for(float(t_c)) == float(np.interp(t_c, t, y))
+
+
+def test_the_compiled_choice_is_argmin_and_the_improvement_test():
+    """``pick_least``: np.argmin's index (the first of equal misses, a NaN before all) and the rule's test."""
+    rng = np.random.default_rng(2)
+    for trial in range(200):
+        miss = rng.integers(0, 5, (4, 6)).astype(float) * 0.01  # ties
+        if trial % 5 == 0:
+            miss.flat[rng.integers(miss.size)] = np.nan
+        straight = float(rng.uniform(0.0, 0.06))
+        k, best = pick_least(miss, straight, 0.005)
+        want = int(miss.argmin())
+        assert (k, best) == ((want if not miss.flat[want] > straight - 0.005 else -1), miss.flat[want]) or (
+            math.isnan(best) and k == want and math.isnan(miss.flat[want]))
