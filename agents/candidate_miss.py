@@ -27,7 +27,7 @@ import math
 import numpy as np
 from numba import njit
 
-from agents.turn_geometry import angle_of, norm3, unit_basis
+from agents.turn_geometry import angle_of, norm3, unit_basis, wrap_angle
 from physics.linalg.vec3 import dot3, rowdot3, rownorm3
 
 
@@ -168,6 +168,16 @@ def paper_rule_choice(head: np.ndarray, d: np.ndarray, target: np.ndarray, frame
         return wanted, miss0, -1, math.nan
     k, best = pick_least(out, miss0, improvement)
     return wanted, miss0, k, best
+
+
+@njit(cache=True)
+def candidate_plan(t_c: np.ndarray, theta: np.ndarray, psi: np.ndarray, beta: np.ndarray, i: int, j: int
+                   ) -> tuple[float, float, float, float]:
+    """Candidate turn ``i`` (``t_c`` s, ``theta``, ``psi`` rad, (T,)) flown at burst phase ``j`` (``beta`` (B,) rad):
+    (its burst length s, theta deg, the burst phase rad and the new heading's predicted azimuth rad, beta + psi,
+    both wrapped to (-pi, pi]) (``agents.turn_planner.RulePlanner.plan_of``)."""
+    b = beta[j]
+    return t_c[i], math.degrees(theta[i]), wrap_angle(b), wrap_angle(b + psi[i])
 
 
 @njit(cache=True)

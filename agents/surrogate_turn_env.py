@@ -44,16 +44,18 @@ from gymnasium.utils import seeding
 
 from agents.controller_spec import CONTROLLER_ENV_DEFAULTS
 from agents.registration import TURN_SURROGATE_ENV_ID
-from agents.residual_planner import ResidualLimits, base_planner, corrected_plan, turn_features
+from agents.residual_planner import (ResidualLimits, base_planner, clipped_residual, corrected_turn, feature_error,
+                                     feature_vector)
 from agents.surrogate_calibration import SurrogateCalibration, calibration_file
 from agents.surrogate_episode import SurrogateEpisode, surrogate_info
 from agents.surrogate_swimmer import FACTOR_RANGE, SurrogateSwimmer, TurnMapTable
 from agents.turn_decision_env import (DEFAULT_ACTION_COST, DEFAULT_RANDOM_PATH, TurnEpisodes, fixed_paths,
                                       load_turn_map, parse_turn_action, refuse_unknown_arguments, residual_limits,
                                       turn_env_kwargs)
-from agents.candidate_miss import first_improving_distance, first_improving_sample, paper_rule_choice, target_in_frame
+from agents.candidate_miss import (candidate_plan, first_improving_distance, first_improving_sample, paper_rule_choice,
+                                   target_in_frame)
 from agents.surrogate_episode import cruise_state
-from agents.surrogate_legs import DT, GOES_ON, HEADING, REACH, SPEED
+from agents.surrogate_legs import DT, GOES_ON, HEADING, REACH, SPEED, TIME
 from agents.turn_geometry import angle_between
 from agents.turn_map import TurnMap
 from agents.turn_planner import BEHIND_PENALTY_M, PlannerEpisode, RulePlanner
@@ -131,6 +133,12 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         self._line = pcfg.line_weight > 0.0
         self._frames = self.planner.episode_frames(None)
         self._miss = np.empty(self._frames.shape[:2])
+        t_c, theta, psi, _ = self.planner.candidate_turns(None)
+        #: the candidate turns' burst lengths (s), theta and psi (rad), and the burst phases (rad), for plan_or_cruise
+        self._candidates, self._phases = np.stack([t_c, theta, psi]), self.planner.burst_phases
+        self._curves = tmap.turn_curves()
+        #: the plan (PLAN_SIZE) and the last turn flown (PREV_SIZE)
+        self._plan, self._prev = np.zeros(PLAN_SIZE), np.zeros(PREV_SIZE)
         #: the hover's and relaxation's wait bounds (s): two map periods, max_relax_factor x the map's median
         self._relax_wait_s = (2 * self.planner.period_steps * cfg.control_dt, pcfg.max_relax_factor * tmap.relax_s)
         self._episode = 0
@@ -163,8 +171,11 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         self.max_steps = max(1, math.ceil(max_time / cfg.control_dt - 1e-9))
         self.time_limit_s = self.max_steps * cfg.control_dt
         self.episode = SurrogateEpisode(self.swimmer, self.tracker, cfg, self.time_limit_s)
-        self._ep = PlannerEpisode()
-        self._plan: dict | None = None
+        self._ep = PlannerEpisode() if self._line else None
+        self._planned = False
+        self._n_turns = 0
+        self._feature_consts = np.array([reach, self.calibration.cruise_end_to_end_ratio, self.max_steps,
+                                         cfg.control_dt, self._max_theta])
         self._done = False
         # the planner measures a heading after one period at omega_l (RulePlanner._decide, cruise)
         end = self.episode.cruise((self.planner.period_steps + 1) * cfg.control_dt)
@@ -178,6 +189,17 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         """The swimmer's heading now, (3,) unit."""
         return self.episode.heading
 
+    @property
+    def last_turn(self) -> dict[str, Any] | None:
+        """The last turn flown in this episode (None before the first): ``heading`` (the heading it was planned
+        from, [3] unit), ``predicted_theta_deg`` and ``predicted_azimuth`` (rad), as ``corrected_plan`` predicts
+        them."""
+        if self._n_turns == 0:
+            return None
+        prev = self._prev
+        return {"heading": prev[0:3].tolist(), "predicted_theta_deg": float(prev[PREV_THETA_DEG]),
+                "predicted_azimuth": float(prev[PREV_AZIMUTH])}
+
     def step(self, action: Any):
         if self._done:
             raise RuntimeError("call reset() before step()")
@@ -185,9 +207,13 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         reward, end = self._pending
         self._pending = (0.0, None)
         if end is None:
-            plan = corrected_plan(self._plan, a, self.turn_map, self.limits)
-            a0, a1 = plan["residual"]  # the action clipped to [-1, 1]
-            end = self._turn(plan)
+            a0, a1 = clipped_residual(a)
+            plan, prev, lim = self._plan, self._prev, self.limits
+            t_c, phase, prev[PREV_THETA_DEG], prev[PREV_AZIMUTH] = corrected_turn(
+                plan[PLAN_T_C], plan[PLAN_PHASE], a0, a1, lim.max_dtc_fraction, lim.max_dphase_deg, *self._curves)
+            prev[0:3] = plan[PLAN_HEADING:PLAN_HEADING + 3]  # the planner's last turn (the next features')
+            self._n_turns += 1
+            end = self._turn(t_c, phase)
             if end is None:
                 end = self._advance()
             reward += self.episode.reward() - self.action_cost * dot3s(a0, a1, 0.0, a0, a1, 0.0)  # a @ a
@@ -197,8 +223,8 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
 
     # --- the planner's loop, event by event ---------------------------------------------------
     def _advance(self) -> tuple[bool, bool] | None:
-        """Cruise until the planner plans a turn (``self._plan``; returns None) or the episode ends (returns
-        (terminated, truncated))."""
+        """Cruise until the planner plans a turn (``self._plan``, ``PLAN_SIZE``; returns None) or the episode ends
+        (returns (terminated, truncated))."""
         pl, tr, run = self.planner, self.tracker, self.episode
         st, table, consts, checks = run.state, run.frames.table, run.consts, self._checks
         while True:
@@ -207,29 +233,28 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
                 pl._track_segment(self._ep, target)
                 plan = pl.rule_plan(run.head, run.heading, target, self._ep, RulePlanner._line_miss)
                 if plan is not None:
-                    self._plan = plan
+                    self._plan[:] = (plan["t_c"], plan["theta_deg"], plan["predicted_miss_m"],
+                                     plan["miss_straight_m"], *plan["heading"], plan["burst_phase"])
+                    self._planned = True
                     return None
                 end = run.cruise(next_check_s(self._frames, st, target, consts, checks))
             else:  # the paper's rule without a line (the same plan, agents.candidate_miss.paper_rule_choice)
-                wanted, k, best, miss0, reached, how = plan_or_cruise(st, self._frames, self._miss, tr.index, table,
-                                                                      consts, checks)
+                wanted, k, reached, how = plan_or_cruise(st, self._frames, self._miss, self._candidates, self._phases,
+                                                         tr.index, table, consts, checks, self._plan)
                 if wanted < 0:
                     angle_between(run.heading, tr.path.waypoints[tr.index] - run.head)  # raises: no direction
                 if k >= 0:
-                    i, j = divmod(k, self._miss.shape[1])
-                    self._plan = pl.plan_of(run.head, run.heading, i, j, best, miss0, self._ep)
+                    self._planned = True
                     return None
                 end = run.collect(reached, how)
             if end is not None:
                 return end
 
-    def _turn(self, plan: dict) -> tuple[bool, bool] | None:
-        """Fly a decided turn (module docstring, 3.): hover, burst, relax; the plan is remembered as the
-        planner's last turn (the next features compare against it)."""
+    def _turn(self, t_c: float, phase: float) -> tuple[bool, bool] | None:
+        """Fly a decided turn of ``t_c`` s at the burst phase ``phase`` rad (module docstring, 3.): hover, burst,
+        relax."""
         dt, run = self.config.control_dt, self.episode
-        self._ep.turns.append(plan)
-        end = run.turn(max(1, round(plan["t_c"] / dt)) * dt, plan["burst_phase"], self._relax_wait_s[0],
-                       self._relax_wait_s[1])
+        end = run.turn(max(1, round(t_c / dt)) * dt, phase, self._relax_wait_s[0], self._relax_wait_s[1])
         if run.out_of_range is not None and not self._warned:
             self._warned = True
             gym.logger.warn(f"{self.env_id}: {run.out_of_range}; reported in info['out_of_range']")
@@ -237,18 +262,19 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
 
     # --- what the agent sees ----------------------------------------------------------------
     def _features(self) -> np.ndarray:
-        if self._done or self._pending[1] is not None or self._plan is None:
-            return np.zeros(self.planner_features, np.float32)
-        cfg = self.config
-        targets = self.tracker.targets(cfg.n_lookahead) - self.episode.head
-        steps = math.floor(self.episode.time_s / cfg.control_dt + 1e-9)
-        ep = self._ep
-        return turn_features(self._plan, targets, self.tracker.reach_radius_m,
-                             self.calibration.cruise_end_to_end_ratio, max(0.0, 1.0 - steps / self.max_steps),
-                             ep.turns[-1] if ep.turns else None, len(ep.turns), self._max_theta)
+        out = np.zeros(self.planner_features, np.float32)
+        if self._done or self._pending[1] is not None or not self._planned:
+            return out
+        run = self.episode
+        if not episode_features(self._plan, self._prev, self._n_turns, run.state, run.frames.table,
+                                self.tracker.index, self.config.n_lookahead, self._feature_consts, out):
+            d = self._plan[PLAN_HEADING:PLAN_HEADING + 3]
+            feature_error(d, self.tracker.targets(self.config.n_lookahead) - run.head,
+                          self._prev[0:3] if self._n_turns else d)
+        return out
 
     def _info(self) -> dict[str, Any]:
-        return surrogate_info(self.path.name, self.tracker, self.episode, len(self._ep.turns))
+        return surrogate_info(self.path.name, self.tracker, self.episode, self._n_turns)
 
 
 def surrogate_setup(env_id: str, preset: str, turn_map: str | os.PathLike | None,
@@ -361,19 +387,68 @@ def next_check_s(frames: np.ndarray, state: np.ndarray, target: np.ndarray, cons
 
 
 @njit(cache=True)
-def plan_or_cruise(state: np.ndarray, frames: np.ndarray, miss: np.ndarray, index: int, table: np.ndarray,
-                   consts: np.ndarray, checks: np.ndarray) -> tuple[int, int, float, float, int, int]:
+def plan_or_cruise(state: np.ndarray, frames: np.ndarray, miss: np.ndarray, candidates: np.ndarray, beta: np.ndarray,
+                   index: int, table: np.ndarray, consts: np.ndarray, checks: np.ndarray, plan: np.ndarray
+                   ) -> tuple[int, int, int, int]:
     """One event of the planner's loop without a line score: the rule planner's plan at the head and heading of
     ``state`` with the target waypoint ``index`` (``paper_rule_choice``; ``frames`` and ``miss`` (T, B) its
-    arguments), or, with no turn chosen, the cruise to the next check (``next_check_s``, ``cruise_state``; ``table``
-    and ``consts`` the legs'). Returns (``turn_wanted``, the chosen candidate's flat index or -1, its miss m,
-    swimming on's miss m, the waypoints reached, how the cruise ended: ``agents.surrogate_legs.GOES_ON`` ...)."""
+    arguments) written to ``plan`` (``PLAN_SIZE``; ``candidates`` (3, T): the candidate turns' t_c s, theta and psi
+    rad, ``beta`` (B,) the burst phases rad, ``RulePlanner.plan_of``'s), or, with no turn chosen, the cruise to the
+    next check (``next_check_s``, ``cruise_state``; ``table`` and ``consts`` the legs'). Returns (``turn_wanted``,
+    the chosen candidate's flat index or -1, the waypoints reached, how the cruise ended:
+    ``agents.surrogate_legs.GOES_ON`` ...)."""
     head, d = state[0:3], state[HEADING:HEADING + 3]
     target = table[index, 7:10]
     wanted, miss0, k, best = paper_rule_choice(head, d, target, frames, BEHIND_PENALTY_M, checks[HIT_MISS],
                                                checks[MIN_TURN_DEG], checks[IMPROVEMENT], miss)
-    if wanted < 0 or k >= 0:
-        return wanted, k, best, miss0, 0, GOES_ON
+    if wanted < 0:
+        return wanted, -1, 0, GOES_ON
+    if k >= 0:
+        i, j = divmod(k, beta.shape[0])
+        plan[PLAN_T_C], plan[PLAN_THETA_DEG], plan[PLAN_PHASE], _ = candidate_plan(
+            candidates[0], candidates[1], candidates[2], beta, i, j)
+        plan[PLAN_MISS], plan[PLAN_MISS_STRAIGHT] = best, miss0
+        plan[PLAN_HEADING], plan[PLAN_HEADING + 1], plan[PLAN_HEADING + 2] = d[0], d[1], d[2]
+        return wanted, k, 0, GOES_ON
     reached, how = cruise_state(state, next_check_s(frames, state, target, consts, checks), True, index, table,
                                 consts)
-    return wanted, -1, best, miss0, reached, how
+    return wanted, -1, reached, how
+
+
+#: A plan of ``SurrogateTurnEnv`` (float64, PLAN_SIZE): its burst length (s), theta (deg), its miss and swimming on's
+#: (m), the heading it was planned from (3, unit) and its burst phase (rad) (``RulePlanner.plan_of``'s numbers).
+PLAN_T_C, PLAN_THETA_DEG, PLAN_MISS, PLAN_MISS_STRAIGHT, PLAN_HEADING, PLAN_PHASE = 0, 1, 2, 3, 4, 7
+PLAN_SIZE = 8
+#: The last turn flown (float64, PREV_SIZE): the heading it was planned from (3, unit), the corrected turn's predicted
+#: theta (deg) and azimuth (rad) (``corrected_turn``).
+PREV_THETA_DEG, PREV_AZIMUTH = 3, 4
+PREV_SIZE = 5
+#: ``episode_features``' constants (float64, 5): the reach radius (m), L'/L while cruising, the time budget
+#: (control steps), the control step (s) and the map's largest turn (deg).
+F_REACH, F_RATIO, F_MAX_STEPS, F_DT, F_MAX_THETA = 0, 1, 2, 3, 4
+
+
+@njit(cache=True)
+def episode_features(plan: np.ndarray, prev: np.ndarray, n_turns: int, state: np.ndarray, table: np.ndarray,
+                     index: int, n_lookahead: int, fconsts: np.ndarray, out: np.ndarray) -> bool:
+    """``turn_features`` of the plan ``plan`` (``PLAN_SIZE``) after ``n_turns`` turns, the last ``prev``
+    (``PREV_SIZE``), from the head and time of ``state`` with the next ``n_lookahead`` waypoints from ``index`` on
+    (``table``: ``SegmentFrames.table``; the last repeated, ``PathTracker.targets``) and ``fconsts`` (``F_REACH``
+    ...), written to ``out`` (N_FEATURES,) float32 (``feature_vector``; False: a direction it measures an angle of
+    was zero or not finite)."""
+    last = table.shape[0] - 1
+    targets = np.empty((n_lookahead, 3))
+    for k in range(n_lookahead):
+        w = min(index + k, last)
+        targets[k, 0], targets[k, 1], targets[k, 2] = (table[w, 7] - state[0], table[w, 8] - state[1],
+                                                       table[w, 9] - state[2])
+    steps = math.floor(state[TIME] / fconsts[F_DT] + 1e-9)
+    time_left = 1.0 - steps / int(fconsts[F_MAX_STEPS])
+    if not time_left > 0.0:
+        time_left = 0.0
+    d = plan[PLAN_HEADING:PLAN_HEADING + 3]
+    had = n_turns > 0
+    return feature_vector(plan[PLAN_THETA_DEG], plan[PLAN_T_C], plan[PLAN_MISS], plan[PLAN_MISS_STRAIGHT], d, targets,
+                          fconsts[F_REACH], fconsts[F_RATIO], time_left, n_turns, fconsts[F_MAX_THETA], had,
+                          prev[0:3] if had else d, prev[PREV_THETA_DEG] if had else 1.0,
+                          prev[PREV_AZIMUTH] if had else 0.0, out)

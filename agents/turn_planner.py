@@ -28,8 +28,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from agents.candidate_miss import (candidate_frames, line_miss, paper_rule_choice, paper_rule_misses, pick_least,
-                                   turn_wanted)
+from agents.candidate_miss import (candidate_frames, candidate_plan, line_miss, paper_rule_choice, paper_rule_misses,
+                                   pick_least, turn_wanted)
 from agents.turn_geometry import angle_between, azimuth, norm3, perpendicular_basis, unit, wrap_angle
 from agents.turn_map import TurnMap, leading_within
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M
@@ -473,9 +473,8 @@ class RulePlanner:
         """The plan of candidate turn ``i`` (``candidate_turns``) at burst phase ``j`` (``burst_phases``) from the head
         ``head`` (3,) m along the unit heading ``d`` (3,): its ``miss`` and swimming on's, m (``rule_plan``)."""
         t_c, theta, psi, _ = self._candidate_turns(ep)
-        b, p = float(self._burst_phases[j]), float(psi[i])
-        return {"t_c": float(t_c[i]), "theta_deg": math.degrees(theta[i]), "burst_phase": wrap_angle(b),
-                "predicted_azimuth": wrap_angle(b + p),
+        t, theta_deg, phase, azimuth_rad = candidate_plan(t_c, theta, psi, self._burst_phases, i, j)
+        return {"t_c": t, "theta_deg": theta_deg, "burst_phase": phase, "predicted_azimuth": azimuth_rad,
                 "predicted_miss_m": float(miss), "miss_straight_m": float(miss_straight),
                 "heading": d.tolist(), "head": head.tolist()}
 
@@ -499,6 +498,15 @@ class RulePlanner:
     def _candidate_turns(self, ep: PlannerEpisode | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The turns a plan chooses from in this episode: (t_c s, theta rad, psi rad, offset (T, 3) m)."""
         return self._candidates
+
+    def candidate_turns(self, ep: PlannerEpisode | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The turns a plan chooses from in this episode: (t_c s, theta rad, psi rad, offset (T, 3) m)."""
+        return self._candidate_turns(ep)
+
+    @property
+    def burst_phases(self) -> np.ndarray:
+        """The burst phases a plan searches, (B,) rad."""
+        return self._burst_phases
 
     def episode_frames(self, ep: PlannerEpisode | None) -> np.ndarray:
         """``candidate_frames`` of the turns a plan chooses from in this episode at the burst phases searched,

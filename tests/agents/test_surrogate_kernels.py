@@ -15,7 +15,7 @@ import pytest
 from agents.assets import default_turn_map
 from agents.candidate_miss import (candidate_frames, candidate_miss, first_improving_sample, line_miss, local_target,
                                    paper_rule_misses, pick_least, target_in_frame, turn_wanted)
-from agents.residual_planner import N_FEATURES, turn_features
+from agents.residual_planner import N_FEATURES, ResidualLimits, corrected_turn, turn_features
 from agents.surrogate_calibration import SurrogateCalibration, calibration_file
 from agents.surrogate_legs import (ACC_REACHED, CROSS, ENERGY, LEG_SIZE, OFF_PATH, OFF_PATH_M, REACH, STATE_SIZE, TIME,
                                    TIME_LIMIT, TERMINATED, TRUNCATED, SegmentFrames, fly_state)
@@ -386,6 +386,26 @@ def test_theta_for_reads_the_rising_branch(tmap):
     t, y = tmap.rising_branch()
     for t_c in np.linspace(-0.5, t[-1] + 1.0, 57):
         assert tmap.theta_for(float(t_c)) == float(np.interp(t_c, t, y))
+
+
+def test_the_compiled_map_reads_and_correction_are_their_numpy_forms(tmap):
+    """``theta_for``, ``psi_for`` (compiled np.interp) and ``corrected_turn`` against np.interp and the formulas, at
+    random burst lengths and on the measured ones."""
+    rng = np.random.default_rng(4)
+    t, y, tcs, un = tmap.turn_curves()
+    limits = ResidualLimits()
+    for t_c in np.concatenate([rng.uniform(-0.5, 11.0, 3000), t, tcs, np.nextafter(tcs, 0.0)]):
+        t_c = float(t_c)
+        assert tmap.theta_for(t_c) == float(np.interp(t_c, t, y))
+        psi = math.degrees(wrap_angle(math.radians(float(np.interp(t_c, tcs, un)))))
+        assert tmap.psi_for(t_c) == psi
+        phase, a0, a1 = float(rng.uniform(-4.0, 4.0)), float(rng.uniform(-1, 1)), float(rng.uniform(-1, 1))
+        t2 = t_c * (1.0 + a0 * limits.max_dtc_fraction)
+        p2 = wrap_angle(phase + math.radians(a1 * limits.max_dphase_deg))
+        want = (t2, p2, float(np.interp(t2, t, y)),
+                wrap_angle(p2 + math.radians(math.degrees(wrap_angle(math.radians(float(np.interp(t2, tcs, un))))))))
+        assert corrected_turn(t_c, phase, a0, a1, limits.max_dtc_fraction, limits.max_dphase_deg, t, y, tcs,
+                              un) == want
 
 
 def test_the_compiled_choice_is_argmin_and_the_improvement_test():
