@@ -191,7 +191,8 @@ def clipped_residual(action: np.ndarray) -> tuple[float, float]:
     """The residual action (2,) clipped to [-1, 1] (``np.clip``'s), (a_0, a_1); ValueError unless it is two finite
     numbers."""
     a = np.asarray(action, dtype=np.float64).reshape(-1)
-    a0, a1 = (min(max(x, -1.0), 1.0) for x in a.tolist()) if a.size == 2 else (math.nan, math.nan)  # np.clip's
+    a0, a1 = a.tolist() if a.size == 2 else (math.nan, math.nan)
+    a0, a1 = min(max(a0, -1.0), 1.0), min(max(a1, -1.0), 1.0)  # np.clip's
     if not (math.isfinite(a0) and math.isfinite(a1)):
         raise ValueError(f"residual action={action!r} must be two finite numbers in [-1, 1]")
     return a0, a1

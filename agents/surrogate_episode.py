@@ -15,13 +15,15 @@ import math
 import numpy as np
 from numba import njit
 
+from agents.surrogate_calibration import burst_energy_at
 from agents.surrogate_legs import (ACC_CROSS, ACC_ENERGY, ACC_REACHED, CROSS, CRUISE_POWER, DT, ENERGY, GOES_ON,
-                                   HEADING, LEG_SIZE, OFF_PATH, OFF_PATH_M, PERIOD, REACH, SPEED, STATE_SIZE,
-                                   TAU_RATIO, TERMINATED, TIME, TIME_LIMIT, SegmentFrames, fly_state)
+                                   HEADING, LEG_SIZE, MU_RATIO, OFF_PATH, OFF_PATH_M, PERIOD, REACH, SPEED,
+                                   STATE_SIZE, TAU_RATIO, TERMINATED, TIME, TIME_FACTOR, TIME_LIMIT, SegmentFrames,
+                                   fly_state)
 from agents.surrogate_swimmer import SurrogateSwimmer, turn_outcome
 from flagellum_env.config import SteerConfig
-from flagellum_env.rewards import TERMS, reward_terms
-from flagellum_env.tracking import PathTracker
+from flagellum_env.rewards import reward_values
+from flagellum_env.tracking import PathTracker, path_progress
 
 
 class SurrogateEpisode:
@@ -39,9 +41,16 @@ class SurrogateEpisode:
         self.state = np.zeros(STATE_SIZE)
         self.state[HEADING] = 1.0
         self.consts = np.empty(LEG_SIZE)
-        self.consts[[REACH, TIME_LIMIT, OFF_PATH_M, SPEED, CRUISE_POWER, DT, PERIOD, TAU_RATIO]] = (
-            tracker.reach_radius_m, time_limit_s, config.off_path_m, swimmer.speed_m_s, swimmer.cruise_power_w,
-            config.control_dt, swimmer.period_s, swimmer.tau_ratio)
+        self.consts[[REACH, TIME_LIMIT, OFF_PATH_M, SPEED, CRUISE_POWER, DT, PERIOD, TAU_RATIO, TIME_FACTOR,
+                     MU_RATIO]] = (tracker.reach_radius_m, time_limit_s, config.off_path_m, swimmer.speed_m_s,
+                                   swimmer.cruise_power_w, config.control_dt, swimmer.period_s, swimmer.tau_ratio,
+                                   swimmer.time_factor, swimmer.mu_ratio)
+        #: the calibration's burst lengths (s) and cumulative burst energies (J), (2, K) (``burst_energy_at``)
+        self.burst_energies = swimmer.calibration.burst_table
+        w = config.reward
+        #: ``RewardConfig``'s weights in ``reward_values``' order
+        self._weights = np.array([w.progress_per_cm, w.cross_track_per_cm_s, w.energy_per_mj, w.waypoint_bonus,
+                                  w.off_path_penalty, w.error_penalty])
         self.buckling_events = 0
         self.out_of_range: str | None = None
         self._progress = 0.0
@@ -87,16 +96,13 @@ class SurrogateEpisode:
                                           self.frames.table, self.consts))
 
     def reward(self) -> float:
-        """The reward of the legs flown since the last call: ``reward_terms`` (``flagellum_env.rewards``) of the
-        progress made, int e dt (passed as e x tau with tau = 1 s), the motor energy, the waypoints reached and the
-        off-path penalty."""
-        st = self.state
-        progress = self.tracker.progress(st[0:3])
-        terms = reward_terms(self.config.reward, progress - self._progress, float(st[ACC_CROSS]), 1.0,
-                             float(st[ACC_ENERGY]), int(st[ACC_REACHED]), off_path=bool(st[OFF_PATH]))
-        self._progress = progress
-        st[ACC_ENERGY], st[ACC_CROSS], st[ACC_REACHED] = 0.0, 0.0, 0.0
-        return float(sum([terms[t] for t in TERMS]))
+        """The reward of the legs flown since the last call (``reward_state``): ``reward_terms``
+        (``flagellum_env.rewards``) of the progress made, int e dt (passed as e x tau with tau = 1 s), the motor
+        energy, the waypoints reached and the off-path penalty."""
+        tr = self.tracker
+        reward, self._progress = reward_state(self.state, tr.index, tr.path.vertices, tr.path.segment_lengths,
+                                              tr.cumulative_m, self._progress, self._weights)
+        return reward
 
     # --- a burst ----------------------------------------------------------------------------------
     def hover_to_phase(self, beta: float) -> tuple[bool, bool] | None:
@@ -128,13 +134,12 @@ class SurrogateEpisode:
         """``hover_to_phase(beta)`` then, unless the episode ended, ``burst(t_c, beta, min_wait_s, max_wait_s)`` (a
         burst ended by time) in one compiled call (``turn_state``); the episode's end or None."""
         sw = self.swimmer
-        t_map = sw.map_time(t_c)
         tab = sw.table
         reached, how, end_ratio, in_range = turn_state(
-            self.state, t_map, t_c, beta, min_wait_s, max_wait_s, sw.burst_energy_j(t_c), sw.direction_bias_rad,
-            sw.turn_scale, self.tracker.index, self.frames.table, self.consts, tab.t_c, tab.phases, tab.channels)
+            self.state, t_c, beta, min_wait_s, max_wait_s, sw.direction_bias_rad, sw.turn_scale, self.tracker.index,
+            self.frames.table, self.consts, tab.t_c, tab.phases, tab.channels, self.burst_energies)
         if not math.isnan(end_ratio):
-            self._burst_seen(t_c, t_map, end_ratio, in_range)
+            self._burst_seen(t_c, sw.map_time(t_c), end_ratio, in_range)
         return self.collect(reached, how)
 
     def _burst_seen(self, t_c: float, t_map: float, end_ratio: float, in_range: bool) -> None:
@@ -145,6 +150,21 @@ class SurrogateEpisode:
                                  f"calibrated burst lengths [0, {t_max:g}] s (the longest used)")
         if end_ratio < self.config.buckling_threshold:
             self.buckling_events += 1
+
+
+@njit(cache=True)
+def reward_state(state: np.ndarray, index: int, vertices: np.ndarray, lengths: np.ndarray, cumulative: np.ndarray,
+                 last_progress: float, weights: np.ndarray) -> tuple[float, float]:
+    """``SurrogateEpisode.reward`` on ``state``: (the reward, the progress m now), the sum of ``reward_values`` (in
+    ``TERMS``' order; ``weights`` (6,) ``RewardConfig``'s in its order) of the progress since ``last_progress`` m
+    (``path_progress`` with the target ``index`` and the path's ``vertices``, ``lengths``, ``cumulative``), the
+    int e dt, motor energy, waypoints and leaving the path since the last reward (then cleared)."""
+    progress = path_progress(state[0:3], index, vertices, lengths, cumulative)
+    p, c, e, w, pen = reward_values(weights[0], weights[1], weights[2], weights[3], weights[4], weights[5],
+                                    progress - last_progress, state[ACC_CROSS], 1.0, state[ACC_ENERGY],
+                                    int(state[ACC_REACHED]), state[OFF_PATH] != 0.0, False)
+    state[ACC_ENERGY], state[ACC_CROSS], state[ACC_REACHED] = 0.0, 0.0, 0.0
+    return (((p + c) + e) + w) + pen, progress
 
 
 @njit(cache=True)
@@ -197,18 +217,21 @@ def burst_state(state: np.ndarray, t_map: float, flown: float, beta: float, min_
 
 
 @njit(cache=True)
-def turn_state(state: np.ndarray, t_map: float, flown: float, beta: float, min_wait_s: float, max_wait_s: float,
-               burst_energy_j: float, direction_bias: float, turn_scale: float, index: int, table: np.ndarray,
-               consts: np.ndarray, t: np.ndarray, ph: np.ndarray, channels: np.ndarray
-               ) -> tuple[int, int, float, bool]:
-    """``hover_state`` then, if the episode goes on, ``burst_state`` (their arguments); (the waypoints reached by
-    both, how the last leg ended, L'/L at the burst's end or NaN without a burst, within the burst lengths)."""
+def turn_state(state: np.ndarray, t_c: float, beta: float, min_wait_s: float, max_wait_s: float,
+               direction_bias: float, turn_scale: float, index: int, table: np.ndarray, consts: np.ndarray,
+               t: np.ndarray, ph: np.ndarray, channels: np.ndarray, energies: np.ndarray) -> tuple[int, int, float, bool]:
+    """``hover_state`` then, if the episode goes on, ``burst_state`` of a burst of ``t_c`` s ended by time: read at
+    the map time t_c x ``TIME_FACTOR``, its energy the calibration's (``energies`` (2, K): burst lengths s, cumulative
+    energies J; ``burst_energy_at``) x ``MU_RATIO`` (``SurrogateSwimmer.burst_energy_j``); the other arguments
+    theirs. Returns (the waypoints reached by both, how the last leg ended, L'/L at the burst's end or NaN without a
+    burst, within the burst lengths)."""
     reached, how = hover_state(state, beta, index, table, consts)
     if how != GOES_ON:
         return reached, how, math.nan, True
-    more, how, ratio, in_range = burst_state(state, t_map, flown, beta, min_wait_s, max_wait_s, burst_energy_j,
-                                             direction_bias, turn_scale, index + reached, table, consts, t, ph,
-                                             channels)
+    t_map = t_c * consts[TIME_FACTOR]
+    energy = burst_energy_at(t_map, energies[0], energies[1]) * consts[MU_RATIO]
+    more, how, ratio, in_range = burst_state(state, t_map, t_c, beta, min_wait_s, max_wait_s, energy, direction_bias,
+                                             turn_scale, index + reached, table, consts, t, ph, channels)
     return reached + more, how, ratio, in_range
 
 

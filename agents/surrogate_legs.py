@@ -34,10 +34,11 @@ _GAUSS_W = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
 HEAD, HEADING, TIME, ENERGY, CROSS, ACC_ENERGY, ACC_CROSS, ACC_REACHED, OFF_PATH = 0, 3, 6, 7, 8, 9, 10, 11, 12
 STATE_SIZE = 13
 #: A leg's constants, float64 (LEG_SIZE,): the reach radius (m), the time limit (s), the off-path distance (m), the
-#: cruise speed (m/s), the cruise power (W), the control step (s), the map period (s) and the swimmer's relaxation
-#: time over the map's (``SurrogateSwimmer.tau_ratio``).
-REACH, TIME_LIMIT, OFF_PATH_M, SPEED, CRUISE_POWER, DT, PERIOD, TAU_RATIO = 0, 1, 2, 3, 4, 5, 6, 7
-LEG_SIZE = 8
+#: cruise speed (m/s), the cruise power (W), the control step (s), the map period (s), and the swimmer's relaxation
+#: time, burst time and viscosity over the map's (``SurrogateSwimmer``'s ``tau_ratio``, ``time_factor``,
+#: ``mu_ratio``).
+REACH, TIME_LIMIT, OFF_PATH_M, SPEED, CRUISE_POWER, DT, PERIOD, TAU_RATIO, TIME_FACTOR, MU_RATIO = range(10)
+LEG_SIZE = 10
 #: How a leg ended (``fly_state``): on (the episode goes on), terminated (the path done or left), truncated (out of
 #: time).
 GOES_ON, TERMINATED, TRUNCATED = 0, 1, 2

@@ -132,7 +132,6 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         pcfg = self.planner.config
         self._line = pcfg.line_weight > 0.0
         self._frames = self.planner.episode_frames(None)
-        self._miss = np.empty(self._frames.shape[:2])
         t_c, theta, psi, _ = self.planner.candidate_turns(None)
         #: the candidate turns' burst lengths (s), theta and psi (rad), and the burst phases (rad), for plan_or_cruise
         self._candidates, self._phases = np.stack([t_c, theta, psi]), self.planner.burst_phases
@@ -239,8 +238,8 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
                     return None
                 end = run.cruise(next_check_s(self._frames, st, target, consts, checks))
             else:  # the paper's rule without a line (the same plan, agents.candidate_miss.paper_rule_choice)
-                wanted, k, reached, how = plan_or_cruise(st, self._frames, self._miss, self._candidates, self._phases,
-                                                         tr.index, table, consts, checks, self._plan)
+                wanted, k, reached, how = plan_or_cruise(st, self._frames, self._candidates, self._phases, tr.index,
+                                                         table, consts, checks, self._plan)
                 if wanted < 0:
                     angle_between(run.heading, tr.path.waypoints[tr.index] - run.head)  # raises: no direction
                 if k >= 0:
@@ -387,20 +386,20 @@ def next_check_s(frames: np.ndarray, state: np.ndarray, target: np.ndarray, cons
 
 
 @njit(cache=True)
-def plan_or_cruise(state: np.ndarray, frames: np.ndarray, miss: np.ndarray, candidates: np.ndarray, beta: np.ndarray,
-                   index: int, table: np.ndarray, consts: np.ndarray, checks: np.ndarray, plan: np.ndarray
+def plan_or_cruise(state: np.ndarray, frames: np.ndarray, candidates: np.ndarray, beta: np.ndarray, index: int,
+                   table: np.ndarray, consts: np.ndarray, checks: np.ndarray, plan: np.ndarray
                    ) -> tuple[int, int, int, int]:
     """One event of the planner's loop without a line score: the rule planner's plan at the head and heading of
-    ``state`` with the target waypoint ``index`` (``paper_rule_choice``; ``frames`` and ``miss`` (T, B) its
-    arguments) written to ``plan`` (``PLAN_SIZE``; ``candidates`` (3, T): the candidate turns' t_c s, theta and psi
-    rad, ``beta`` (B,) the burst phases rad, ``RulePlanner.plan_of``'s), or, with no turn chosen, the cruise to the
+    ``state`` with the target waypoint ``index`` (``paper_rule_choice``; ``frames`` its argument) written to
+    ``plan`` (``PLAN_SIZE``; ``candidates`` (3, T): the candidate turns' t_c s, theta and psi rad, ``beta`` (B,) the
+    burst phases rad, ``RulePlanner.plan_of``'s), or, with no turn chosen, the cruise to the
     next check (``next_check_s``, ``cruise_state``; ``table`` and ``consts`` the legs'). Returns (``turn_wanted``,
     the chosen candidate's flat index or -1, the waypoints reached, how the cruise ended:
     ``agents.surrogate_legs.GOES_ON`` ...)."""
     head, d = state[0:3], state[HEADING:HEADING + 3]
     target = table[index, 7:10]
     wanted, miss0, k, best = paper_rule_choice(head, d, target, frames, BEHIND_PENALTY_M, checks[HIT_MISS],
-                                               checks[MIN_TURN_DEG], checks[IMPROVEMENT], miss)
+                                               checks[MIN_TURN_DEG], checks[IMPROVEMENT])
     if wanted < 0:
         return wanted, -1, 0, GOES_ON
     if k >= 0:

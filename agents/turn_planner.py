@@ -433,18 +433,18 @@ class RulePlanner:
         with_line = cfg.line_weight > 0.0 and segment is not None
         if line_miss is RulePlanner._line_miss:
             # the paper's miss, compiled (agents.candidate_miss.paper_rule_misses: the same formulas as below)
-            miss = np.empty((len(theta), len(beta)))
             frames = self.candidate_frames(theta, psi, off, beta)
             hit = cfg.hit_fraction * self.reach_radius_m
             if not with_line:  # the choice by the miss alone, compiled too (pick_turn's without a line)
                 wanted, miss0, k, best = paper_rule_choice(head, d, target, frames, BEHIND_PENALTY_M, hit,
-                                                           cfg.min_turn_deg, cfg.improvement_m, miss)
+                                                           cfg.min_turn_deg, cfg.improvement_m)
                 if wanted < 0:
                     angle_between(d, target - head)  # raises: the heading or the target's direction is zero
                 if wanted <= 0 or k < 0:
                     return None
                 i, j = divmod(k, len(beta))
                 return self.plan_of(head, d, i, j, best, miss0, ep)
+            miss = np.empty((len(theta), len(beta)))
             wanted, miss0 = paper_rule_misses(head, d, target, frames, BEHIND_PENALTY_M, hit, cfg.min_turn_deg, miss)
             if wanted < 0:
                 angle_between(d, target - head)  # raises: the heading or the target's direction is zero

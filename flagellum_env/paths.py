@@ -173,14 +173,19 @@ def random_path(rng: np.random.Generator, config: RandomPathConfig | None = None
     n = cfg.n_waypoints
     if isinstance(n, tuple):
         n = int(rng.integers(n[0], n[1] + 1))
-    for _ in range(n):
-        length = float(rng.uniform(lo, hi))
-        if cfg.min_turn_deg > 0.0:  # |angle| in [min, max], either sign
-            angle = float(rng.uniform(min_turn, max_turn)) * (1.0 if rng.random() < 0.5 else -1.0)
+    signed = cfg.min_turn_deg > 0.0
+    # each segment's numbers in the order drawn: its length, the turn (and its sign), the axis' angle; all drawn at
+    # once (rng.uniform(a, b) is a + (b - a) x rng.random(), one double each)
+    per = 2 + signed + (not cfg.planar)
+    u = rng.random(n * per).tolist()
+    for k in range(0, n * per, per):
+        length = _uniform(lo, hi, u[k])
+        if signed:  # |angle| in [min, max], either sign
+            angle = _uniform(min_turn, max_turn, u[k + 1]) * (1.0 if u[k + 2] < 0.5 else -1.0)
         else:
-            angle = float(rng.uniform(-max_turn, max_turn))
+            angle = _uniform(-max_turn, max_turn, u[k + 1])
         # about +z, or about an axis perpendicular to the heading at a uniformly drawn angle
-        phi = 0.0 if cfg.planar else float(rng.uniform(0.0, 2.0 * math.pi))
+        phi = 0.0 if cfg.planar else _uniform(0.0, 2.0 * math.pi, u[k + per - 1])
         h0, h1, h2 = _turned_heading(h0, h1, h2, cfg.planar, phi, angle)
         p0, p1, p2 = p0 + length * h0, p1 + length * h1, p2 + length * h2
         pts.append((p0, p1, p2))
@@ -310,6 +315,12 @@ def _short(w: Any) -> str:
 
 
 @njit(cache=True)
+def _uniform(low: float, high: float, u: float) -> float:
+    """``Generator.uniform(low, high)`` from its double ``u`` in [0, 1) (``Generator.random()``): low + (high - low) u,
+    as NumPy computes it."""
+    return low + (high - low) * u
+
+
 def _turned_heading(h0: float, h1: float, h2: float, planar: bool, phi: float, angle: float
                     ) -> tuple[float, float, float]:
     """The unit heading h turned by ``angle`` (rad, Rodrigues) about +z if ``planar``, else about the unit vector

@@ -14,7 +14,7 @@ import pytest
 
 from agents.assets import default_turn_map
 from agents.candidate_miss import (candidate_frames, candidate_miss, first_improving_sample, line_miss, local_target,
-                                   paper_rule_misses, pick_least, target_in_frame, turn_wanted)
+                                   paper_rule_choice, paper_rule_misses, pick_least, target_in_frame, turn_wanted)
 from agents.residual_planner import N_FEATURES, ResidualLimits, corrected_turn, turn_features
 from agents.surrogate_calibration import SurrogateCalibration, calibration_file
 from agents.surrogate_legs import (ACC_REACHED, CROSS, ENERGY, LEG_SIZE, OFF_PATH, OFF_PATH_M, REACH, STATE_SIZE, TIME,
@@ -102,6 +102,10 @@ def test_the_line_miss_and_the_plans_gate_are_their_numpy_forms(tmap):
         got, got0 = paper_rule_misses(head, d, target, frames, BEHIND_PENALTY_M, hit, min_turn, grid)
         assert (got, got0) == (want, pytest.approx(miss0, rel=1e-14)) and turn_wanted(miss0, d, target - head, hit,
                                                                                    min_turn) == want
+        k, best = pick_least(grid, miss0, planner.config.improvement_m) if want else (-1, math.nan)
+        assert paper_rule_choice(head, d, target, frames, BEHIND_PENALTY_M, hit, min_turn,
+                                 planner.config.improvement_m)[::2] == (want, k) and (k < 0 or
+                                                                                      grid.flat[k] == best)
         if want:
             e1, e2 = perpendicular_basis(d)
             np.testing.assert_array_equal(grid, candidate_miss(frames, *local_target(head, d, e1, e2, target),
@@ -420,3 +424,36 @@ def test_the_compiled_choice_is_argmin_and_the_improvement_test():
         want = int(miss.argmin())
         assert (k, best) == ((want if not miss.flat[want] > straight - 0.005 else -1), miss.flat[want]) or (
             math.isnan(best) and k == want and math.isnan(miss.flat[want]))
+
+
+def _oracle_random_path(rng, cfg):
+    """``random_path`` drawing each number by itself (``Generator.uniform`` and ``random`` in turn)."""
+    lo, hi = cfg.segment_length_m
+    max_turn, min_turn = math.radians(cfg.max_turn_deg), math.radians(cfg.min_turn_deg)
+    h, p, pts = (1.0, 0.0, 0.0), np.zeros(3), []
+    n = cfg.n_waypoints if not isinstance(cfg.n_waypoints, tuple) else int(rng.integers(cfg.n_waypoints[0],
+                                                                                            cfg.n_waypoints[1] + 1))
+    for _ in range(n):
+        length = float(rng.uniform(lo, hi))
+        if cfg.min_turn_deg > 0.0:
+            angle = float(rng.uniform(min_turn, max_turn)) * (1.0 if rng.random() < 0.5 else -1.0)
+        else:
+            angle = float(rng.uniform(-max_turn, max_turn))
+        phi = 0.0 if cfg.planar else float(rng.uniform(0.0, 2.0 * math.pi))
+        h = _turned_heading(*h, cfg.planar, phi, angle)
+        p = np.array([p[0] + length * h[0], p[1] + length * h[1], p[2] + length * h[2]])
+        pts.append(p)
+    reach = None if cfg.reach_radius_m is None else float(rng.uniform(*cfg.reach_radius_m))
+    return np.array(pts), reach
+
+
+def test_the_random_paths_numbers_drawn_at_once_are_those_drawn_one_by_one():
+    for cfg in (RandomPathConfig(), RandomPathConfig(n_waypoints=(1, 7), planar=False),
+                RandomPathConfig(min_turn_deg=30.0, max_turn_deg=150.0, planar=False, reach_radius_m=(0.01, 0.02)),
+                RandomPathConfig(min_turn_deg=30.0, max_turn_deg=150.0, segment_length_m=(0.12, 0.2))):
+        for seed in range(40):
+            fast, slow = np.random.default_rng(seed), np.random.default_rng(seed)
+            for _ in range(3):
+                path, (pts, reach) = random_path(fast, cfg), _oracle_random_path(slow, cfg)
+                assert np.array_equal(path.waypoints, pts) and path.reach_radius_m == reach
+            assert fast.random() == slow.random()
