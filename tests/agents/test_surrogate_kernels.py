@@ -360,6 +360,8 @@ def test_the_random_paths_heading_is_rodrigues_rotation():
             r = h * c + np.cross(axis, h) * s + axis * float(axis @ h) * (1.0 - c)
             np.testing.assert_allclose(_turned_heading(*h.tolist(), planar, phi, angle), r / np.linalg.norm(r),
                                        rtol=0, atol=1e-15)
+            assert _turned_heading(*h.tolist(), planar, phi, angle) == _oracle_turned_heading(*h.tolist(), planar,
+                                                                                               phi, angle)
 
 
 def test_a_paths_summaries_and_the_trackers_projection():
@@ -426,6 +428,27 @@ def test_the_compiled_choice_is_argmin_and_the_improvement_test():
             math.isnan(best) and k == want and math.isnan(miss.flat[want]))
 
 
+def _oracle_turned_heading(h0, h1, h2, planar, phi, angle):
+    """``_turned_heading`` in Python (its formulas, BLAS's rounding of the dot products: ``dot3s``)."""
+    if planar:
+        x0, x1, x2 = 0.0, 0.0, 1.0
+    else:
+        g0, g1, g2 = (0.0, 0.0, 1.0) if abs(h2) < 0.9 else (0.0, 1.0, 0.0)
+        a0, a1, a2 = h1 * g2 - h2 * g1, h2 * g0 - h0 * g2, h0 * g1 - h1 * g0
+        n = math.sqrt(float(np.array([a0, a1, a2]) @ np.array([a0, a1, a2])))
+        a0, a1, a2 = a0 / n, a1 / n, a2 / n
+        b0, b1, b2 = h1 * a2 - h2 * a1, h2 * a0 - h0 * a2, h0 * a1 - h1 * a0
+        cp, sp = math.cos(phi), math.sin(phi)
+        x0, x1, x2 = cp * a0 + sp * b0, cp * a1 + sp * b1, cp * a2 + sp * b2
+    c, s = math.cos(angle), math.sin(angle)
+    k0, k1, k2 = x1 * h2 - x2 * h1, x2 * h0 - x0 * h2, x0 * h1 - x1 * h0
+    p = float(np.array([x0, x1, x2]) @ np.array([h0, h1, h2]))
+    r0, r1, r2 = h0 * c + k0 * s + x0 * p * (1.0 - c), h1 * c + k1 * s + x1 * p * (1.0 - c), \
+        h2 * c + k2 * s + x2 * p * (1.0 - c)
+    n = math.sqrt(float(np.array([r0, r1, r2]) @ np.array([r0, r1, r2])))
+    return r0 / n, r1 / n, r2 / n
+
+
 def _oracle_random_path(rng, cfg):
     """``random_path`` drawing each number by itself (``Generator.uniform`` and ``random`` in turn)."""
     lo, hi = cfg.segment_length_m
@@ -440,7 +463,7 @@ def _oracle_random_path(rng, cfg):
         else:
             angle = float(rng.uniform(-max_turn, max_turn))
         phi = 0.0 if cfg.planar else float(rng.uniform(0.0, 2.0 * math.pi))
-        h = _turned_heading(*h, cfg.planar, phi, angle)
+        h = _oracle_turned_heading(*h, cfg.planar, phi, angle)
         p = np.array([p[0] + length * h[0], p[1] + length * h[1], p[2] + length * h[2]])
         pts.append(p)
     reach = None if cfg.reach_radius_m is None else float(rng.uniform(*cfg.reach_radius_m))
