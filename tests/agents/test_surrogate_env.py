@@ -282,8 +282,7 @@ def test_random_actions_are_the_boxs():
 
     env = gym.make(ID)
     assert isinstance(env.action_space, spaces.Box) and env.action_space == spaces.Box(-1.0, 1.0, (2,), np.float32)
-    low3, high3 = np.array([-2.0, 0.5, -0.1], np.float32), np.array([0.3, 0.75, 10.0], np.float32)
-    for low, high, shape in ((-1.0, 1.0, (2,)), (low3, high3, (3,))):
+    for low, high, shape in ((-1.0, 1.0, (2,)), (np.array([-2.0, 0.5, -0.1]), np.array([0.3, 0.75, 10.0]), (3,))):
         fast, box = BoundedBox(low, high, shape, np.float32), spaces.Box(low, high, shape, np.float32)
         for seed in range(50):
             fast.seed(seed)
