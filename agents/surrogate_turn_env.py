@@ -49,7 +49,7 @@ from agents.residual_planner import (ResidualLimits, base_planner, clipped_resid
 from agents.surrogate_calibration import SurrogateCalibration, calibration_file
 from agents.surrogate_episode import SurrogateEpisode, surrogate_info
 from agents.surrogate_swimmer import FACTOR_RANGE, SurrogateSwimmer, TurnMapTable
-from agents.turn_decision_env import (DEFAULT_ACTION_COST, DEFAULT_RANDOM_PATH, BoundedBox, TurnEpisodes, fixed_paths,
+from agents.turn_decision_env import (DEFAULT_ACTION_COST, DEFAULT_RANDOM_PATH, TurnEpisodes, fixed_paths,
                                       load_turn_map, parse_turn_action, refuse_unknown_arguments, residual_limits,
                                       turn_env_kwargs)
 from agents.candidate_miss import (candidate_plan, first_improving_distance, first_improving_sample, paper_rule_choice,
@@ -127,7 +127,7 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         self.paths = fixed_paths(paths)
         self.set_random_path(DEFAULT_RANDOM_PATH if random_path is None else random_path)
         self.observation_space = spaces.Box(-10.0, 10.0, (self.planner_features,), np.float32)
-        self.action_space = BoundedBox(-1.0, 1.0, (2,), np.float32)  # spaces.Box's samples, faster
+        self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         self._max_theta = tmap.max_theta_deg
         pcfg = self.planner.config
         self._line = pcfg.line_weight > 0.0

@@ -92,27 +92,6 @@ INFO_KEYS = ("path", "is_success", "waypoints_reached", "mean_cross_track_m", "t
              "buckling_events", "turns")
 
 
-class BoundedBox(spaces.Box):
-    """``spaces.Box`` with finite bounds and a float dtype whose ``sample`` draws what ``spaces.Box.sample`` draws
-    (each coordinate uniform in [low, high] from ``np_random``: the same numbers from the same generator state, cast
-    to the dtype) without its bookkeeping for unbounded and integer coordinates (~20 us a call; ~2 us here), for
-    callers that draw random actions. Masks are ``spaces.Box``'s (refused)."""
-
-    def __init__(self, low: float | np.ndarray, high: float | np.ndarray, shape: tuple[int, ...],
-                 dtype: type = np.float32) -> None:
-        super().__init__(low, high, shape, dtype)
-        if self.dtype.kind != "f" or not self.is_bounded("both"):
-            raise ValueError(f"BoundedBox needs finite bounds and a float dtype, got {self!r}")
-        self._low64 = self.low.astype(np.float64)
-        self._range64 = self.high.astype(np.float64) - self._low64
-
-    def sample(self, mask: None = None, probability: None = None) -> np.ndarray:
-        if mask is not None or probability is not None:
-            return super().sample(mask, probability)
-        # Generator.uniform(low, high) is low + (high - low) x random(), one double each
-        return (self._low64 + self._range64 * self.np_random.random(self.shape)).astype(self.dtype)
-
-
 def parse_turn_action(action: Any) -> np.ndarray:
     """A decision's action as (2,) float64 (not clipped); ValueError unless it is two finite numbers."""
     if type(action) is np.ndarray and action.shape == (2,) and action.dtype.kind == "f":  # the usual one, cheaper

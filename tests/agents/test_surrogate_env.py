@@ -272,23 +272,3 @@ def test_the_calibrated_range_holds_the_physics_envs_randomisation():
     r = RandomizationConfig()
     for f in (r.youngs_modulus, r.viscosity, r.head_radius, r.geometry):
         assert lo <= 1.0 - f and 1.0 + f <= hi
-
-
-def test_random_actions_are_the_boxs():
-    """``BoundedBox.sample`` (the surrogate's action space) draws what ``spaces.Box.sample`` draws, seed by seed."""
-    from gymnasium import spaces
-
-    from agents.turn_decision_env import BoundedBox
-
-    env = gym.make(ID)
-    assert isinstance(env.action_space, spaces.Box) and env.action_space == spaces.Box(-1.0, 1.0, (2,), np.float32)
-    for low, high, shape in ((-1.0, 1.0, (2,)), (np.array([-2.0, 0.5, -0.1]), np.array([0.3, 0.75, 10.0]), (3,))):
-        fast, box = BoundedBox(low, high, shape, np.float32), spaces.Box(low, high, shape, np.float32)
-        for seed in range(50):
-            fast.seed(seed)
-            box.seed(seed)
-            for _ in range(20):
-                a, b = fast.sample(), box.sample()
-                assert a.dtype == b.dtype and np.array_equal(a, b)
-    with pytest.raises(ValueError, match="finite bounds"):
-        BoundedBox(-np.inf, 1.0, (2,), np.float32)
