@@ -27,7 +27,7 @@ import math
 import numpy as np
 from numba import njit
 
-from agents.turn_geometry import angle_of, norm3, unit_basis
+from agents.turn_geometry import angle_of, norm3, unit_basis, wrap_angle
 from physics.linalg.vec3 import dot3, rowdot3, rownorm3
 
 
@@ -65,16 +65,19 @@ def _candidate_miss_into(frames: np.ndarray, q0: float, q1: float, q2: float, be
     """``candidate_miss`` written to ``out`` (T, B)."""
     for i in range(frames.shape[0]):
         for j in range(frames.shape[1]):
-            out[i, j] = _miss(frames[i, j], q0, q1, q2, behind_penalty)
+            out[i, j] = _miss(frames, i, j, q0, q1, q2, behind_penalty)
 
 
 @njit(cache=True)
-def _miss(f: np.ndarray, q0: float, q1: float, q2: float, behind_penalty: float) -> float:
-    """One candidate's miss (m): ``f`` (6,) its row of ``candidate_frames``, (q0, q1, q2) the target (``candidate_miss``)."""
-    r0, r1, r2 = q0 - f[0], q1 - f[1], q2 - f[2]
-    along = r0 * f[3] + r1 * f[4] + r2 * f[5]
+def _miss(frames: np.ndarray, i: int, j: int, q0: float, q1: float, q2: float, behind_penalty: float) -> float:
+    """One candidate's miss (m): ``frames[i, j]`` (6,) its row of ``candidate_frames``, (q0, q1, q2) the target
+    (``candidate_miss``). (Elements, not a row view: a view handed to a call costs reference counting per candidate.)"""
+    f0, f1, f2, f3, f4, f5 = (frames[i, j, 0], frames[i, j, 1], frames[i, j, 2], frames[i, j, 3], frames[i, j, 4],
+                              frames[i, j, 5])
+    r0, r1, r2 = q0 - f0, q1 - f1, q2 - f2
+    along = r0 * f3 + r1 * f4 + r2 * f5
     if along > 0.0:
-        l0, l1, l2 = r0 - along * f[3], r1 - along * f[4], r2 - along * f[5]
+        l0, l1, l2 = r0 - along * f3, r1 - along * f4, r2 - along * f5
         return math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
     return math.sqrt(r0 * r0 + r1 * r1 + r2 * r2) + behind_penalty
 
@@ -96,14 +99,18 @@ def line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray, be
     k = starts.shape[0]
     out = np.empty(k)
     for i in range(k):
-        r0, r1, r2 = target[0] - starts[i, 0], target[1] - starts[i, 1], target[2] - starts[i, 2]
-        d0, d1, d2 = directions[i, 0], directions[i, 1], directions[i, 2]
-        along = rowdot3(r0, r1, r2, d0, d1, d2)
-        if along > 0.0:
-            out[i] = rownorm3(r0 - along * d0, r1 - along * d1, r2 - along * d2)
-        else:
-            out[i] = rownorm3(r0, r1, r2) + behind_penalty
+        out[i] = _line_miss_row(target[0] - starts[i, 0], target[1] - starts[i, 1], target[2] - starts[i, 2],
+                                directions[i, 0], directions[i, 1], directions[i, 2], behind_penalty)
     return out
+
+
+@njit(cache=True)
+def _line_miss_row(r0: float, r1: float, r2: float, d0: float, d1: float, d2: float, behind_penalty: float) -> float:
+    """``line_miss`` of one line: the target minus its start (r0, r1, r2) m, its direction (d0, d1, d2)."""
+    along = rowdot3(r0, r1, r2, d0, d1, d2)
+    if along > 0.0:
+        return rownorm3(r0 - along * d0, r1 - along * d1, r2 - along * d2)
+    return rownorm3(r0, r1, r2) + behind_penalty
 
 
 @njit(cache=True)
@@ -126,14 +133,82 @@ def paper_rule_misses(head: np.ndarray, d: np.ndarray, target: np.ndarray, frame
     """(``turn_wanted``, swimming on's miss m) of the rule planner with the paper's miss (``line_miss``), and, when a
     turn is wanted, each candidate's miss (``candidate_miss``) written to ``out`` (T, B) m: head, d (unit heading),
     target (3,) m; ``frames`` from ``candidate_frames``."""
-    starts, directions = np.empty((1, 3)), np.empty((1, 3))
-    starts[0], directions[0] = head, d
-    miss0 = line_miss(starts, directions, target, behind_penalty)[0]
+    wanted, miss0, q0, q1, q2 = _gate(head, d, target, behind_penalty, hit_miss_m, min_turn_deg)
+    if wanted > 0:
+        _candidate_miss_into(frames, q0, q1, q2, behind_penalty, out)
+    return wanted, miss0
+
+
+@njit(cache=True)
+def _gate(head: np.ndarray, d: np.ndarray, target: np.ndarray, behind_penalty: float, hit_miss_m: float,
+          min_turn_deg: float) -> tuple[int, float, float, float, float]:
+    """(``turn_wanted``, swimming on's miss m (``line_miss``), and, when a turn is wanted, the target in the
+    heading's frame m (``target_in_frame``; else zeros)) of ``paper_rule_misses``' arguments."""
+    miss0 = _line_miss_row(target[0] - head[0], target[1] - head[1], target[2] - head[2], d[0], d[1], d[2],
+                           behind_penalty)
     wanted = turn_wanted(miss0, d, target - head, hit_miss_m, min_turn_deg)
     if wanted > 0:
         q0, q1, q2 = target_in_frame(head, d, target)
-        _candidate_miss_into(frames, q0, q1, q2, behind_penalty, out)
-    return wanted, miss0
+        return wanted, miss0, q0, q1, q2
+    return wanted, miss0, 0.0, 0.0, 0.0
+
+
+@njit(cache=True)
+def pick_least(miss: np.ndarray, miss_straight: float, improvement: float) -> tuple[int, float]:
+    """(flat index of the least of ``miss`` (T, B) m, that miss), the first among equals and a NaN before all
+    (``np.argmin``'s); index -1 if it does not beat swimming on's ``miss_straight`` by
+    ``improvement`` (m): the rule planner's choice by the miss alone (``agents.turn_planner.pick_turn``)."""
+    flat = miss.ravel()
+    k, best = 0, math.inf
+    for c in range(flat.shape[0]):  # np.argmin's: the first least, the first NaN before all
+        x = flat[c]
+        if x < best:
+            k, best = c, x
+        elif math.isnan(x):
+            k, best = c, x
+            break
+    return _if_improving(k, best, miss_straight, improvement)
+
+
+@njit(cache=True)
+def _if_improving(k: int, best: float, miss_straight: float, improvement: float) -> tuple[int, float]:
+    """(``k``, ``best``) if the least miss ``best`` (m) beats swimming on's by ``improvement`` (m), else (-1, best)."""
+    if best > miss_straight - improvement:
+        return -1, best
+    return k, best
+
+
+@njit(cache=True)
+def paper_rule_choice(head: np.ndarray, d: np.ndarray, target: np.ndarray, frames: np.ndarray,
+                      behind_penalty: float, hit_miss_m: float, min_turn_deg: float, improvement: float
+                      ) -> tuple[int, float, int, float]:
+    """The rule planner's plan with the paper's miss and no line score: (``turn_wanted``, swimming on's miss m, the
+    chosen candidate's flat index in (T, B) or -1 for none, its miss m): ``paper_rule_misses`` (its arguments) and
+    ``pick_least`` in one pass over the candidates, the misses not stored."""
+    wanted, miss0, q0, q1, q2 = _gate(head, d, target, behind_penalty, hit_miss_m, min_turn_deg)
+    if wanted <= 0:
+        return wanted, miss0, -1, math.nan
+    n_b = frames.shape[1]
+    k, best = 0, math.inf
+    for i in range(frames.shape[0]):
+        for j in range(n_b):  # pick_least's argmin
+            x = _miss(frames, i, j, q0, q1, q2, behind_penalty)
+            if x < best:
+                k, best = i * n_b + j, x
+            elif math.isnan(x):
+                return wanted, miss0, i * n_b + j, x  # NaN is not above swimming on's miss: _if_improving keeps it
+    k, best = _if_improving(k, best, miss0, improvement)
+    return wanted, miss0, k, best
+
+
+@njit(cache=True)
+def candidate_plan(t_c: np.ndarray, theta: np.ndarray, psi: np.ndarray, beta: np.ndarray, i: int, j: int
+                   ) -> tuple[float, float, float, float]:
+    """Candidate turn ``i`` (``t_c`` s, ``theta``, ``psi`` rad, (T,)) flown at burst phase ``j`` (``beta`` (B,) rad):
+    (its burst length s, theta deg, the burst phase rad and the new heading's predicted azimuth rad, beta + psi,
+    both wrapped to (-pi, pi]) (``agents.turn_planner.RulePlanner.plan_of``)."""
+    b = beta[j]
+    return t_c[i], math.degrees(theta[i]), wrap_angle(b), wrap_angle(b + psi[i])
 
 
 @njit(cache=True)
@@ -184,11 +259,10 @@ def first_improving_distance(frames: np.ndarray, q0: float, q1: float, q2: float
     rest = threshold - behind_penalty
     for i in range(n_t):
         for j in range(n_b):
-            f = frames[i, j]
-            r0, r1, r2 = q0 - f[0], q1 - f[1], q2 - f[2]
+            r0, r1, r2 = q0 - frames[i, j, 0], q1 - frames[i, j, 1], q2 - frames[i, j, 2]
             rr = r0 * r0 + r1 * r1 + r2 * r2
-            rh = r0 * f[3] + r1 * f[4] + r2 * f[5]
-            dh = f[3]
+            dh = frames[i, j, 3]
+            rh = r0 * dh + r1 * frames[i, j, 4] + r2 * frames[i, j, 5]
             a_lo, a_hi = lo, hi  # where the target is ahead of the end
             if dh > 1e-15:
                 a_hi = min(hi, rh / dh)
@@ -241,14 +315,14 @@ def first_improving_sample(frames: np.ndarray, q0: float, q1: float, q2: float, 
     n_kept = 0
     for i in range(n_t):
         for j in range(n_b):
-            if _may_pass(frames[i, j], q0, q1, q2, behind_penalty, step_m, n_max * step_m, largest + _BOUND_MARGIN_M):
+            if _may_pass(frames, i, j, q0, q1, q2, behind_penalty, step_m, n_max * step_m, largest + _BOUND_MARGIN_M):
                 kept[n_kept] = i * n_b + j
                 n_kept += 1
     for k in range(1, n_max + 1):
         m0 = q0 - k * step_m
         for c in range(n_kept):
             i, j = divmod(kept[c], n_b)
-            if _miss(frames[i, j], m0, q1, q2, behind_penalty) <= bound[k - 1]:
+            if _miss(frames, i, j, m0, q1, q2, behind_penalty) <= bound[k - 1]:
                 return k
     return -1
 
@@ -259,18 +333,18 @@ _BOUND_MARGIN_M = 1e-9
 
 
 @njit(cache=True)
-def _may_pass(f: np.ndarray, q0: float, q1: float, q2: float, behind_penalty: float, lo: float, hi: float,
-              bound: float) -> bool:
-    """False if the candidate ``f``'s miss (``_miss``, its row of ``candidate_frames``) of the target (q0 - x, q1, q2)
-    exceeds ``bound`` (m, >= 0) for every move x in [lo, hi] m of the head along d. With r the target from the
+def _may_pass(frames: np.ndarray, i: int, j: int, q0: float, q1: float, q2: float, behind_penalty: float, lo: float,
+              hi: float, bound: float) -> bool:
+    """False if the candidate ``frames[i, j]``'s miss (``_miss``, its row of ``candidate_frames``) of the target
+    (q0 - x, q1, q2) exceeds ``bound`` (m, >= 0) for every move x in [lo, hi] m of the head along d. With r the target from the
     candidate's end and h its heading, the target lies ahead (r.h - x h_d > 0) on an interval of x, where the miss
     squared is the convex quadratic (1 - h_d^2) x^2 + 2 ((r.h) h_d - r_d) x + |r|^2 - (r.h)^2
     (``first_improving_distance``), and behind on the rest, where it is |r - x d| + behind_penalty; each part's
     least value lies at its vertex or an end of its interval (both widened by ``_BOUND_MARGIN_M``)."""
-    r0, r1, r2 = q0 - f[0], q1 - f[1], q2 - f[2]
+    r0, r1, r2 = q0 - frames[i, j, 0], q1 - frames[i, j, 1], q2 - frames[i, j, 2]
     rr = r0 * r0 + r1 * r1 + r2 * r2
-    rh = r0 * f[3] + r1 * f[4] + r2 * f[5]
-    dh = f[3]
+    dh = frames[i, j, 3]
+    rh = r0 * dh + r1 * frames[i, j, 4] + r2 * frames[i, j, 5]
     slack = _BOUND_MARGIN_M
     a_lo, a_hi, b_lo, b_hi = lo, hi, lo, hi  # where the target is ahead of the end (a) and behind it (b)
     if dh > 1e-15:

@@ -47,7 +47,7 @@ from agents.turn_geometry import angle_between, angle_of, azimuth, azimuth_of, n
 from agents.adaptive_planner import AdaptiveConfig, AdaptivePlanner
 from agents.controller_spec import controller_kind, controller_options
 from agents.online_turn_map import OnlineMapConfig, OnlineTurnMap
-from agents.turn_map import TurnMap
+from agents.turn_map import TurnMap, branch_theta_deg, psi_deg_at
 from agents.turn_planner import PlannerConfig, RulePlanner, PlannerEpisode
 from physics.validation import require_finite
 
@@ -103,11 +103,17 @@ def turn_features(plan: dict, targets: np.ndarray, reach_radius_m: float, end_to
                         reach_radius_m, end_to_end_ratio, time_left, n_turns, max_theta_deg, had, d0,
                         previous["predicted_theta_deg"] if had else 1.0, previous["predicted_azimuth"] if had else 0.0,
                         f)
-    if not ok:  # a zero or non-finite direction: the ValueError of the geometry that cannot take it
-        angle_between(d, targets[0]), angle_between(d0, d), azimuth(d, d0)
-        if len(targets) > 1:
-            angle_between(targets[0], targets[1] - targets[0])
+    if not ok:
+        feature_error(d, targets, d0)
     return f
+
+
+def feature_error(d: np.ndarray, targets: np.ndarray, d0: np.ndarray) -> None:
+    """For features ``feature_vector`` found no angle of (a zero or non-finite direction): the ValueError of the
+    geometry that cannot take it. d, d0 (3,) the headings, targets (W, 3) m (``turn_features``)."""
+    angle_between(d, targets[0]), angle_between(d0, d), azimuth(d, d0)
+    if len(targets) > 1:
+        angle_between(targets[0], targets[1] - targets[0])
 
 
 @njit(cache=True)
@@ -170,18 +176,40 @@ def corrected_plan(plan: dict, action: np.ndarray, turn_map: TurnMap, limits: Re
     map's prediction of the corrected turn: ``predicted_theta_deg`` (the rising branch, held at
     its maximum beyond it) and ``predicted_azimuth`` (rad, of the new heading about the old one in
     ``perpendicular_basis(heading)``, as the planner predicts it: phase + psi)."""
+    a0, a1 = clipped_residual(action)
+    t_c, phase, theta_deg, azimuth_rad = corrected_turn(float(plan["t_c"]), float(plan["burst_phase"]), a0, a1,
+                                                        limits.max_dtc_fraction, limits.max_dphase_deg,
+                                                        *turn_map.turn_curves())
+    out = dict(plan)
+    out.update(t_c=t_c, burst_phase=phase, residual=[a0, a1],
+               planned_t_c=float(plan["t_c"]), planned_theta_deg=float(plan["theta_deg"]),
+               predicted_theta_deg=theta_deg, predicted_azimuth=azimuth_rad)
+    return out
+
+
+def clipped_residual(action: np.ndarray) -> tuple[float, float]:
+    """The residual action (2,) clipped to [-1, 1] (``np.clip``'s), (a_0, a_1); ValueError unless it is two finite
+    numbers."""
     a = np.asarray(action, dtype=np.float64).reshape(-1)
-    a0, a1 = (min(max(x, -1.0), 1.0) for x in a.tolist()) if a.size == 2 else (math.nan, math.nan)  # np.clip's
+    a0, a1 = a.tolist() if a.size == 2 else (math.nan, math.nan)
+    a0, a1 = min(max(a0, -1.0), 1.0), min(max(a1, -1.0), 1.0)  # np.clip's
     if not (math.isfinite(a0) and math.isfinite(a1)):
         raise ValueError(f"residual action={action!r} must be two finite numbers in [-1, 1]")
-    t_c = plan["t_c"] * (1.0 + a0 * limits.max_dtc_fraction)
-    phase = wrap_angle(plan["burst_phase"] + math.radians(a1 * limits.max_dphase_deg))
-    out = dict(plan)
-    out.update(t_c=float(t_c), burst_phase=phase, residual=[a0, a1],
-               planned_t_c=float(plan["t_c"]), planned_theta_deg=float(plan["theta_deg"]),
-               predicted_theta_deg=turn_map.theta_for(t_c),
-               predicted_azimuth=wrap_angle(phase + math.radians(turn_map.psi_for(t_c))))
-    return out
+    return a0, a1
+
+
+@njit(cache=True)
+def corrected_turn(t_c: float, burst_phase: float, a0: float, a1: float, max_dtc_fraction: float,
+                   max_dphase_deg: float, branch_t: np.ndarray, branch_theta_deg_: np.ndarray, psi_t: np.ndarray,
+                   psi_unwrapped_deg: np.ndarray) -> tuple[float, float, float, float]:
+    """A planned turn (``t_c`` s, ``burst_phase`` rad) with the clipped residual (a0, a1) applied (module
+    docstring; ``ResidualLimits``' ``max_dtc_fraction`` and ``max_dphase_deg``) and the map's prediction of it
+    (``TurnMap.turn_curves``' four arrays): (t_c' s, phase' rad, predicted theta deg (``TurnMap.theta_for``),
+    predicted azimuth rad of the new heading about the old one, phase' + psi (``TurnMap.psi_for``))."""
+    t = t_c * (1.0 + a0 * max_dtc_fraction)
+    phase = wrap_angle(burst_phase + math.radians(a1 * max_dphase_deg))
+    return (t, phase, branch_theta_deg(t, branch_t, branch_theta_deg_),
+            wrap_angle(phase + math.radians(psi_deg_at(t, psi_t, psi_unwrapped_deg))))
 
 
 def map_features(online: OnlineTurnMap) -> np.ndarray:

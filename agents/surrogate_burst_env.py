@@ -145,7 +145,7 @@ class SurrogateBurstEnv(TurnEpisodes, gym.Env):
             end = run.hover_to_phase(command.beta_rad)
             if end is None:
                 self.bursts += 1
-                _, end = run.burst(command.t_c_s, command.beta_rad, *self.relax_wait_s, command.burst_end)
+                end = run.burst(command.t_c_s, command.beta_rad, *self.relax_wait_s, command.burst_end)
                 if run.out_of_range is not None and not self._warned:
                     self._warned = True
                     gym.logger.warn(f"{self.env_id}: {run.out_of_range}; reported in info['out_of_range']")

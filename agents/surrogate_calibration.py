@@ -10,11 +10,13 @@ it.
 
 from __future__ import annotations
 
+import functools
 import json
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numba import njit
 
 from agents.assets import package_file
 
@@ -47,13 +49,14 @@ class SurrogateCalibration:
     burst_energy_j: np.ndarray
     burst_time_exponents: dict[str, float]
 
+    @functools.cached_property
+    def burst_table(self) -> np.ndarray:
+        """``burst_t_s`` and ``burst_energy_j`` stacked, (2, K) (``burst_energy_at``'s arrays; not to be changed)."""
+        return np.stack([self.burst_t_s, self.burst_energy_j])
+
     def burst_energy(self, t_c: float) -> float:
         """Motor energy (J) of a burst of ``t_c`` s at omega_h."""
-        t, e = self.burst_t_s, self.burst_energy_j
-        if t_c <= t[-1]:
-            return float(np.interp(t_c, t, e))
-        slope = (e[-1] - e[-2]) / (t[-1] - t[-2])
-        return float(e[-1] + slope * (t_c - t[-1]))
+        return burst_energy_at(float(t_c), self.burst_t_s, self.burst_energy_j)
 
     @classmethod
     def load(cls, path: str | Path) -> SurrogateCalibration:
@@ -75,3 +78,14 @@ class SurrogateCalibration:
                        burst_time_exponents={str(k): float(v) for k, v in doc["burst_time_exponents"].items()})
         except (KeyError, TypeError, ValueError) as exc:
             raise ValueError(f"surrogate calibration {str(path)!r} is damaged: {exc}") from None
+
+
+@njit(cache=True)
+def burst_energy_at(t_c: float, t: np.ndarray, e: np.ndarray) -> float:
+    """Motor energy (J) of a burst of ``t_c`` s from the cumulative energies ``e`` (K,) J at the burst lengths ``t``
+    (K,) s (``SurrogateCalibration.burst_energy``): linear in between, at the last slope beyond."""
+    k = t.shape[0] - 1
+    if t_c <= t[k]:
+        return np.interp(t_c, t, e)
+    slope = (e[k] - e[k - 1]) / (t[k] - t[k - 1])
+    return e[k] + slope * (t_c - t[k])

@@ -17,8 +17,6 @@ of a turn) at a uniform speed and evaluates the same bookkeeping on each leg in 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-
 import numpy as np
 from numba import njit
 
@@ -30,23 +28,24 @@ _GAUSS_X = (0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6))
 _GAUSS_W = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
 
 
-@dataclass(slots=True)
-class LegResult:
-    """What a leg did: ``end`` (3,) m where the head stopped, ``duration_s`` flown, ``reached`` waypoints,
-    ``cross_integral`` (m s, int e dt), ``off_path`` / ``timed_out`` (why it stopped early, if so),
-    ``energy_j`` (set by the caller, J)."""
-
-    end: np.ndarray
-    duration_s: float
-    reached: int = 0
-    cross_integral: float = 0.0
-    off_path: bool = False
-    timed_out: bool = False
-    energy_j: float = 0.0
+#: ``SurrogateEpisode.state``, float64 (STATE_SIZE,): the head (3, m) from HEAD, the unit heading (3) from HEADING, the
+#: episode's time (s), motor energy (J) and int e dt (m s), and, since the reward was last taken, the motor energy
+#: (J), int e dt (m s), the waypoints reached (a count) and whether the head left the path (1.0).
+HEAD, HEADING, TIME, ENERGY, CROSS, ACC_ENERGY, ACC_CROSS, ACC_REACHED, OFF_PATH = 0, 3, 6, 7, 8, 9, 10, 11, 12
+STATE_SIZE = 13
+#: A leg's constants, float64 (LEG_SIZE,): the reach radius (m), the time limit (s), the off-path distance (m), the
+#: cruise speed (m/s), the cruise power (W), the control step (s), the map period (s), and the swimmer's relaxation
+#: time, burst time and viscosity over the map's (``SurrogateSwimmer``'s ``tau_ratio``, ``time_factor``,
+#: ``mu_ratio``).
+REACH, TIME_LIMIT, OFF_PATH_M, SPEED, CRUISE_POWER, DT, PERIOD, TAU_RATIO, TIME_FACTOR, MU_RATIO = range(10)
+LEG_SIZE = 10
+#: How a leg ended (``fly_state``): on (the episode goes on), terminated (the path done or left), truncated (out of
+#: time).
+GOES_ON, TERMINATED, TRUNCATED = 0, 1, 2
 
 
 class SegmentFrames:
-    """The path's segments and waypoints as one array for the compiled leg (``fly_leg``): row i of ``table`` (N, 10)
+    """The path's segments and waypoints as one array for the compiled leg (``fly_state``): row i of ``table`` (N, 10)
     holds segment i's start (vertex i, m), its unit direction, its length (m) and waypoint i (m); the cross-track
     error of a point is its distance from the closest point of the current segment (``PathTracker.cross_track_error``'s
     definition: projection clipped to the segment)."""
@@ -58,17 +57,34 @@ class SegmentFrames:
                                      lengths[:, None], tracker.path.waypoints], axis=1)
 
 
-def fly_leg(tracker: PathTracker, frames: SegmentFrames, start: np.ndarray, end: np.ndarray, duration_s: float,
-            time_s: float, time_limit_s: float, off_path_m: float, stop_at_waypoint: bool) -> LegResult:
-    """Move the head from ``start`` to ``end`` (3,) m in ``duration_s`` s starting at episode time ``time_s``
-    (module docstring); ``stop_at_waypoint``: end the leg where a waypoint is reached (the planner re-plans then).
-    ``frames``: ``SegmentFrames(tracker)``. Advances ``tracker``."""
+@njit(cache=True)
+def fly_state(state: np.ndarray, b0: float, b1: float, b2: float, duration_s: float, power_w: float,
+              energy_j: float, prorate: bool, stop_at_waypoint: bool, index: int, table: np.ndarray,
+              consts: np.ndarray) -> tuple[int, int]:
+    """Move the head of ``state`` (``STATE_SIZE``) to (b0, b1, b2) m in ``duration_s`` s from its time on (module
+    docstring) and add the leg to ``state``; ``stop_at_waypoint``: end the leg where a waypoint is reached (the
+    planner re-plans then). Its motor energy: ``energy_j`` (J) prorated if the leg stops early (``prorate``), else
+    ``power_w`` (W) x its duration. ``index``: the target waypoint; ``table``: ``SegmentFrames.table``; ``consts``
+    (``LEG_SIZE``). Returns (the waypoints reached, ``GOES_ON``, ``TERMINATED`` or ``TRUNCATED``)."""
     e0, e1, e2, flown, reached, cross, off_path, timed_out = _fly(
-        start, end, duration_s, time_s, time_limit_s, off_path_m, stop_at_waypoint, tracker.index,
-        tracker.reach_radius_m, frames.table)
-    if reached:
-        tracker.mark_reached(reached)
-    return LegResult(np.array([e0, e1, e2]), flown, reached, cross, off_path, timed_out)
+        state[0], state[1], state[2], b0, b1, b2, duration_s, state[TIME], consts[TIME_LIMIT], consts[OFF_PATH_M],
+        stop_at_waypoint, index, consts[REACH], table)
+    if prorate:
+        energy = energy_j * (flown / duration_s if duration_s > 0.0 else 1.0)
+    else:
+        energy = power_w * flown
+    state[0], state[1], state[2] = e0, e1, e2
+    state[TIME] += flown
+    state[ENERGY] += energy
+    state[CROSS] += cross
+    state[ACC_ENERGY] += energy
+    state[ACC_CROSS] += cross
+    state[ACC_REACHED] += reached
+    if off_path:
+        state[OFF_PATH] = 1.0
+    if index + reached >= table.shape[0] or off_path:
+        return reached, TERMINATED
+    return reached, TRUNCATED if timed_out else GOES_ON
 
 
 @njit(cache=True)
@@ -105,13 +121,12 @@ def _error(index: int, x0: float, x1: float, x2: float, table: np.ndarray) -> fl
 
 
 @njit(cache=True)
-def _fly(start: np.ndarray, end: np.ndarray, duration_s: float, time_s: float, time_limit_s: float,
-         off_path_m: float, stop_at_waypoint: bool, index: int, reach: float, table: np.ndarray
+def _fly(a0: float, a1: float, a2: float, b0: float, b1: float, b2: float, duration_s: float, time_s: float,
+         time_limit_s: float, off_path_m: float, stop_at_waypoint: bool, index: int, reach: float, table: np.ndarray
          ) -> tuple[float, float, float, float, int, float, bool, bool]:
-    """``fly_leg``'s leg from the target ``index`` on: (end x, y, z m, duration flown s, waypoints reached,
-    cross-track integral m s, off the path, timed out). A waypoint counts when the head is within ``reach`` m of it
-    (``PathTracker.update``'s test, its distance rounded alike)."""
-    a0, a1, a2, b0, b1, b2 = start[0], start[1], start[2], end[0], end[1], end[2]
+    """``fly_state``'s leg from (a0, a1, a2) to (b0, b1, b2) m, the target ``index`` on: (end x, y, z m, duration
+    flown s, waypoints reached, cross-track integral m s, off the path, timed out). A waypoint counts when the head is
+    within ``reach`` m of it (``PathTracker.update``'s test, its distance rounded alike)."""
     n_wp = table.shape[0]
     timed_out = False
     if duration_s > 0.0 and time_s + duration_s > time_limit_s:

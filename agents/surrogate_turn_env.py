@@ -39,18 +39,24 @@ from typing import Any, ClassVar
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 from gymnasium.utils import seeding
 
 from agents.controller_spec import CONTROLLER_ENV_DEFAULTS
 from agents.registration import TURN_SURROGATE_ENV_ID
-from agents.residual_planner import ResidualLimits, base_planner, corrected_plan, turn_features
+from agents.residual_planner import (ResidualLimits, base_planner, clipped_residual, corrected_turn, feature_error,
+                                     feature_vector)
 from agents.surrogate_calibration import SurrogateCalibration, calibration_file
 from agents.surrogate_episode import SurrogateEpisode, surrogate_info
 from agents.surrogate_swimmer import FACTOR_RANGE, SurrogateSwimmer, TurnMapTable
 from agents.turn_decision_env import (DEFAULT_ACTION_COST, DEFAULT_RANDOM_PATH, TurnEpisodes, fixed_paths,
                                       load_turn_map, parse_turn_action, refuse_unknown_arguments, residual_limits,
                                       turn_env_kwargs)
-from agents.candidate_miss import first_improving_distance, first_improving_sample, target_in_frame
+from agents.candidate_miss import (candidate_plan, first_improving_distance, first_improving_sample, paper_rule_choice,
+                                   target_in_frame)
+from agents.surrogate_episode import cruise_state
+from agents.surrogate_legs import DT, GOES_ON, HEADING, REACH, SPEED, TIME
+from agents.turn_geometry import angle_between
 from agents.turn_map import TurnMap
 from agents.turn_planner import BEHIND_PENALTY_M, PlannerEpisode, RulePlanner
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M, SteerConfig, draw_randomization, make_config
@@ -123,6 +129,17 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         self.observation_space = spaces.Box(-10.0, 10.0, (self.planner_features,), np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         self._max_theta = tmap.max_theta_deg
+        pcfg = self.planner.config
+        self._line = pcfg.line_weight > 0.0
+        self._frames = self.planner.episode_frames(None)
+        t_c, theta, psi, _ = self.planner.candidate_turns(None)
+        #: the candidate turns' burst lengths (s), theta and psi (rad), and the burst phases (rad), for plan_or_cruise
+        self._candidates, self._phases = np.stack([t_c, theta, psi]), self.planner.burst_phases
+        self._curves = tmap.turn_curves()
+        #: the plan (PLAN_SIZE) and the last turn flown (PREV_SIZE)
+        self._plan, self._prev = np.zeros(PLAN_SIZE), np.zeros(PREV_SIZE)
+        #: the hover's and relaxation's wait bounds (s): two map periods, max_relax_factor x the map's median
+        self._relax_wait_s = (2 * self.planner.period_steps * cfg.control_dt, pcfg.max_relax_factor * tmap.relax_s)
         self._episode = 0
         self._swimmer_rng: np.random.Generator | None = None
         self._warned = False
@@ -145,13 +162,19 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         reach = cfg.reach_radius_m or path.reach_radius_m or DEFAULT_REACH_RADIUS_M
         self.tracker = PathTracker(path, reach)
         self.planner.reach_radius_m = reach
+        pcfg = self.planner.config
+        self._checks = np.array([pcfg.hit_fraction * reach, pcfg.min_turn_deg, pcfg.improvement_m, pcfg.hit_fraction,
+                                 math.tan(math.radians(pcfg.min_turn_deg)), pcfg.line_weight])
         max_time = (cfg.max_sim_time_s if cfg.max_sim_time_s is not None
                     else cfg.time_factor * path.length_m / self.calibration.cruise_speed_m_s)
         self.max_steps = max(1, math.ceil(max_time / cfg.control_dt - 1e-9))
         self.time_limit_s = self.max_steps * cfg.control_dt
         self.episode = SurrogateEpisode(self.swimmer, self.tracker, cfg, self.time_limit_s)
-        self._ep = PlannerEpisode()
-        self._plan: dict | None = None
+        self._ep = PlannerEpisode() if self._line else None
+        self._planned = False
+        self._n_turns = 0
+        self._feature_consts = np.array([reach, self.calibration.cruise_end_to_end_ratio, self.max_steps,
+                                         cfg.control_dt, self._max_theta])
         self._done = False
         # the planner measures a heading after one period at omega_l (RulePlanner._decide, cruise)
         end = self.episode.cruise((self.planner.period_steps + 1) * cfg.control_dt)
@@ -165,6 +188,17 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         """The swimmer's heading now, (3,) unit."""
         return self.episode.heading
 
+    @property
+    def last_turn(self) -> dict[str, Any] | None:
+        """The last turn flown in this episode (None before the first): ``heading`` (the heading it was planned
+        from, [3] unit), ``predicted_theta_deg`` and ``predicted_azimuth`` (rad), as ``corrected_plan`` predicts
+        them."""
+        if self._n_turns == 0:
+            return None
+        prev = self._prev
+        return {"heading": prev[0:3].tolist(), "predicted_theta_deg": float(prev[PREV_THETA_DEG]),
+                "predicted_azimuth": float(prev[PREV_AZIMUTH])}
+
     def step(self, action: Any):
         if self._done:
             raise RuntimeError("call reset() before step()")
@@ -172,9 +206,13 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         reward, end = self._pending
         self._pending = (0.0, None)
         if end is None:
-            plan = corrected_plan(self._plan, a, self.turn_map, self.limits)
-            a0, a1 = plan["residual"]  # the action clipped to [-1, 1]
-            end = self._turn(plan)
+            a0, a1 = clipped_residual(a)
+            plan, prev, lim = self._plan, self._prev, self.limits
+            t_c, phase, prev[PREV_THETA_DEG], prev[PREV_AZIMUTH] = corrected_turn(
+                plan[PLAN_T_C], plan[PLAN_PHASE], a0, a1, lim.max_dtc_fraction, lim.max_dphase_deg, *self._curves)
+            prev[0:3] = plan[PLAN_HEADING:PLAN_HEADING + 3]  # the planner's last turn (the next features')
+            self._n_turns += 1
+            end = self._turn(t_c, phase)
             if end is None:
                 end = self._advance()
             reward += self.episode.reward() - self.action_cost * dot3s(a0, a1, 0.0, a0, a1, 0.0)  # a @ a
@@ -184,75 +222,38 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
 
     # --- the planner's loop, event by event ---------------------------------------------------
     def _advance(self) -> tuple[bool, bool] | None:
-        """Cruise until the planner plans a turn (``self._plan``; returns None) or the episode ends (returns
-        (terminated, truncated))."""
+        """Cruise until the planner plans a turn (``self._plan``, ``PLAN_SIZE``; returns None) or the episode ends
+        (returns (terminated, truncated))."""
         pl, tr, run = self.planner, self.tracker, self.episode
+        st, table, consts, checks = run.state, run.frames.table, run.consts, self._checks
         while True:
-            target = tr.path.waypoints[tr.index]
-            pl._track_segment(self._ep, target)
-            plan = pl.rule_plan(run.head, run.heading, target, self._ep, RulePlanner._line_miss)
-            if plan is not None:
-                self._plan = plan
-                return None
-            end = run.cruise(self._cruise_until_next_check(target))
+            if self._line:  # the line score moves with the segment: the planner's own plan (rule_plan)
+                target = tr.path.waypoints[tr.index]
+                pl._track_segment(self._ep, target)
+                plan = pl.rule_plan(run.head, run.heading, target, self._ep, RulePlanner._line_miss)
+                if plan is not None:
+                    self._plan[:] = (plan["t_c"], plan["theta_deg"], plan["predicted_miss_m"],
+                                     plan["miss_straight_m"], *plan["heading"], plan["burst_phase"])
+                    self._planned = True
+                    return None
+                end = run.cruise(next_check_s(self._frames, st, target, consts, checks))
+            else:  # the paper's rule without a line (the same plan, agents.candidate_miss.paper_rule_choice)
+                wanted, k, reached, how = plan_or_cruise(st, self._frames, self._candidates, self._phases, tr.index,
+                                                         table, consts, checks, self._plan)
+                if wanted < 0:
+                    angle_between(run.heading, tr.path.waypoints[tr.index] - run.head)  # raises: no direction
+                if k >= 0:
+                    self._planned = True
+                    return None
+                end = run.collect(reached, how)
             if end is not None:
                 return end
 
-    def _cruise_until_next_check(self, target: np.ndarray) -> float:
-        """How long (s, whole control steps) to swim straight before the plan can change (module docstring, 1.)."""
-        cfg, pcfg, dt = self.config, self.planner.config, self.config.control_dt
-        v, rel = self.swimmer.speed_m_s, target - self.episode.head
-        along = float(rel @ self.episode.heading)
-        lateral = math.sqrt(max(float(rel @ rel) - along * along, 0.0))
-        reach = self.tracker.reach_radius_m
-        if along <= 0.0:
-            # the target behind: swimming on's miss grows; the first of the next BEHIND_SAMPLES samples
-            # RECHECK_S apart at which a turn helps (agents.candidate_miss.first_improving_sample)
-            k = first_improving_sample(self._frames_now(), *self._local(target), BEHIND_PENALTY_M,
-                                       pcfg.improvement_m, v * RECHECK_S, BEHIND_SAMPLES)
-            wait = (k if k > 0 else BEHIND_SAMPLES) * RECHECK_S
-        elif lateral < pcfg.hit_fraction * reach:
-            wait = along / v  # on course: nothing changes before the target is reached (or abeam)
-            if lateral < reach:
-                wait = (along - math.sqrt(reach * reach - lateral * lateral)) / v
-        else:
-            # off course: the plan is the same until the heading error passes min_turn_deg, a candidate turn
-            # improves the miss by improvement_m (agents.candidate_miss.first_improving_distance) or the target
-            # comes abeam; with line_weight > 0 the score moves too: re-plan every RECHECK_S
-            start = max(0.0, along - lateral / math.tan(math.radians(pcfg.min_turn_deg)))
-            wait = along / v
-            if lateral < reach:
-                wait = min(wait, (along - math.sqrt(reach * reach - lateral * lateral)) / v)
-            if start > 0.0:
-                wait = min(wait, start / v)
-            elif pcfg.line_weight > 0.0:
-                wait = min(wait, RECHECK_S)
-            else:
-                x = first_improving_distance(self._frames_now(), *self._local(target), BEHIND_PENALTY_M,
-                                             lateral - pcfg.improvement_m, 0.0, along)
-                wait = min(wait, x / v)
-        return max(1, math.ceil(wait / dt - 1e-9)) * dt
-
-    def _frames_now(self) -> np.ndarray:
-        """The planner's candidate turns in the heading's frame (``RulePlanner.candidate_frames``)."""
-        _, theta, psi, off = self.planner._candidate_turns(self._ep)
-        return self.planner.candidate_frames(theta, psi, off, self.planner._burst_phases)
-
-    def _local(self, target: np.ndarray) -> tuple[float, float, float]:
-        """The target minus the head in the heading's frame (``agents.candidate_miss.target_in_frame``), m."""
-        return target_in_frame(self.episode.head, self.episode.heading, target)
-
-    def _turn(self, plan: dict) -> tuple[bool, bool] | None:
-        """Fly a decided turn (module docstring, 3.): hover, burst, relax; the plan is remembered as the
-        planner's last turn (the next features compare against it)."""
+    def _turn(self, t_c: float, phase: float) -> tuple[bool, bool] | None:
+        """Fly a decided turn of ``t_c`` s at the burst phase ``phase`` rad (module docstring, 3.): hover, burst,
+        relax."""
         dt, run = self.config.control_dt, self.episode
-        self._ep.turns.append(plan)
-        end = run.hover_to_phase(plan["burst_phase"])
-        if end is not None:
-            return end
-        pcfg = self.planner.config
-        _, end = run.burst(max(1, round(plan["t_c"] / dt)) * dt, plan["burst_phase"],
-                           2 * self.planner.period_steps * dt, pcfg.max_relax_factor * self.turn_map.relax_s)
+        end = run.turn(max(1, round(t_c / dt)) * dt, phase, self._relax_wait_s[0], self._relax_wait_s[1])
         if run.out_of_range is not None and not self._warned:
             self._warned = True
             gym.logger.warn(f"{self.env_id}: {run.out_of_range}; reported in info['out_of_range']")
@@ -260,18 +261,19 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
 
     # --- what the agent sees ----------------------------------------------------------------
     def _features(self) -> np.ndarray:
-        if self._done or self._pending[1] is not None or self._plan is None:
-            return np.zeros(self.planner_features, np.float32)
-        cfg = self.config
-        targets = self.tracker.targets(cfg.n_lookahead) - self.episode.head
-        steps = math.floor(self.episode.time_s / cfg.control_dt + 1e-9)
-        ep = self._ep
-        return turn_features(self._plan, targets, self.tracker.reach_radius_m,
-                             self.calibration.cruise_end_to_end_ratio, max(0.0, 1.0 - steps / self.max_steps),
-                             ep.turns[-1] if ep.turns else None, len(ep.turns), self._max_theta)
+        out = np.zeros(self.planner_features, np.float32)
+        if self._done or self._pending[1] is not None or not self._planned:
+            return out
+        run = self.episode
+        if not episode_features(self._plan, self._prev, self._n_turns, run.state, run.frames.table,
+                                self.tracker.index, self.config.n_lookahead, self._feature_consts, out):
+            d = self._plan[PLAN_HEADING:PLAN_HEADING + 3]
+            feature_error(d, self.tracker.targets(self.config.n_lookahead) - run.head,
+                          self._prev[0:3] if self._n_turns else d)
+        return out
 
     def _info(self) -> dict[str, Any]:
-        return surrogate_info(self.path.name, self.tracker, self.episode, len(self._ep.turns))
+        return surrogate_info(self.path.name, self.tracker, self.episode, self._n_turns)
 
 
 def surrogate_setup(env_id: str, preset: str, turn_map: str | os.PathLike | None,
@@ -326,3 +328,126 @@ def _check_calibrated(cfg, tmap: TurnMap, calibration: SurrogateCalibration) -> 
                 raise ValueError(f"randomize {name}={f:g} draws factors from {1 - f:.3g} to {1 + f:.3g}, outside the "
                                  f"surrogate's calibrated range [{lo}, {hi}]; allowed: fractions up to "
                                  f"{min(1 - lo, hi - 1):.2g}")
+
+
+#: ``SurrogateTurnEnv``'s planner constants for ``plan_or_cruise`` and ``next_check_s``, float64 (CHECKS_SIZE,): the
+#: miss below which no turn is wanted (m), ``min_turn_deg`` (deg), ``improvement_m`` (m), ``hit_fraction``,
+#: tan(``min_turn_deg``) and ``line_weight`` (``PlannerConfig``).
+HIT_MISS, MIN_TURN_DEG, IMPROVEMENT, HIT_FRACTION, TAN_MIN_TURN, LINE_WEIGHT = 0, 1, 2, 3, 4, 5
+CHECKS_SIZE = 6
+
+
+@njit(cache=True)
+def next_check_s(frames: np.ndarray, state: np.ndarray, target: np.ndarray, consts: np.ndarray, checks: np.ndarray
+                 ) -> float:
+    """How long (s, whole control steps) to swim straight before the plan can change (module docstring, 1.), from
+    the head and heading of ``state`` (``agents.surrogate_legs.STATE_SIZE``) with the target ``target`` (3,) m:
+    ``frames`` the planner's candidate frames (``RulePlanner.episode_frames``), ``consts`` the legs' constants
+    (``LEG_SIZE``: the cruise speed, the reach radius, the control step), ``checks`` the planner's (``CHECKS_SIZE``)."""
+    head, d = state[0:3], state[HEADING:HEADING + 3]
+    v, reach, dt = consts[SPEED], consts[REACH], consts[DT]
+    r0, r1, r2 = target[0] - head[0], target[1] - head[1], target[2] - head[2]
+    along = dot3s(r0, r1, r2, d[0], d[1], d[2])
+    lateral = math.sqrt(max(dot3s(r0, r1, r2, r0, r1, r2) - along * along, 0.0))
+    if along <= 0.0:
+        # the target behind: swimming on's miss grows; the first of the next BEHIND_SAMPLES samples
+        # RECHECK_S apart at which a turn helps (agents.candidate_miss.first_improving_sample)
+        q0, q1, q2 = target_in_frame(head, d, target)
+        k = first_improving_sample(frames, q0, q1, q2, BEHIND_PENALTY_M, checks[IMPROVEMENT], v * RECHECK_S,
+                                   BEHIND_SAMPLES)
+        wait = (k if k > 0 else BEHIND_SAMPLES) * RECHECK_S
+    elif lateral < checks[HIT_FRACTION] * reach:
+        wait = along / v  # on course: nothing changes before the target is reached (or abeam)
+        if lateral < reach:
+            wait = (along - math.sqrt(reach * reach - lateral * lateral)) / v
+    else:
+        # off course: the plan is the same until the heading error passes min_turn_deg, a candidate turn
+        # improves the miss by improvement_m (agents.candidate_miss.first_improving_distance) or the target
+        # comes abeam; with line_weight > 0 the score moves too: re-plan every RECHECK_S
+        start = along - lateral / checks[TAN_MIN_TURN]
+        wait = along / v
+        if lateral < reach:
+            x = (along - math.sqrt(reach * reach - lateral * lateral)) / v
+            if x < wait:
+                wait = x
+        if start > 0.0:
+            if start / v < wait:
+                wait = start / v
+        elif checks[LINE_WEIGHT] > 0.0:
+            if RECHECK_S < wait:
+                wait = RECHECK_S
+        else:
+            q0, q1, q2 = target_in_frame(head, d, target)
+            x = first_improving_distance(frames, q0, q1, q2, BEHIND_PENALTY_M, lateral - checks[IMPROVEMENT], 0.0,
+                                         along) / v
+            if x < wait:
+                wait = x
+    return max(1, math.ceil(wait / dt - 1e-9)) * dt
+
+
+@njit(cache=True)
+def plan_or_cruise(state: np.ndarray, frames: np.ndarray, candidates: np.ndarray, beta: np.ndarray, index: int,
+                   table: np.ndarray, consts: np.ndarray, checks: np.ndarray, plan: np.ndarray
+                   ) -> tuple[int, int, int, int]:
+    """One event of the planner's loop without a line score: the rule planner's plan at the head and heading of
+    ``state`` with the target waypoint ``index`` (``paper_rule_choice``; ``frames`` its argument) written to
+    ``plan`` (``PLAN_SIZE``; ``candidates`` (3, T): the candidate turns' t_c s, theta and psi rad, ``beta`` (B,) the
+    burst phases rad, ``RulePlanner.plan_of``'s), or, with no turn chosen, the cruise to the
+    next check (``next_check_s``, ``cruise_state``; ``table`` and ``consts`` the legs'). Returns (``turn_wanted``,
+    the chosen candidate's flat index or -1, the waypoints reached, how the cruise ended:
+    ``agents.surrogate_legs.GOES_ON`` ...)."""
+    head, d = state[0:3], state[HEADING:HEADING + 3]
+    target = table[index, 7:10]
+    wanted, miss0, k, best = paper_rule_choice(head, d, target, frames, BEHIND_PENALTY_M, checks[HIT_MISS],
+                                               checks[MIN_TURN_DEG], checks[IMPROVEMENT])
+    if wanted < 0:
+        return wanted, -1, 0, GOES_ON
+    if k >= 0:
+        i, j = divmod(k, beta.shape[0])
+        plan[PLAN_T_C], plan[PLAN_THETA_DEG], plan[PLAN_PHASE], _ = candidate_plan(
+            candidates[0], candidates[1], candidates[2], beta, i, j)
+        plan[PLAN_MISS], plan[PLAN_MISS_STRAIGHT] = best, miss0
+        plan[PLAN_HEADING], plan[PLAN_HEADING + 1], plan[PLAN_HEADING + 2] = d[0], d[1], d[2]
+        return wanted, k, 0, GOES_ON
+    reached, how = cruise_state(state, next_check_s(frames, state, target, consts, checks), True, index, table,
+                                consts)
+    return wanted, -1, reached, how
+
+
+#: A plan of ``SurrogateTurnEnv`` (float64, PLAN_SIZE): its burst length (s), theta (deg), its miss and swimming on's
+#: (m), the heading it was planned from (3, unit) and its burst phase (rad) (``RulePlanner.plan_of``'s numbers).
+PLAN_T_C, PLAN_THETA_DEG, PLAN_MISS, PLAN_MISS_STRAIGHT, PLAN_HEADING, PLAN_PHASE = 0, 1, 2, 3, 4, 7
+PLAN_SIZE = 8
+#: The last turn flown (float64, PREV_SIZE): the heading it was planned from (3, unit), the corrected turn's predicted
+#: theta (deg) and azimuth (rad) (``corrected_turn``).
+PREV_THETA_DEG, PREV_AZIMUTH = 3, 4
+PREV_SIZE = 5
+#: ``episode_features``' constants (float64, 5): the reach radius (m), L'/L while cruising, the time budget
+#: (control steps), the control step (s) and the map's largest turn (deg).
+F_REACH, F_RATIO, F_MAX_STEPS, F_DT, F_MAX_THETA = 0, 1, 2, 3, 4
+
+
+@njit(cache=True)
+def episode_features(plan: np.ndarray, prev: np.ndarray, n_turns: int, state: np.ndarray, table: np.ndarray,
+                     index: int, n_lookahead: int, fconsts: np.ndarray, out: np.ndarray) -> bool:
+    """``turn_features`` of the plan ``plan`` (``PLAN_SIZE``) after ``n_turns`` turns, the last ``prev``
+    (``PREV_SIZE``), from the head and time of ``state`` with the next ``n_lookahead`` waypoints from ``index`` on
+    (``table``: ``SegmentFrames.table``; the last repeated, ``PathTracker.targets``) and ``fconsts`` (``F_REACH``
+    ...), written to ``out`` (N_FEATURES,) float32 (``feature_vector``; False: a direction it measures an angle of
+    was zero or not finite)."""
+    last = table.shape[0] - 1
+    targets = np.empty((n_lookahead, 3))
+    for k in range(n_lookahead):
+        w = min(index + k, last)
+        targets[k, 0], targets[k, 1], targets[k, 2] = (table[w, 7] - state[0], table[w, 8] - state[1],
+                                                       table[w, 9] - state[2])
+    steps = math.floor(state[TIME] / fconsts[F_DT] + 1e-9)
+    time_left = 1.0 - steps / int(fconsts[F_MAX_STEPS])
+    if not time_left > 0.0:
+        time_left = 0.0
+    d = plan[PLAN_HEADING:PLAN_HEADING + 3]
+    had = n_turns > 0
+    return feature_vector(plan[PLAN_THETA_DEG], plan[PLAN_T_C], plan[PLAN_MISS], plan[PLAN_MISS_STRAIGHT], d, targets,
+                          fconsts[F_REACH], fconsts[F_RATIO], time_left, n_turns, fconsts[F_MAX_THETA], had,
+                          prev[0:3] if had else d, prev[PREV_THETA_DEG] if had else 1.0,
+                          prev[PREV_AZIMUTH] if had else 0.0, out)

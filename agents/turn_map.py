@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from agents.turn_geometry import angle_between, azimuth, turn_angles, unit, wrap_angle
 from agents.turn_measurement import DEFAULT_SHAPE_NODES, TurnResult, phase_node_index
@@ -59,6 +60,21 @@ class TurnMapMismatch(ValueError):
 
 
 # --- the map --------------------------------------------------------------------------------
+
+@njit(cache=True)
+def branch_theta_deg(t_c: float, t: np.ndarray, theta_deg: np.ndarray) -> float:
+    """The turn (deg) of a burst of ``t_c`` s on the rising branch (t (K,) s, theta_deg (K,)), held at its ends
+    (``TurnMap.theta_for``): np.interp."""
+    return np.interp(t_c, t, theta_deg)
+
+
+@njit(cache=True)
+def psi_deg_at(t_c: float, t: np.ndarray, psi_unwrapped_deg: np.ndarray) -> float:
+    """psi (deg, wrapped to (-180, 180]) of a burst of ``t_c`` s from psi unwrapped (deg) at the burst lengths ``t``
+    (s), interpolated (``TurnMap.psi_for``)."""
+    return math.degrees(wrap_angle(math.radians(np.interp(t_c, t, psi_unwrapped_deg))))
+
+
 @dataclass(frozen=True)
 class TurnMap:
     """Calibrated turns for one swimmer (``params``) and one pair of motor speeds (rpm)."""
@@ -157,7 +173,7 @@ class TurnMap:
         """The turn (deg) of a burst of ``t_c`` s on the rising branch (``rising_branch``), held at its maximum
         beyond it."""
         t, y = self._branch(drop_deg)
-        return float(np.interp(t_c, t, y))
+        return branch_theta_deg(float(t_c), t, y)
 
     def _branch(self, drop_deg: float) -> tuple[np.ndarray, np.ndarray]:
         """``rising_branch``'s arrays, computed once (not to be changed)."""
@@ -194,7 +210,14 @@ class TurnMap:
     def psi_for(self, t_c: float) -> float:
         """psi (deg) of a burst of ``t_c`` s, interpolated in t_c (angles unwrapped)."""
         tcs, un = self._psi_unwrapped
-        return math.degrees(wrap_angle(math.radians(float(np.interp(t_c, tcs, un)))))
+        return psi_deg_at(float(t_c), tcs, un)
+
+    def turn_curves(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(t_c s, theta deg) of the rising branch (``rising_branch``) and (t_c s, psi deg unwrapped) of ``psi_for``:
+        the curves ``theta_for`` (``branch_theta_deg``) and ``psi_for`` (``psi_deg_at``) read, copies."""
+        t, y = self._branch(5.0)
+        tcs, un = self._psi_unwrapped
+        return t.copy(), y.copy(), tcs.copy(), un.copy()
 
     def offset_for(self, t_c: float) -> np.ndarray:
         """Mean head displacement over a turn of ``t_c`` s (burst + relaxation), (3,) m, along

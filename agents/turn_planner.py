@@ -28,7 +28,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from agents.candidate_miss import candidate_frames, line_miss, paper_rule_misses, turn_wanted
+from agents.candidate_miss import (candidate_frames, candidate_plan, line_miss, paper_rule_choice, paper_rule_misses,
+                                   pick_least, turn_wanted)
 from agents.turn_geometry import angle_between, azimuth, norm3, perpendicular_basis, unit, wrap_angle
 from agents.turn_map import TurnMap, leading_within
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M
@@ -432,15 +433,24 @@ class RulePlanner:
         with_line = cfg.line_weight > 0.0 and segment is not None
         if line_miss is RulePlanner._line_miss:
             # the paper's miss, compiled (agents.candidate_miss.paper_rule_misses: the same formulas as below)
+            frames = self.candidate_frames(theta, psi, off, beta)
+            hit = cfg.hit_fraction * self.reach_radius_m
+            if not with_line:  # the choice by the miss alone, compiled too (pick_turn's without a line)
+                wanted, miss0, k, best = paper_rule_choice(head, d, target, frames, BEHIND_PENALTY_M, hit,
+                                                           cfg.min_turn_deg, cfg.improvement_m)
+                if wanted < 0:
+                    angle_between(d, target - head)  # raises: the heading or the target's direction is zero
+                if wanted <= 0 or k < 0:
+                    return None
+                i, j = divmod(k, len(beta))
+                return self.plan_of(head, d, i, j, best, miss0, ep)
             miss = np.empty((len(theta), len(beta)))
-            wanted, miss0 = paper_rule_misses(head, d, target, self.candidate_frames(theta, psi, off, beta),
-                                              BEHIND_PENALTY_M, cfg.hit_fraction * self.reach_radius_m,
-                                              cfg.min_turn_deg, miss)
+            wanted, miss0 = paper_rule_misses(head, d, target, frames, BEHIND_PENALTY_M, hit, cfg.min_turn_deg, miss)
             if wanted < 0:
                 angle_between(d, target - head)  # raises: the heading or the target's direction is zero
             if wanted <= 0:
                 return None
-            after = turn_ends(head, d, off, beta) if with_line else None
+            after = turn_ends(head, d, off, beta)
         else:
             miss0 = self._miss_if_off_course(head, d, target, line_miss)
             if miss0 is None:
@@ -453,12 +463,20 @@ class RulePlanner:
         if chosen is None:
             return None
         i, j, score, score0 = chosen
-        extra = {"line_score_m": score, "line_score_straight_m": score0} if line is not None else {}
-        b, p = float(beta[j]), float(psi[i])
-        return {"t_c": float(t_c[i]), "theta_deg": math.degrees(theta[i]), "burst_phase": wrap_angle(b),
-                "predicted_azimuth": wrap_angle(b + p),
-                "predicted_miss_m": miss.item(i, j), "miss_straight_m": float(miss0),
-                "heading": d.tolist(), "head": head.tolist(), **extra}
+        plan = self.plan_of(head, d, i, j, miss.item(i, j), miss0, ep)
+        if line is not None:
+            plan.update(line_score_m=score, line_score_straight_m=score0)
+        return plan
+
+    def plan_of(self, head: np.ndarray, d: np.ndarray, i: int, j: int, miss: float, miss_straight: float,
+                ep: PlannerEpisode | None) -> dict:
+        """The plan of candidate turn ``i`` (``candidate_turns``) at burst phase ``j`` (``burst_phases``) from the head
+        ``head`` (3,) m along the unit heading ``d`` (3,): its ``miss`` and swimming on's, m (``rule_plan``)."""
+        t_c, theta, psi, _ = self._candidate_turns(ep)
+        t, theta_deg, phase, azimuth_rad = candidate_plan(t_c, theta, psi, self._burst_phases, i, j)
+        return {"t_c": t, "theta_deg": theta_deg, "burst_phase": phase, "predicted_azimuth": azimuth_rad,
+                "predicted_miss_m": float(miss), "miss_straight_m": float(miss_straight),
+                "heading": d.tolist(), "head": head.tolist()}
 
     def _miss_if_off_course(self, head: np.ndarray, d: np.ndarray, target: np.ndarray,
                             line_miss=None) -> float | None:
@@ -480,6 +498,21 @@ class RulePlanner:
     def _candidate_turns(self, ep: PlannerEpisode | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The turns a plan chooses from in this episode: (t_c s, theta rad, psi rad, offset (T, 3) m)."""
         return self._candidates
+
+    def candidate_turns(self, ep: PlannerEpisode | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The turns a plan chooses from in this episode: (t_c s, theta rad, psi rad, offset (T, 3) m)."""
+        return self._candidate_turns(ep)
+
+    @property
+    def burst_phases(self) -> np.ndarray:
+        """The burst phases a plan searches, (B,) rad."""
+        return self._burst_phases
+
+    def episode_frames(self, ep: PlannerEpisode | None) -> np.ndarray:
+        """``candidate_frames`` of the turns a plan chooses from in this episode at the burst phases searched,
+        (T, B, 6)."""
+        _, theta, psi, off = self._candidate_turns(ep)
+        return self.candidate_frames(theta, psi, off, self._burst_phases)
 
     def candidate_frames(self, theta: np.ndarray, psi: np.ndarray, off: np.ndarray, beta: np.ndarray) -> np.ndarray:
         """``agents.candidate_miss.candidate_frames`` of these candidates, (T, B, 6), remembered for the last set
@@ -549,9 +582,8 @@ def pick_turn(miss: np.ndarray, miss_straight: float, config: PlannerConfig,
         if miss[i, j] > miss_straight - imp and score[i, j] > straight - imp:
             return None
         return int(i), int(j), float(score[i, j]), float(straight)
-    k = int(miss.argmin())
-    best = miss.item(k)
-    if best > miss_straight - imp:
+    k, best = pick_least(np.ascontiguousarray(miss, dtype=np.float64), float(miss_straight), float(imp))
+    if k < 0:
         return None
     i, j = divmod(k, miss.shape[1])  # np.unravel_index's
     return i, j, best, float(miss_straight)

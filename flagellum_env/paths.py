@@ -167,25 +167,16 @@ def random_path(rng: np.random.Generator, config: RandomPathConfig | None = None
     lo, hi = cfg.segment_length_m
     max_turn = math.radians(cfg.max_turn_deg)
     min_turn = math.radians(cfg.min_turn_deg)
-    h0, h1, h2 = 1.0, 0.0, 0.0  # the heading
-    p0, p1, p2 = 0.0, 0.0, 0.0  # the point
-    pts = []
     n = cfg.n_waypoints
     if isinstance(n, tuple):
         n = int(rng.integers(n[0], n[1] + 1))
-    for _ in range(n):
-        length = float(rng.uniform(lo, hi))
-        if cfg.min_turn_deg > 0.0:  # |angle| in [min, max], either sign
-            angle = float(rng.uniform(min_turn, max_turn)) * (1.0 if rng.random() < 0.5 else -1.0)
-        else:
-            angle = float(rng.uniform(-max_turn, max_turn))
-        # about +z, or about an axis perpendicular to the heading at a uniformly drawn angle
-        phi = 0.0 if cfg.planar else float(rng.uniform(0.0, 2.0 * math.pi))
-        h0, h1, h2 = _turned_heading(h0, h1, h2, cfg.planar, phi, angle)
-        p0, p1, p2 = p0 + length * h0, p1 + length * h1, p2 + length * h2
-        pts.append((p0, p1, p2))
+    signed = cfg.min_turn_deg > 0.0
+    # each segment's numbers in the order drawn: its length, the turn (and its sign), the axis' angle; all drawn at
+    # once (rng.uniform(a, b) is a + (b - a) x rng.random(), one double each)
+    per = 2 + signed + (not cfg.planar)
+    pts = _random_points(rng.random(n * per), n, per, lo, hi, min_turn, max_turn, signed, cfg.planar)
     reach = None if cfg.reach_radius_m is None else float(rng.uniform(*cfg.reach_radius_m))
-    return WaypointPath(name="random", waypoints=np.array(pts), reach_radius_m=reach)
+    return WaypointPath(name="random", waypoints=pts, reach_radius_m=reach)
 
 
 def path_from_waypoints(waypoints: Sequence[Sequence[float]] | np.ndarray, name: str = "custom",
@@ -307,6 +298,37 @@ def _pair(value: Any, name: str) -> tuple[float, float]:
 def _short(w: Any) -> str:
     s = repr(w.tolist() if isinstance(w, np.ndarray) else w)
     return s if len(s) <= 60 else s[:57] + "..."
+
+
+@njit(cache=True)
+def _random_points(u: np.ndarray, n: int, per: int, lo: float, hi: float, min_turn: float, max_turn: float,
+                   signed: bool, planar: bool) -> np.ndarray:
+    """``random_path``'s waypoints, (n, 3) m, from its ``per`` doubles per segment ``u`` (n per,) in [0, 1) in the
+    order drawn (length in [lo, hi] m, turn in [min_turn, max_turn] rad with its sign if ``signed``, else in
+    [-max_turn, max_turn], the axis' angle unless ``planar``)."""
+    pts = np.empty((n, 3))
+    h0, h1, h2 = 1.0, 0.0, 0.0  # the heading
+    p0, p1, p2 = 0.0, 0.0, 0.0  # the point
+    for i in range(n):
+        k = i * per
+        length = _uniform(lo, hi, u[k])
+        if signed:  # |angle| in [min, max], either sign
+            angle = _uniform(min_turn, max_turn, u[k + 1]) * (1.0 if u[k + 2] < 0.5 else -1.0)
+        else:
+            angle = _uniform(-max_turn, max_turn, u[k + 1])
+        # about +z, or about an axis perpendicular to the heading at a uniformly drawn angle
+        phi = 0.0 if planar else _uniform(0.0, 2.0 * math.pi, u[k + per - 1])
+        h0, h1, h2 = _turned_heading(h0, h1, h2, planar, phi, angle)
+        p0, p1, p2 = p0 + length * h0, p1 + length * h1, p2 + length * h2
+        pts[i, 0], pts[i, 1], pts[i, 2] = p0, p1, p2
+    return pts
+
+
+@njit(cache=True)
+def _uniform(low: float, high: float, u: float) -> float:
+    """``Generator.uniform(low, high)`` from its double ``u`` in [0, 1) (``Generator.random()``): low + (high - low) u,
+    as NumPy computes it."""
+    return low + (high - low) * u
 
 
 @njit(cache=True)

@@ -22,6 +22,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
+from numba import njit
+
 from physics.validation import require_finite
 
 CM = 1e-2  # m
@@ -48,16 +50,25 @@ class RewardConfig:
 
 def reward_terms(cfg: RewardConfig, progress_m: float, cross_track_m: float, duration_s: float,
                  energy_j: float, n_reached: int, off_path: bool = False, failed: bool = False) -> dict[str, float]:
-    """The terms of one step's reward, keyed by ``TERMS``; the reward is their sum."""
+    """The terms of one step's reward, keyed by ``TERMS``; the reward is their sum (``reward_values``)."""
+    return dict(zip(TERMS, reward_values(cfg.progress_per_cm, cfg.cross_track_per_cm_s, cfg.energy_per_mj,
+                                         cfg.waypoint_bonus, cfg.off_path_penalty, cfg.error_penalty,
+                                         float(progress_m), float(cross_track_m), float(duration_s), float(energy_j),
+                                         int(n_reached), bool(off_path), bool(failed))))
+
+
+@njit(cache=True)
+def reward_values(progress_per_cm: float, cross_track_per_cm_s: float, energy_per_mj: float, waypoint_bonus: float,
+                  off_path_penalty: float, error_penalty: float, progress_m: float, cross_track_m: float,
+                  duration_s: float, energy_j: float, n_reached: int, off_path: bool, failed: bool
+                  ) -> tuple[float, float, float, float, float]:
+    """The terms of one step's reward in the order of ``TERMS`` (module docstring): ``RewardConfig``'s weights,
+    the progress (m), the cross-track error (m) over the duration (s), the motor energy (J), the waypoints reached,
+    whether the step left the path or failed."""
     penalty = 0.0
     if failed:
-        penalty -= cfg.error_penalty
+        penalty -= error_penalty
     elif off_path:
-        penalty -= cfg.off_path_penalty
-    return {
-        "progress": cfg.progress_per_cm * progress_m / CM,
-        "cross_track": -cfg.cross_track_per_cm_s * (cross_track_m / CM) * duration_s,
-        "energy": -cfg.energy_per_mj * energy_j / MJ,
-        "waypoint": cfg.waypoint_bonus * n_reached,
-        "penalty": penalty,
-    }
+        penalty -= off_path_penalty
+    return (progress_per_cm * progress_m / CM, -cross_track_per_cm_s * (cross_track_m / CM) * duration_s,
+            -energy_per_mj * energy_j / MJ, waypoint_bonus * n_reached, penalty)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 
 import numpy as np
+from numba import njit
 
 from flagellum_env.paths import WaypointPath
 from physics.linalg.vec3 import norm3, segment_projection
@@ -26,6 +27,7 @@ class PathTracker:
         self._vertices = path.vertices
         self._lengths = path.segment_lengths
         self._cumulative = np.concatenate([[0.0], np.cumsum(self._lengths)])
+        self._cumulative.setflags(write=False)
         self.path_length_m = path.length_m  # m
         self._n_waypoints = path.n_waypoints
         self.index = 0  # current target waypoint; == n_waypoints when the path is complete
@@ -72,12 +74,13 @@ class PathTracker:
     def progress(self, position: np.ndarray) -> float:
         """Arc length of the path covered, m: the finished segments plus the head's clipped
         projection onto the current one (the full length once the path is complete)."""
-        if self.done:
-            return float(self._cumulative[-1])
-        i = self._segment()
-        s = segment_projection(np.asarray(position, dtype=np.float64), self._vertices[i], self._vertices[i + 1],
-                               float(self._lengths[i]))[0]
-        return float(self._cumulative[self.index] + s)
+        return path_progress(np.asarray(position, dtype=np.float64), self.index, self._vertices, self._lengths,
+                             self._cumulative)
+
+    @property
+    def cumulative_m(self) -> np.ndarray:
+        """The path's length up to each vertex, (k + 1,) m from 0 (read-only; ``path_progress``)."""
+        return self._cumulative
 
     def cross_track_error(self, position: np.ndarray) -> float:
         """Distance from the head to the current segment, m (to the last one once complete)."""
@@ -92,6 +95,19 @@ class PathTracker:
         """The next ``count`` waypoints from the current target on, the last repeated, (count, 3) m."""
         last = self._n_waypoints - 1
         return self.path.waypoints[[min(k, last) for k in range(self.index, self.index + count)]]
+
+
+@njit(cache=True)
+def path_progress(position: np.ndarray, index: int, vertices: np.ndarray, lengths: np.ndarray,
+                  cumulative: np.ndarray) -> float:
+    """``PathTracker.progress``: the arc length (m) covered at ``position`` (3,) m with waypoint ``index`` the target,
+    the finished segments plus the clipped projection onto the current one (the full length once ``index`` is past
+    the last); ``vertices`` (k + 1, 3) m, ``lengths`` (k,) m, ``cumulative`` (k + 1,) m (``cumulative_m``)."""
+    n = lengths.shape[0]
+    if index >= n:
+        return cumulative[n]
+    s = segment_projection(position, vertices[index], vertices[index + 1], lengths[index])[0]
+    return cumulative[index] + s
 
 
 class BucklingMonitor:

@@ -28,7 +28,6 @@ import os
 import platform
 import statistics
 import time
-from datetime import datetime, timezone
 from pathlib import Path
 
 import gymnasium as gym
@@ -176,8 +175,7 @@ def main(argv: list[str] | None = None) -> int:
         for h in held:
             print(f"| {h['t_c']:g} | {h['phase_deg']:g} | {h['theta_deg']:.1f} | {h['surrogate_theta_deg']:.1f} | "
                   f"{h['error_deg']:+.1f} | {h['cpu_s']} |")
-    out = {"id": ID, "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-           "machine": {"cores": os.cpu_count(), "load_before": load0, "load_after": load1,
+    out = {"id": ID, "machine": {"cores": os.cpu_count(), "load_before": load0, "load_after": load1,
                        "python": platform.python_version()},
            "speed": rows, "leave_one_out": {"rows": loo, "summary": summary}, "faithful_held_out": held}
     args.json.parent.mkdir(parents=True, exist_ok=True)

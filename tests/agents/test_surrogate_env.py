@@ -160,7 +160,7 @@ def test_the_turn_flown_is_the_one_the_planner_predicts_within_the_maps_phase_sp
             d0 = env.heading.copy()
             _, _, term, trunc, _ = env.step(np.zeros(2, np.float32))
             done = term or trunc
-            plan = env._ep.turns[-1]
+            plan = env.last_turn
             if plan["predicted_theta_deg"] > 10.0:
                 assert math.degrees(angle_between(d0, env.heading)) == pytest.approx(plan["predicted_theta_deg"],
                                                                                     abs=2.1)

@@ -14,10 +14,11 @@ import pytest
 
 from agents.assets import default_turn_map
 from agents.candidate_miss import (candidate_frames, candidate_miss, first_improving_sample, line_miss, local_target,
-                                   paper_rule_misses, target_in_frame, turn_wanted)
-from agents.residual_planner import N_FEATURES, turn_features
+                                   paper_rule_choice, paper_rule_misses, pick_least, target_in_frame, turn_wanted)
+from agents.residual_planner import N_FEATURES, ResidualLimits, corrected_turn, turn_features
 from agents.surrogate_calibration import SurrogateCalibration, calibration_file
-from agents.surrogate_legs import SegmentFrames, fly_leg
+from agents.surrogate_legs import (ACC_REACHED, CROSS, ENERGY, LEG_SIZE, OFF_PATH, OFF_PATH_M, REACH, STATE_SIZE, TIME,
+                                   TIME_LIMIT, TERMINATED, TRUNCATED, SegmentFrames, fly_state)
 from agents.surrogate_swimmer import SurrogateSwimmer, TurnMapTable
 from agents.turn_geometry import angle_between, azimuth, perpendicular_basis, unit, wrap_angle
 from agents.turn_map import TurnMap
@@ -101,6 +102,10 @@ def test_the_line_miss_and_the_plans_gate_are_their_numpy_forms(tmap):
         got, got0 = paper_rule_misses(head, d, target, frames, BEHIND_PENALTY_M, hit, min_turn, grid)
         assert (got, got0) == (want, pytest.approx(miss0, rel=1e-14)) and turn_wanted(miss0, d, target - head, hit,
                                                                                    min_turn) == want
+        k, best = pick_least(grid, miss0, planner.config.improvement_m) if want else (-1, math.nan)
+        assert paper_rule_choice(head, d, target, frames, BEHIND_PENALTY_M, hit, min_turn,
+                                 planner.config.improvement_m)[::2] == (want, k) and (k < 0 or
+                                                                                      grid.flat[k] == best)
         if want:
             e1, e2 = perpendicular_basis(d)
             np.testing.assert_array_equal(grid, candidate_miss(frames, *local_target(head, d, e1, e2, target),
@@ -174,7 +179,7 @@ def _oracle_entry(a, v, w, radius):
 
 
 def _oracle_leg(tracker, start, end, duration_s, time_s, time_limit_s, off_path_m, stop_at_waypoint):
-    """(end, duration, reached, cross integral, off path, timed out): ``fly_leg``'s loop in Python."""
+    """(end, duration, reached, cross integral, off path, timed out): ``fly_state``'s leg in Python."""
     path = tracker.path
     a, b = start.tolist(), end.tolist()
     timed_out = False
@@ -227,10 +232,18 @@ def test_a_compiled_leg_is_the_python_leg():
         end = start + rng.normal(0, 0.05, 3)
         args = (start, end, float(rng.uniform(0.5, 20.0)), float(rng.uniform(0, 50)), 60.0,
                 float(rng.uniform(0.01, 0.05)), bool(rng.integers(2)))
-        leg = fly_leg(fast, SegmentFrames(fast), *args)
+        start, end, duration_s, time_s, limit_s, off_m, stop = args
+        state, consts = np.zeros(STATE_SIZE), np.zeros(LEG_SIZE)
+        state[0:3], state[TIME] = start, time_s
+        consts[[REACH, TIME_LIMIT, OFF_PATH_M]] = reach, limit_s, off_m
+        # a power of 1 W: the energy is the duration flown
+        got, how = fly_state(state, *end.tolist(), duration_s, 1.0, 0.0, False, stop, fast.index,
+                             SegmentFrames(fast).table, consts)
+        fast.mark_reached(got)
         p, flown, reached, cross, off, timed_out = _oracle_leg(slow, *args)
-        assert leg.end.tolist() == p and (leg.duration_s, leg.reached, leg.cross_integral, leg.off_path,
-                                          leg.timed_out) == (flown, reached, cross, off, timed_out), trial
+        assert state[0:3].tolist() == p and (state[ENERGY], got, state[CROSS], bool(state[OFF_PATH]),
+                                             how == TRUNCATED) == (flown, reached, cross, off, timed_out), trial
+        assert state[ACC_REACHED] == reached and (how == TERMINATED) == (slow.done or off)
         assert fast.index == slow.index
         kinds.update({("reached", reached > 0), ("off", off), ("timed_out", timed_out)})
     assert kinds >= {("reached", True), ("off", True), ("timed_out", True), ("reached", False)}
@@ -347,6 +360,8 @@ def test_the_random_paths_heading_is_rodrigues_rotation():
             r = h * c + np.cross(axis, h) * s + axis * float(axis @ h) * (1.0 - c)
             np.testing.assert_allclose(_turned_heading(*h.tolist(), planar, phi, angle), r / np.linalg.norm(r),
                                        rtol=0, atol=1e-15)
+            assert _turned_heading(*h.tolist(), planar, phi, angle) == _oracle_turned_heading(*h.tolist(), planar,
+                                                                                               phi, angle)
 
 
 def test_a_paths_summaries_and_the_trackers_projection():
@@ -377,3 +392,91 @@ def test_theta_for_reads_the_rising_branch(tmap):
     t, y = tmap.rising_branch()
     for t_c in np.linspace(-0.5, t[-1] + 1.0, 57):
         assert tmap.theta_for(float(t_c)) == float(np.interp(t_c, t, y))
+
+
+def test_the_compiled_map_reads_and_correction_are_their_numpy_forms(tmap):
+    """``theta_for``, ``psi_for`` (compiled np.interp) and ``corrected_turn`` against np.interp and the formulas, at
+    random burst lengths and on the measured ones."""
+    rng = np.random.default_rng(4)
+    t, y, tcs, un = tmap.turn_curves()
+    limits = ResidualLimits()
+    for t_c in np.concatenate([rng.uniform(-0.5, 11.0, 3000), t, tcs, np.nextafter(tcs, 0.0)]):
+        t_c = float(t_c)
+        assert tmap.theta_for(t_c) == float(np.interp(t_c, t, y))
+        psi = math.degrees(wrap_angle(math.radians(float(np.interp(t_c, tcs, un)))))
+        assert tmap.psi_for(t_c) == psi
+        phase, a0, a1 = float(rng.uniform(-4.0, 4.0)), float(rng.uniform(-1, 1)), float(rng.uniform(-1, 1))
+        t2 = t_c * (1.0 + a0 * limits.max_dtc_fraction)
+        p2 = wrap_angle(phase + math.radians(a1 * limits.max_dphase_deg))
+        want = (t2, p2, float(np.interp(t2, t, y)),
+                wrap_angle(p2 + math.radians(math.degrees(wrap_angle(math.radians(float(np.interp(t2, tcs, un))))))))
+        assert corrected_turn(t_c, phase, a0, a1, limits.max_dtc_fraction, limits.max_dphase_deg, t, y, tcs,
+                              un) == want
+
+
+def test_the_compiled_choice_is_argmin_and_the_improvement_test():
+    """``pick_least``: np.argmin's index (the first of equal misses, a NaN before all) and the rule's test."""
+    rng = np.random.default_rng(2)
+    for trial in range(200):
+        miss = rng.integers(0, 5, (4, 6)).astype(float) * 0.01  # ties
+        if trial % 5 == 0:
+            miss.flat[rng.integers(miss.size)] = np.nan
+        straight = float(rng.uniform(0.0, 0.06))
+        k, best = pick_least(miss, straight, 0.005)
+        want = int(miss.argmin())
+        assert (k, best) == ((want if not miss.flat[want] > straight - 0.005 else -1), miss.flat[want]) or (
+            math.isnan(best) and k == want and math.isnan(miss.flat[want]))
+
+
+def _oracle_turned_heading(h0, h1, h2, planar, phi, angle):
+    """``_turned_heading`` in Python (its formulas, BLAS's rounding of the dot products: ``dot3s``)."""
+    if planar:
+        x0, x1, x2 = 0.0, 0.0, 1.0
+    else:
+        g0, g1, g2 = (0.0, 0.0, 1.0) if abs(h2) < 0.9 else (0.0, 1.0, 0.0)
+        a0, a1, a2 = h1 * g2 - h2 * g1, h2 * g0 - h0 * g2, h0 * g1 - h1 * g0
+        n = math.sqrt(float(np.array([a0, a1, a2]) @ np.array([a0, a1, a2])))
+        a0, a1, a2 = a0 / n, a1 / n, a2 / n
+        b0, b1, b2 = h1 * a2 - h2 * a1, h2 * a0 - h0 * a2, h0 * a1 - h1 * a0
+        cp, sp = math.cos(phi), math.sin(phi)
+        x0, x1, x2 = cp * a0 + sp * b0, cp * a1 + sp * b1, cp * a2 + sp * b2
+    c, s = math.cos(angle), math.sin(angle)
+    k0, k1, k2 = x1 * h2 - x2 * h1, x2 * h0 - x0 * h2, x0 * h1 - x1 * h0
+    p = float(np.array([x0, x1, x2]) @ np.array([h0, h1, h2]))
+    r0, r1, r2 = h0 * c + k0 * s + x0 * p * (1.0 - c), h1 * c + k1 * s + x1 * p * (1.0 - c), \
+        h2 * c + k2 * s + x2 * p * (1.0 - c)
+    n = math.sqrt(float(np.array([r0, r1, r2]) @ np.array([r0, r1, r2])))
+    return r0 / n, r1 / n, r2 / n
+
+
+def _oracle_random_path(rng, cfg):
+    """``random_path`` drawing each number by itself (``Generator.uniform`` and ``random`` in turn)."""
+    lo, hi = cfg.segment_length_m
+    max_turn, min_turn = math.radians(cfg.max_turn_deg), math.radians(cfg.min_turn_deg)
+    h, p, pts = (1.0, 0.0, 0.0), np.zeros(3), []
+    n = cfg.n_waypoints if not isinstance(cfg.n_waypoints, tuple) else int(rng.integers(cfg.n_waypoints[0],
+                                                                                            cfg.n_waypoints[1] + 1))
+    for _ in range(n):
+        length = float(rng.uniform(lo, hi))
+        if cfg.min_turn_deg > 0.0:
+            angle = float(rng.uniform(min_turn, max_turn)) * (1.0 if rng.random() < 0.5 else -1.0)
+        else:
+            angle = float(rng.uniform(-max_turn, max_turn))
+        phi = 0.0 if cfg.planar else float(rng.uniform(0.0, 2.0 * math.pi))
+        h = _oracle_turned_heading(*h, cfg.planar, phi, angle)
+        p = np.array([p[0] + length * h[0], p[1] + length * h[1], p[2] + length * h[2]])
+        pts.append(p)
+    reach = None if cfg.reach_radius_m is None else float(rng.uniform(*cfg.reach_radius_m))
+    return np.array(pts), reach
+
+
+def test_the_random_paths_numbers_drawn_at_once_are_those_drawn_one_by_one():
+    for cfg in (RandomPathConfig(), RandomPathConfig(n_waypoints=(1, 7), planar=False),
+                RandomPathConfig(min_turn_deg=30.0, max_turn_deg=150.0, planar=False, reach_radius_m=(0.01, 0.02)),
+                RandomPathConfig(min_turn_deg=30.0, max_turn_deg=150.0, segment_length_m=(0.12, 0.2))):
+        for seed in range(40):
+            fast, slow = np.random.default_rng(seed), np.random.default_rng(seed)
+            for _ in range(3):
+                path, (pts, reach) = random_path(fast, cfg), _oracle_random_path(slow, cfg)
+                assert np.array_equal(path.waypoints, pts) and path.reach_radius_m == reach
+            assert fast.random() == slow.random()
