@@ -35,8 +35,8 @@ import numpy as np
 
 from agents.online_turn_map import GAUSS_HERMITE_3, OnlineMapConfig, OnlineTurnMap
 from agents.turn_map import TurnMap
-from agents.turn_planner import (PlannerConfig, RulePlanner, PlannerEpisode, graded_line_miss, line_distance, pick_turn,
-                                 turn_ends)
+from agents.turn_planner import (PlannerConfig, RulePlanner, PlannerEpisode, graded_line_miss, line_distance,
+                                 paper_line_miss, pick_turn, turn_ends)
 from agents.turn_geometry import angle_between, azimuth, perpendicular_basis, wrap_angle
 from agents.turn_measurement import CruiseObservables, cruise_observables, summarise_cruise
 from physics.validation import require_finite
@@ -234,7 +234,7 @@ class AdaptivePlanner(RulePlanner):
             seen = summarise_cruise(np.array(ep.strains), np.array(ep.azimuths), self.control_dt)
             ep.cruise_reading = ep.online.observe_cruise(seen, self.reference)
             ep.cruise_used = True
-        self._track_segment(ep, target)  # (done by _decide already; here for a direct call)
+        self.track_segment(ep, target)  # (done by _decide already; here for a direct call)
         if ep.swim_until is not None:
             if float((ep.swim_until - head) @ ep.swim_heading) > 0.0:
                 return None  # swimming on, as decided
@@ -242,7 +242,7 @@ class AdaptivePlanner(RulePlanner):
         if ep.online.follows_model:
             # the swimmer is the map's as far as the cruise and the turns so far tell: the paper's rule on the map,
             # flown by time (no clock_map_t), until a turn contradicts the map
-            plan = self.rule_plan(head, d, target, ep, RulePlanner._line_miss)
+            plan = self.rule_plan(head, d, target, ep, paper_line_miss)
             if plan is not None:
                 plan.update(follows_model=True, shift_s=ep.online.shift_s, shift_std_s=ep.online.shift_std_s)
                 self._record_cruise(ep, plan)

@@ -58,7 +58,7 @@ from agents.surrogate_episode import cruise_state
 from agents.surrogate_legs import DT, GOES_ON, HEADING, REACH, SPEED, TIME
 from agents.turn_geometry import angle_between
 from agents.turn_map import TurnMap
-from agents.turn_planner import BEHIND_PENALTY_M, PlannerEpisode, RulePlanner
+from agents.turn_planner import BEHIND_PENALTY_M, PlannerEpisode, RulePlanner, paper_line_miss
 from flagellum_env.config import DEFAULT_REACH_RADIUS_M, SteerConfig, draw_randomization, make_config
 from flagellum_env.tracking import PathTracker
 from physics.linalg.vec3 import dot3s
@@ -229,8 +229,8 @@ class SurrogateTurnEnv(TurnEpisodes, gym.Env):
         while True:
             if self._line:  # the line score moves with the segment: the planner's own plan (rule_plan)
                 target = tr.path.waypoints[tr.index]
-                pl._track_segment(self._ep, target)
-                plan = pl.rule_plan(run.head, run.heading, target, self._ep, RulePlanner._line_miss)
+                pl.track_segment(self._ep, target)
+                plan = pl.rule_plan(run.head, run.heading, target, self._ep, paper_line_miss)
                 if plan is not None:
                     self._plan[:] = (plan["t_c"], plan["theta_deg"], plan["predicted_miss_m"],
                                      plan["miss_straight_m"], *plan["heading"], plan["burst_phase"])

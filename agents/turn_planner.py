@@ -36,7 +36,7 @@ from flagellum_env.config import DEFAULT_REACH_RADIUS_M
 from physics.validation import require_finite
 
 
-#: What a target behind a line's start adds to its distance in the paper's miss (``_line_miss``), m.
+#: What a target behind a line's start adds to its distance in the paper's miss (``paper_line_miss``), m.
 BEHIND_PENALTY_M = 0.05
 
 
@@ -214,6 +214,15 @@ def relax_over(heads: list[np.ndarray], waited_steps: int, period_steps: int, co
                                                  or waited_steps >= limit)
 
 
+def paper_line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray,
+                    behind_penalty: float = BEHIND_PENALTY_M) -> np.ndarray:
+    """How far the straight lines start + s direction (s >= 0) pass from ``target``, (k,) m; a target
+    behind a start counts its distance plus ``behind_penalty`` (m). starts, directions (k, 3); compiled
+    (``agents.candidate_miss.line_miss``)."""
+    return line_miss(np.asarray(starts, dtype=np.float64), np.asarray(directions, dtype=np.float64),
+                     np.asarray(target, dtype=np.float64), float(behind_penalty))
+
+
 class RulePlanner:
     """Rule-based controller with a stable-baselines3-like ``predict``.
 
@@ -362,7 +371,7 @@ class RulePlanner:
         if ep.step - ep.low_since < self.period_steps + 1:
             return wl
         d = self._heading(ep)
-        self._track_segment(ep, target)
+        self.track_segment(ep, target)
         plan = self._plan_turn(ep.head, d, target, node, ep)
         if plan is not None:
             plan = self._review_plan(ep, plan, obs)
@@ -379,7 +388,7 @@ class RulePlanner:
         return PlannerEpisode()
 
     @staticmethod
-    def _track_segment(ep: PlannerEpisode, target: np.ndarray) -> None:
+    def track_segment(ep: PlannerEpisode, target: np.ndarray) -> None:
         """Keep ``ep.segment`` the (start, target) of the path segment being followed (start frame, m)."""
         if ep.segment is None:
             ep.segment = (np.zeros(3), target.copy())  # the path starts at the head's start
@@ -431,7 +440,7 @@ class RulePlanner:
         beta = self._burst_phases
         segment = ep.segment if ep is not None else None
         with_line = cfg.line_weight > 0.0 and segment is not None
-        if line_miss is RulePlanner._line_miss:
+        if line_miss is paper_line_miss:
             # the paper's miss, compiled (agents.candidate_miss.paper_rule_misses: the same formulas as below)
             frames = self.candidate_frames(theta, psi, off, beta)
             hit = cfg.hit_fraction * self.reach_radius_m
@@ -490,10 +499,9 @@ class RulePlanner:
             angle_between(d, target - head)  # raises: the heading or the target's direction is zero
         return miss0 if wanted > 0 else None
 
-    @staticmethod
-    def _line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray) -> np.ndarray:
-        """How far each straight line misses the target, (k,) m (``_line_miss``)."""
-        return _line_miss(starts, directions, target)
+    #: how far each straight line misses the target, (k,) m: the paper's miss (``paper_line_miss``; the adaptive
+    #: planner grades a target behind instead)
+    _line_miss = staticmethod(paper_line_miss)
 
     def _candidate_turns(self, ep: PlannerEpisode | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The turns a plan chooses from in this episode: (t_c s, theta rad, psi rad, offset (T, 3) m)."""
@@ -603,7 +611,7 @@ def line_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarra
 
 def graded_line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray, behind_penalty: float = 0.2
                      ) -> np.ndarray:
-    """Like ``_line_miss``, but a target behind costs its distance plus ``behind_penalty`` (m) times
+    """Like ``paper_line_miss``, but a target behind costs its distance plus ``behind_penalty`` (m) times
     the cosine of how far behind it is (0 abeam, the whole penalty straight behind), so that a
     partial turn towards a target behind counts as progress (turns too large for one burst). The
     penalty outweighs the several centimetres a turn displaces the head (the map's offsets), or
@@ -613,12 +621,3 @@ def graded_line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndar
     dist = np.linalg.norm(rel, axis=1)
     lateral = np.linalg.norm(rel - along[:, None] * directions, axis=1)
     return np.where(along > 0.0, lateral, dist - behind_penalty * along / np.maximum(dist, 1e-12))
-
-
-def _line_miss(starts: np.ndarray, directions: np.ndarray, target: np.ndarray,
-               behind_penalty: float = BEHIND_PENALTY_M) -> np.ndarray:
-    """How far the straight lines start + s direction (s >= 0) pass from ``target``, (k,) m; a target
-    behind a start counts its distance plus ``behind_penalty`` (m). starts, directions (k, 3); compiled
-    (``agents.candidate_miss.line_miss``)."""
-    return line_miss(np.asarray(starts, dtype=np.float64), np.asarray(directions, dtype=np.float64),
-                     np.asarray(target, dtype=np.float64), float(behind_penalty))

@@ -344,7 +344,7 @@ def test_burst_without_buckling_is_cut_at_the_longest_burst(faithful_map):
 
 
 def test_graded_miss_rewards_turning_towards_a_target_behind():
-    from agents.turn_planner import _line_miss, graded_line_miss
+    from agents.turn_planner import paper_line_miss, graded_line_miss
 
     target = np.array([-0.1, 0.0, 0.0])
     angles = np.radians([0.0, 30.0, 60.0, 85.0])  # the target 180, 150, 120 and 95 deg off the heading
@@ -352,7 +352,7 @@ def test_graded_miss_rewards_turning_towards_a_target_behind():
     starts = np.zeros((4, 3))
     graded = graded_line_miss(starts, dirs, target)
     assert np.all(np.diff(graded) < 0.0)  # the nearer the heading points to the target, the smaller
-    assert np.ptp(_line_miss(starts, dirs, target)) == 0.0  # the rule planner's measure cannot tell them apart
+    assert np.ptp(paper_line_miss(starts, dirs, target)) == 0.0  # the rule planner's measure cannot tell them apart
     ahead = np.array([[1.0, 0.0, 0.0]])
     assert graded_line_miss(np.zeros((1, 3)), ahead, np.array([0.1, 0.02, 0.0]))[0] == pytest.approx(0.02)
     # continuous abeam

@@ -79,13 +79,13 @@ def test_env_that_cannot_serve_the_map_is_refused():
 
 
 def test_line_miss_ahead_aside_and_behind():
-    from agents.turn_planner import _line_miss
+    from agents.turn_planner import paper_line_miss
 
     starts = np.zeros((3, 3))
     dirs = np.array([[1.0, 0, 0]] * 3)
-    assert _line_miss(starts, dirs, np.array([0.1, 0.0, 0.0]))[0] == pytest.approx(0.0)
-    assert _line_miss(starts, dirs, np.array([0.1, 0.02, 0.0]))[0] == pytest.approx(0.02)
-    assert _line_miss(starts, dirs, np.array([-0.03, 0.04, 0.0]), behind_penalty=0.05)[0] == pytest.approx(0.1)
+    assert paper_line_miss(starts, dirs, np.array([0.1, 0.0, 0.0]))[0] == pytest.approx(0.0)
+    assert paper_line_miss(starts, dirs, np.array([0.1, 0.02, 0.0]))[0] == pytest.approx(0.02)
+    assert paper_line_miss(starts, dirs, np.array([-0.03, 0.04, 0.0]), behind_penalty=0.05)[0] == pytest.approx(0.1)
 
 
 def test_turn_choice_keeps_course_or_predicts_a_better_line():
