@@ -24,7 +24,7 @@ from agents.surrogate_swimmer import FACTOR_RANGE, SurrogateSwimmer, TurnMapTabl
 from agents.turn_decision_env import INFO_KEYS
 from agents.turn_geometry import angle_between, perpendicular_basis
 from agents.turn_map import TurnMap
-from agents.turn_planner import BEHIND_PENALTY_M, RulePlanner, _line_miss, candidate_misses
+from agents.turn_planner import BEHIND_PENALTY_M, RulePlanner, candidate_misses, paper_line_miss
 from flagellum_env.config import RandomizationConfig, draw_randomization
 from flagellum_env.paths import path_from_waypoints
 
@@ -225,7 +225,7 @@ def test_the_compiled_candidate_misses_are_the_planners_numpy_formulas(tmap):
         e1, e2 = perpendicular_basis(d)
         fast = candidate_miss(candidate_frames(theta, psi, off, beta), *local_target(head, d, e1, e2, target),
                               BEHIND_PENALTY_M)
-        slow, _ = candidate_misses(head, d, theta, psi, off, beta, target, _line_miss)
+        slow, _ = candidate_misses(head, d, theta, psi, off, beta, target, paper_line_miss)
         np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-12)
 
 
