@@ -26,9 +26,9 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from agents.turn_geometry import angle_between, azimuth, turn_angles, unit, wrap_angle
-from agents.turn_measurement import DEFAULT_SHAPE_NODES, TurnResult, phase_node_index
-from physics.params import REMOVED_PARAMETERS, RPM_TO_RAD_S, NumericsConfig, SwimmerParams, removed_message
+from agents.turn_geometry import wrap_angle
+from agents.turn_measurement import TurnResult
+from physics.params import REMOVED_PARAMETERS, NumericsConfig, SwimmerParams, removed_message
 
 TURN_MAP_FORMAT = "flagellum-turn-map"
 TURN_MAP_VERSION = 1
