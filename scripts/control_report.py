@@ -11,6 +11,13 @@ folders of one level (the same paths and swimmer seeds, other controllers) are m
 
 ``--controllers`` tabulates those controllers of the folders, in that order (default: all of them). The shipped
 agent's facts come from its meta.json (package data); the prose is scripts/templates/control.md.
+
+``--change BEFORE AFTER`` (repeatable, one pair per set of paths) adds the table of how the default reading's change
+moved each controller: BEFORE a folder made by the tree before the default became ``head_rotation=fixed`` (0fe63c0:
+``torque_free``, its maps and agent), AFTER one of the same paths, swimmer seeds and level made now::
+
+    git worktree add --detach ../before 0fe63c0
+    PYTHONPATH=../before python -m flagellum evaluate --paths P --seed0 S --randomize 0.1 --controller ... --out B
 """
 
 from __future__ import annotations
@@ -93,6 +100,60 @@ def summarise(folders: list[Path], only: list[str] | None = None) -> dict[str, A
             "levels": dict(sorted(levels.items(), key=lambda kv: kv[1]["level"]))}
 
 
+def reading_change(pairs: list[tuple[Path, Path]], only: list[str] | None = None) -> dict[str, Any]:
+    """Per pair (before, after) of evaluate folders: the successes and mean cross-track before and after of each
+    controller in both (of ``only``, in that order, if given), and the same pooled over the pairs for the controllers
+    in every pair. ValueError if a pair differs in paths, swimmer seeds or level."""
+    sets, pooled = [], {}
+    for before, after in pairs:
+        res = {"before": load_results(before), "after": load_results(after)}
+        keys = {k: (sorted({r["path"] for r in v["per_path"]}), v.get("seeds", {}), level_of(v))
+                for k, v in res.items()}
+        if keys["before"] != keys["after"]:
+            raise ValueError(f"--change {str(before)!r} {str(after)!r}: the folders hold other paths, swimmer seeds or "
+                             "levels")
+        common = [c for c in (only or res["after"]["aggregate"]) if c in res["before"]["aggregate"]
+                  and c in res["after"]["aggregate"]]
+        paths, seeds, level = keys["after"]
+        row: dict[str, Any] = {"before": str(before), "after": str(after), "paths": len(paths), "level": level,
+                               "seed0": min(seeds.values()) if seeds else None, "controllers": {}}
+        for c in common:
+            counts = {}
+            for k, v in res.items():
+                eps = [r for r in v["per_path"] if r["controller"] == c]
+                counts[k] = {"success": sum(bool(r.get("success")) for r in eps), "episodes": len(eps),
+                             "cross_track_sum_m": sum(float(r["mean_cross_track_m"]) for r in eps)}
+            row["controllers"][c] = counts
+            for k, cnt in counts.items():
+                acc = pooled.setdefault(c, {}).setdefault(k, {"success": 0, "episodes": 0, "cross_track_sum_m": 0.0})
+                for f in acc:
+                    acc[f] += cnt[f]
+        sets.append(row)
+    in_all = [c for c in pooled if all(c in s["controllers"] for s in sets)]
+    return {"sets": sets, "pooled": {c: pooled[c] for c in in_all}}
+
+
+def reading_change_table(change: dict[str, Any]) -> str:
+    """The markdown of ``reading_change``: successes before -> after per set, and pooled with the mean cross-track."""
+    if not change["sets"]:
+        return "*(Not measured in this report: `scripts/control_report.py --change BEFORE AFTER`.)*"
+    sets = change["sets"]
+    head = ("| controller | " + " | ".join(f"{level_label(s['level'])}, seeds {s['seed0']} ({s['paths']} paths)"
+                                         for s in sets) + " | all: success, cross-track |")
+    rows = [head, "|---" * (len(sets) + 2) + "|"]
+    for c, pool in change["pooled"].items():
+        cells = [f"{s['controllers'][c]['before']['success']} → {s['controllers'][c]['after']['success']}"
+                 for s in sets]
+        b, a = pool["before"], pool["after"]
+        xte = [100 * x["cross_track_sum_m"] / max(x["episodes"], 1) for x in (b, a)]
+        cells.append(f"{b['success']}/{b['episodes']} → {a['success']}/{a['episodes']}, {xte[0]:.2f} → {xte[1]:.2f} cm")
+        rows.append(f"| `{c}` | " + " | ".join(cells) + " |")
+    worse = [c for c, pool in change["pooled"].items() if pool["after"]["success"] < pool["before"]["success"]]
+    verdict = (f"Over all sets, fewer successes after the change: {', '.join(f'`{c}`' for c in worse)}."
+               if worse else "Over all sets, no controller has fewer successes after the change than before.")
+    return "\n".join(rows) + "\n\n" + verdict
+
+
 def heldout_table(summary: dict[str, Any]) -> str:
     levels = summary["levels"]
     head = "| controller | " + " | ".join(f"{lv}: success, cross-track, Δz/ΔL" for lv in levels) + " |"
@@ -170,21 +231,27 @@ def main(argv: list[str] | None = None) -> int:
                     help="flagellum evaluate folders of the same paths, one per level of model error")
     ap.add_argument("--controllers", nargs="+", metavar="SPEC",
                     help="the controllers to tabulate, in this order (default: every one in the folders)")
+    ap.add_argument("--change", nargs=2, action="append", type=Path, default=[], metavar=("BEFORE", "AFTER"),
+                    help="evaluate folders of the same paths, swimmer seeds and level made before the default reading "
+                         "changed (0fe63c0) and now; repeatable, one pair per set of paths")
     ap.add_argument("--docs", type=Path, default=Path("docs"), help="where control.md and control.json go")
     args = ap.parse_args(argv)
     try:
         summary = summarise(args.eval, args.controllers)
+        change = reading_change([tuple(p) for p in args.change], args.controllers)
     except ValueError as exc:
         print(f"control_report: {exc}", file=sys.stderr)
         return 2
     agent, training, meta = agent_facts()
     values = {"omega_h": PLANNER_OMEGA_H_RPM, "heldout_intro": heldout_intro(summary),
               "heldout_table": heldout_table(summary), "heldout_notes": heldout_notes(summary), "agent": agent,
-              "agent_training": training, "agent_config": meta["config"]}
+              "agent_training": training, "agent_config": meta["config"],
+              "reading_change": reading_change_table(change)}
     args.docs.mkdir(parents=True, exist_ok=True)
     (args.docs / "control.json").write_text(json.dumps(
         {"heldout": {**summary, "levels": {k: {kk: vv for kk, vv in v.items() if kk != "folder"}
-                                           for k, v in summary["levels"].items()}}}, indent=1) + "\n")
+                                           for k, v in summary["levels"].items()}},
+         "reading_change": change}, indent=1) + "\n")
     (args.docs / "control.md").write_text(TEMPLATE.read_text(encoding="utf-8").format(**values))
     print(f"wrote {args.docs / 'control.md'} and control.json")
     return 0

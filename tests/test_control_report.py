@@ -103,3 +103,31 @@ def test_folders_of_one_level_merge_their_controllers(script, tmp_path, capsys):
     (other / "results.json").write_text(json.dumps({**res, "seeds": {p: 900 for p in PATHS}}))
     assert script.main(["--eval", str(planners), str(other), "--docs", str(tmp_path / "d2")]) == 2
     assert "other paths, preset or seeds" in capsys.readouterr().err and not (tmp_path / "d2").exists()
+
+
+def test_the_change_table_pairs_before_and_after(script, tmp_path, capsys):
+    nominal = _folder(tmp_path, "n", 0.0, {"rule": (True, True), "ppo": (True, True)}, {"rule": 0.5, "ppo": 0.7})
+    before = _folder(tmp_path, "b", 0.1, {"rule": (True, True), "ppo": (False, True)}, {"rule": 2.0, "ppo": 3.0})
+    after = _folder(tmp_path, "a", 0.1, {"rule": (False, True), "ppo": (True, True), "ppo-scratch": (True, True)},
+                    {"rule": 4.0, "ppo": 1.0, "ppo-scratch": 1.0})
+    docs = tmp_path / "docs"
+    assert script.main(["--eval", str(nominal), "--change", str(before), str(after), "--docs", str(docs)]) == 0
+    text = (docs / "control.md").read_text()
+    # only the controllers flown before and after; the pooled column gives the counts and mean cross-track
+    assert "| `rule` | 2 → 1 | 2/2 → 1/2, 2.00 → 4.00 cm |" in text
+    assert "| `ppo` | 1 → 2 | 1/2 → 2/2, 3.00 → 1.00 cm |" in text
+    assert "`ppo-scratch` |" not in text.split("Successes before → after")[1].split("## The shipped agent")[0]
+    assert "fewer successes after the change: `rule`." in text
+    data = json.loads((docs / "control.json").read_text())["reading_change"]
+    assert data["pooled"]["ppo"]["after"] == {"success": 2, "episodes": 2, "cross_track_sum_m": 0.02}
+    # a pair of other swimmers is refused before anything is written
+    res = json.loads((after / "results.json").read_text())
+    (after / "results.json").write_text(json.dumps({**res, "seeds": {p: 900 for p in PATHS}}))
+    assert script.main(["--eval", str(nominal), "--change", str(before), str(after), "--docs", str(tmp_path / "d2")]) == 2
+    assert "other paths, swimmer seeds or levels" in capsys.readouterr().err and not (tmp_path / "d2").exists()
+
+
+def test_without_a_change_the_section_says_it_was_not_measured(script, tmp_path):
+    nominal = _folder(tmp_path, "n", 0.0, {"rule": (True, True)}, {"rule": 0.5})
+    assert script.main(["--eval", str(nominal), "--docs", str(tmp_path / "docs")]) == 0
+    assert "Not measured in this report" in (tmp_path / "docs" / "control.md").read_text()
