@@ -1,6 +1,6 @@
 """docs/control.md and docs/control.json: the controllers on held-out paths and swimmers, and the shipped agent.
 
-    python scripts/control_report.py --eval DIR [DIR ...] [--controllers SPEC [SPEC ...]]
+    python scripts/control_report.py --eval DIR [DIR ...] [--controllers SPEC [SPEC ...]] [--change BEFORE AFTER ...]
 
 Each DIR is a ``flagellum evaluate`` folder (its results.json) of the same paths at one level of model error; several
 folders of one level (the same paths and swimmer seeds, other controllers) are merged. Made by, for example::
@@ -115,8 +115,8 @@ def reading_change(pairs: list[tuple[Path, Path]], only: list[str] | None = None
         common = [c for c in (only or res["after"]["aggregate"]) if c in res["before"]["aggregate"]
                   and c in res["after"]["aggregate"]]
         paths, seeds, level = keys["after"]
-        row: dict[str, Any] = {"before": str(before), "after": str(after), "paths": len(paths), "level": level,
-                               "seed0": min(seeds.values()) if seeds else None, "controllers": {}}
+        row: dict[str, Any] = {"paths": len(paths), "level": level, "seed0": min(seeds.values()) if seeds else None,
+                               "controllers": {}}
         for c in common:
             counts = {}
             for k, v in res.items():
