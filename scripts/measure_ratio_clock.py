@@ -7,7 +7,9 @@ length in ``--t-c`` at beta = 0 from the env's start, ended by time and by the r
 much (on the map's rising branch: the map time the swimmer turned as), its direction about the old heading less
 beta against the map's psi, the burst's flight time, and ln F, the swimmer's burst time factor
 (``SurrogateSwimmer.time_factor``). Fits t_map - t_c = k (t_c - t_on) ln F by least squares for each burst end
-(``agents.surrogate_swimmer.RATIO_CLOCK_COEFFICIENT`` is the ratio clock's k).
+over the bursts that stayed on the map's rising branch (direction within 90 deg of the map's: past the peak a turn
+flips, and its size read back on the rising branch says nothing about its map time);
+``agents.surrogate_swimmer.RATIO_CLOCK_COEFFICIENT`` is the ratio clock's k.
 
 Usage::
 
@@ -15,7 +17,8 @@ Usage::
         [--out docs/ratio_clock.json]
 
 Prints a table per burst end and length (turn error against the map's turn: mean and rms, deg; the map time's
-error, s; direction error rms, deg), the fitted k with its residual, and the CPU time; ``--out`` writes it all as
+error, s; direction error rms, deg; bursts flipped past the peak; the surrogate twin's turn and direction error
+against the rod, rms, and the flips it predicts), the fitted k with its residual, and the CPU time; ``--out`` writes it all as
 JSON with every burst and the load average before and after.
 """
 
@@ -39,11 +42,14 @@ from flagellum_env.paths import path_from_waypoints
 #: One waypoint 1 m ahead with a 1 m off-path band: no episode ends within one burst.
 PATH = path_from_waypoints([[1.0, 0.0, 0.0]], name="far_ahead", reach_radius_m=0.015)
 BURST_ENDS = ("time", "ratio")
+#: a turn whose direction lies farther than this from the map's (deg) flipped: the burst went past the map's peak
+FLIPPED_DEG = 90.0
 
 
 def fly_bursts(seed: int, t_cs: list[float], randomize: float, burst_end: str) -> list[dict]:
     """One burst per length in ``t_cs`` (s) by the swimmer of ``seed``, each from the env's start, ended by
-    ``burst_end``: turn, direction, flight time and the swimmer's factors."""
+    ``burst_end``: turn, direction, flight time, the swimmer's factors, and the turn and direction the surrogate twin
+    (``SurrogateSwimmer.turn``, the same swimmer) predicts for it."""
     f = randomize
     env_kwargs = {"randomize": {"youngs_modulus": f, "viscosity": f, "head_radius": f, "geometry": 0.4 * f,
                                 "obs_noise_std": 0.0}, "off_path_m": 1.0, "max_sim_time_s": 5000.0}
@@ -61,10 +67,12 @@ def fly_bursts(seed: int, t_cs: list[float], randomize: float, burst_end: str) -
         env.step(np.array([t_c / t_c_max, 1.0, 0.0, -1.0]))
         entry = env.history.entries[0]
         burst = env.last_burst
+        predicted = twin.swimmer.turn(np.array([1.0, 0.0, 0.0]), t_c, 0.0, burst_end)
         out.append({"seed": seed, "burst_end": burst_end, "t_c_s": t_c, "turn_deg": math.degrees(entry[1] * math.pi),
                     "direction_deg": math.degrees(math.atan2(entry[3], entry[2])), "burst_s": burst["burst_s"],
                     "stopped_by": burst["stopped_by"], "ln_F": math.log(twin.swimmer.time_factor),
-                    "cpu_s": time.process_time() - c0})
+                    "surrogate_turn_deg": math.degrees(predicted.theta_rad),
+                    "surrogate_direction_deg": math.degrees(predicted.psi_rad), "cpu_s": time.process_time() - c0})
     env.close()
     return out
 
@@ -89,15 +97,29 @@ def summarise(rows: list[dict], turn_map, clock: RatioClock) -> dict:
             err = np.array([r["turn_deg"] - r["map_turn_deg"] for r in sel])
             dt = np.array([r["map_time_s"] - t_c for r in sel])
             de = np.array([r["direction_error_deg"] for r in sel])
+            map_psi = math.radians(turn_map.psi_for(t_c))
+            s_err = np.array([r["surrogate_turn_deg"] - r["turn_deg"] for r in sel])
+            s_dir = np.array([math.degrees(wrap_angle(math.radians(r["surrogate_direction_deg"] - r["direction_deg"])))
+                              for r in sel])
+            rod_flip = np.abs(de) > FLIPPED_DEG
+            s_flip = np.array([abs(math.degrees(wrap_angle(math.radians(r["surrogate_direction_deg"]) - map_psi)))
+                               > FLIPPED_DEG for r in sel])
             per_length[f"{t_c:g}"] = {"n": len(sel), "map_turn_deg": sel[0]["map_turn_deg"],
                                       "turn_error_mean_deg": float(err.mean()),
                                       "turn_error_rms_deg": float(np.sqrt((err ** 2).mean())),
                                       "map_time_error_rms_s": float(np.sqrt((dt ** 2).mean())),
-                                      "direction_error_rms_deg": float(np.sqrt((de ** 2).mean()))}
-        x = np.array([(r["t_c_s"] - clock.start_s) * r["ln_F"] for r in mine])
-        y = np.array([r["map_time_s"] - r["t_c_s"] for r in mine])
+                                      "direction_error_rms_deg": float(np.sqrt((de ** 2).mean())),
+                                      "flipped": int(rod_flip.sum()),
+                                      "surrogate_turn_error_rms_deg": float(np.sqrt((s_err ** 2).mean())),
+                                      "surrogate_direction_error_rms_deg": float(np.sqrt((s_dir ** 2).mean())),
+                                      "surrogate_flipped": int(s_flip.sum()),
+                                      "surrogate_flipped_as_rod": int((s_flip & rod_flip).sum())}
+        rising = [r for r in mine if abs(r["direction_error_deg"]) <= FLIPPED_DEG]
+        x = np.array([(r["t_c_s"] - clock.start_s) * r["ln_F"] for r in rising])
+        y = np.array([r["map_time_s"] - r["t_c_s"] for r in rising])
         k = float(x @ y / (x @ x))
-        out[end] = {"per_length": per_length, "k": k, "residual_rms_s": float(np.sqrt(((y - k * x) ** 2).mean()))}
+        out[end] = {"per_length": per_length, "k": k, "residual_rms_s": float(np.sqrt(((y - k * x) ** 2).mean())),
+                    "fitted": len(rising), "flipped": len(mine) - len(rising)}
     return out
 
 
@@ -126,16 +148,20 @@ def main(argv: list[str] | None = None) -> None:
     print(f"\nclock starts at t_on = {clock.start_s:.3f} s; swimmers {args.seed0}..{args.seed0 + args.count - 1} at "
           f"+-{args.randomize:g}")
     print("| burst end | t_c (s) | map turn (deg) | turn error mean / rms (deg) | map time error rms (s) "
-          "| direction error rms (deg) |")
-    print("|---|---|---|---|---|---|")
+          "| direction error rms (deg) | flipped | surrogate: turn / direction error rms (deg) | surrogate flipped "
+          "(as the rod) |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for end in BURST_ENDS:
         for t_c, s in summary[end]["per_length"].items():
             print(f"| {end} | {t_c} | {s['map_turn_deg']:.1f} | {s['turn_error_mean_deg']:+.1f} / "
                   f"{s['turn_error_rms_deg']:.1f} | {s['map_time_error_rms_s']:.3f} | "
-                  f"{s['direction_error_rms_deg']:.1f} |")
+                  f"{s['direction_error_rms_deg']:.1f} | {s['flipped']} | {s['surrogate_turn_error_rms_deg']:.1f} / "
+                  f"{s['surrogate_direction_error_rms_deg']:.1f} | {s['surrogate_flipped']} "
+                  f"({s['surrogate_flipped_as_rod']}) |")
     for end in BURST_ENDS:
-        print(f"{end}: t_map - t_c = k (t_c - t_on) ln F with k = {summary[end]['k']:.3f} "
-              f"(residual {summary[end]['residual_rms_s']:.3f} s rms)")
+        s = summary[end]
+        print(f"{end}: t_map - t_c = k (t_c - t_on) ln F with k = {s['k']:.3f} (residual {s['residual_rms_s']:.3f} s "
+              f"rms; {s['fitted']} bursts on the rising branch, {s['flipped']} flipped past the peak left out)")
     cpu = time.process_time() - c0
     print(f"CPU {cpu:.0f} s; load {load0[0]:.2f} -> {os.getloadavg()[0]:.2f}")
     if args.out is not None:
