@@ -65,9 +65,9 @@ from physics.params import SwimmerParams
 #: physics envs randomise E, mu and b by +-10 % and the helix by +-5 %.
 FACTOR_RANGE = (0.85, 1.15)
 #: k of a burst ended by L'/L (module docstring): the least-squares fit of the map time the rod turned as, minus t_c,
-#: on (t_c - t_on) ln F over the 91 of 96 bursts that stayed on the map's rising branch (``scripts/measure_ratio_clock.py``,
-#: docs/ratio_clock.json: 24 swimmers within +-10 %, t_c = 2.8-3.6 s; the 5 that flipped past the peak left out;
-#: residual 0.05 s rms, against 0.32 s for bursts flown by time).
+#: on (t_c - t_on) ln F over the 91 of 96 bursts that stayed on the map's rising branch
+#: (``scripts/measure_ratio_clock.py``, docs/ratio_clock.json: 24 swimmers within +-10 %, t_c = 2.8-3.6 s; the 5
+#: that flipped past the peak left out; residual 0.05 s rms, against 0.32 s for bursts flown by time).
 RATIO_CLOCK_COEFFICIENT = 0.89
 #: factor name -> the ``SwimmerParams`` field it is read from (E scales G alike: ``draw_randomization``)
 FACTOR_FIELDS = {"youngs_modulus": "youngs_modulus", "viscosity": "viscosity", "head_radius": "head_radius",

@@ -18,8 +18,8 @@ Usage::
 
 Prints a table per burst end and length (turn error against the map's turn: mean and rms, deg; the map time's
 error, s; direction error rms, deg; bursts flipped past the peak; the surrogate twin's turn and direction error
-against the rod, rms, and the flips it predicts), the fitted k with its residual, and the CPU time; ``--out`` writes it all as
-JSON with every burst and the load average before and after.
+against the rod, rms, and the flips it predicts), the fitted k with its residual, and the CPU time; ``--out``
+writes it all as JSON with every burst and the load average before and after.
 """
 
 from __future__ import annotations
