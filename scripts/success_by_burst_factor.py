@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 
 import gymnasium as gym
+import numpy as np
 
 import agents  # noqa: F401  (registers the ids)
 from agents.evaluation_report import load_results
@@ -66,10 +67,9 @@ def main(argv: list[str] | None = None) -> int:
             if not randomize:
                 raise ValueError(f"{str(folder)!r} was flown without --randomize: its swimmers are all the map's")
             logs = burst_factor_logs(randomize, sorted(set(res["seeds"].values())))
-            for r in res["per_path"]:
-                seed = res["seeds"][r["path"]]
-                episodes.append({"folder": str(folder), "path": r["path"], "seed": seed, "controller": r["controller"],
-                                 "success": r["success"], "ln_F": logs[seed]})
+            episodes += [{"folder": str(folder), "path": r["path"], "seed": res["seeds"][r["path"]],
+                          "controller": r["controller"], "success": r["success"],
+                          "ln_F": logs[res["seeds"][r["path"]]]} for r in res["per_path"]]
     except ValueError as exc:
         print(f"success_by_burst_factor: {exc}", file=sys.stderr)
         return 2
@@ -81,8 +81,8 @@ def main(argv: list[str] | None = None) -> int:
         lo, hi = r["ln_F"]
         print(f"| [{lo:g}, {hi:g}) | {r['swimmers']} | " + " | ".join(str(r["successes"][c]) for c in controllers)
               + " |")
-    lnf = {e["seed"]: e["ln_F"] for e in episodes}.values()
-    print(f"{len(lnf)} swimmers, ln F from {min(lnf):.3f} to {max(lnf):.3f}")
+    lnf = np.array(list({e["seed"]: e["ln_F"] for e in episodes}.values()))
+    print(f"{lnf.size} swimmers, ln F from {lnf.min():.3f} to {lnf.max():.3f}")
     if args.json is not None:
         args.json.write_text(json.dumps({"bins": rows, "episodes": episodes}, indent=1) + "\n", encoding="utf-8")
     return 0
